@@ -1,0 +1,27 @@
+"""mbgen: multibody models to fast, verified C and Python.
+
+Pipeline (each arrow is one function returning a frozen value)::
+
+    Model --derive--> Equations --optimize--> Kernel --render--> Rendered
+          --build--> CompiledModel --verify--> Report
+"""
+
+from ._version import __version__
+from .derive import Method, derive
+from .equations import Equations
+from .errors import (BuildError, CheckFailed, MbgenError, ModelError, NonFiniteResultError,
+                     SceneError, SingularMassMatrixError)
+from .layout import Layout
+from .model import Model, t
+from .optimize import CseBackend, Output
+from .pipeline import compile, equations_of, python_model, run
+from .reference import LambdifiedModel
+from .runtime import CompiledModel, PythonModel
+from .scene import Scene, load_scene
+
+
+__all__ = ["Model", "t", "derive", "Output", "CseBackend", "compile", "equations_of", "run",
+           "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
+           "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
+           "SceneError", "BuildError", "SingularMassMatrixError", "NonFiniteResultError",
+           "CheckFailed"]

@@ -1,0 +1,41 @@
+"""Exceptions raised by mbgen.
+
+Every error names the problem and what to do about it.  They all derive from
+:class:`MbgenError`, so a caller can catch the family with one clause; each
+also derives from the matching built-in (``ValueError``, ``TypeError``,
+``ArithmeticError``, ...) so code that already catches those keeps working.
+"""
+
+from __future__ import annotations
+
+
+class MbgenError(Exception):
+    """Base class of every error raised by mbgen."""
+
+
+class ModelError(MbgenError, ValueError):
+    """A model is malformed: an unknown symbol, a body without inertia, ..."""
+
+
+class SceneError(MbgenError, ValueError):
+    """A scene cannot be found or loaded, or an option is invalid."""
+
+
+class BuildError(MbgenError, RuntimeError):
+    """The C compiler failed; the message carries the compiler's own output."""
+
+
+class SingularMassMatrixError(MbgenError, ArithmeticError):
+    """The mass matrix is not positive definite at the given state.
+
+    Raised by the compiled and generated right-hand sides when the Cholesky
+    factorisation of M(q, t) fails (a non-positive or non-finite pivot).
+    """
+
+
+class NonFiniteResultError(MbgenError, ArithmeticError):
+    """An output evaluated to NaN or infinity (e.g. a 1/cos(q) at gimbal lock)."""
+
+
+class CheckFailed(MbgenError, AssertionError):
+    """A verification found an error above its tolerance."""

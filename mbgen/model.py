@@ -1,0 +1,516 @@
+"""Multibody models in the SOPHIA style, on top of :mod:`sympy.physics.vector`.
+
+A :class:`Model` collects what Kane's method needs:
+
+* generalized coordinates ``q`` and speeds ``u`` (time-dependent symbols),
+  constants (parameters) and inputs (forces or torques given at run time);
+* the Newtonian frame ``N`` with its origin ``O``, and frames built from chains
+  of simple rotations about axis 1, 2 or 3 (the lecture notes' ``&rot[N,B,3,q1]``
+  and ``chainSimpRot([[N,B,3,phi],[B,S,2,theta]])``);
+* points placed by an offset vector from a parent point, particles and rigid
+  bodies (mass, inertia dyad about the mass centre in a body frame);
+* loads: forces at points, torques on frames (with optional reactions), uniform
+  gravity, linear springs and dampers between two points;
+* kinematic differential equations (default ``u_i = q_i'``) and prescribed
+  motions (angles or offsets that are given functions of time).
+
+Frames are :class:`sympy.physics.vector.ReferenceFrame` objects and vectors are
+:class:`sympy.physics.vector.Vector` objects, so everything sympy offers on them
+(``express``, ``dot``, ``cross``, ``dt``, ``ang_vel_in``, ``dcm``) works on a
+model's frames; :mod:`mbgen.kinematics` adds the SOPHIA-named helpers.
+
+Example
+-------
+The pendulum hanging from a rotating disc (lecture 1, example 3)::
+
+    m = Model("disc_pendulum")
+    q1, q2 = m.coordinates("q1 q2")
+    u1, u2 = m.speeds("u1 u2")
+    s, l, g, mass = m.constants("s l g m")
+    N = m.newtonian()
+    A = m.rotate(N, "A", 3, q1)          # disc frame
+    B = m.rotate(A, "B", 2, -q2)         # pendulum frame (hangs along -B.z)
+    E = m.point("E", m.origin, s * A.x)   # suspension point on the disc
+    P = m.point("P", E, -l * B.z)
+    m.particle("bob", P, mass)
+    m.gravity(-g * N.z)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Mapping, Sequence
+
+import sympy as sm
+from sympy.physics import vector as spv
+
+from .errors import ModelError
+from .names import model_prefix
+
+#: The time symbol used by sympy.physics.vector's dynamicsymbols.
+t = spv.dynamicsymbols._t
+
+
+# --------------------------------------------------------------------------- records
+@dataclass(frozen=True)
+class FrameDef:
+    """How a frame was built: a simple rotation of ``parent`` by ``angle`` about ``axis``.
+
+    ``angle`` may depend on coordinates and time (a prescribed motion).  When
+    ``angular_velocity`` is set it overrides the rotation's own ``angle' * axis``
+    as the angular velocity of the frame in the Newtonian frame (body rates).
+    """
+
+    frame: spv.ReferenceFrame
+    parent: spv.ReferenceFrame | None
+    axis: int | None
+    angle: sm.Expr | None
+    angular_velocity: spv.Vector | None = None
+
+
+@dataclass(frozen=True)
+class PointDef:
+    """A point at ``offset`` (a vector) from ``parent``; the origin has no parent."""
+
+    point: spv.Point
+    parent: spv.Point | None
+    offset: spv.Vector
+
+
+@dataclass(frozen=True)
+class Particle:
+    """A point mass ``mass`` at ``point``."""
+
+    name: str
+    point: spv.Point
+    mass: sm.Expr
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A rigid body: mass centre ``center``, body-fixed ``frame``, inertia about the centre.
+
+    ``inertia`` is the 3x3 inertia matrix (symmetric) in ``frame`` components.
+    """
+
+    name: str
+    frame: spv.ReferenceFrame
+    center: spv.Point
+    mass: sm.Expr
+    inertia: sm.ImmutableMatrix
+
+
+@dataclass(frozen=True)
+class Force:
+    """A force ``vector`` at ``point``; ``reaction`` receives ``-vector`` when given."""
+
+    point: spv.Point
+    vector: spv.Vector
+    reaction: spv.Point | None = None
+
+
+@dataclass(frozen=True)
+class Torque:
+    """A torque ``vector`` on ``frame``; ``reaction`` receives ``-vector`` when given."""
+
+    frame: spv.ReferenceFrame
+    vector: spv.Vector
+    reaction: spv.ReferenceFrame | None = None
+
+
+@dataclass(frozen=True)
+class Gravity:
+    """Uniform gravitational acceleration ``vector`` acting on every mass."""
+
+    vector: spv.Vector
+
+
+@dataclass(frozen=True)
+class LineElement:
+    """A linear spring and/or damper between points ``a`` and ``b``.
+
+    The force on ``a`` is ``-(stiffness * (L - natural_length) + damping * L') * e``
+    with ``L = |r_a - r_b|`` and ``e`` the unit vector from ``b`` to ``a``; ``b``
+    receives the opposite force.  With ``natural_length == 0`` the spring force
+    is the linear ``-stiffness * (r_a - r_b)`` (no division by ``L``).
+    """
+
+    name: str
+    a: spv.Point
+    b: spv.Point
+    stiffness: sm.Expr
+    damping: sm.Expr
+    natural_length: sm.Expr
+
+
+_AXES = {1: 1, 2: 2, 3: 3, "x": 1, "y": 2, "z": 3, "X": 1, "Y": 2, "Z": 3}
+
+
+def _axis_index(axis) -> int:
+    try:
+        return _AXES[axis]
+    except (KeyError, TypeError):
+        raise ModelError(f"rotation axis {axis!r} is not 1, 2 or 3 (or 'x', 'y', 'z')") from None
+
+
+def _symbols(names, factory) -> tuple:
+    out = factory(names)
+    return tuple(out) if isinstance(out, (list, tuple)) else (out,)
+
+
+class Model:
+    """A multibody model under construction.
+
+    Parameters
+    ----------
+    name : str
+        Model name; it becomes the prefix of every generated C symbol, so it
+        must not be a C keyword.
+
+    Notes
+    -----
+    Every ``add`` method validates its arguments at once (unknown frames or
+    points, wrong types, a body without inertia) and raises
+    :class:`~mbgen.errors.ModelError` naming the problem.  Derivation
+    (:func:`mbgen.derive`) then checks that every symbol in the model is a
+    declared coordinate, speed, constant or input.
+    """
+
+    def __init__(self, name: str):
+        self.name = name
+        self.prefix = model_prefix(name)
+        self.coordinates_: list[sm.Function] = []
+        self.speeds_: list[sm.Function] = []
+        self.constants_: list[sm.Symbol] = []
+        self.inputs_: list[sm.Function] = []
+        self.frames: dict[spv.ReferenceFrame, FrameDef] = {}
+        self.points: dict[spv.Point, PointDef] = {}
+        self.particles: list[Particle] = []
+        self.bodies: list[RigidBody] = []
+        self.loads: list[Force | Torque | Gravity | LineElement] = []
+        self.kinematic_equations_: list[sm.Expr] = []
+        self.prescribed_: dict[str, sm.Expr] = {}
+        self._names: set[str] = set()
+        self.N: spv.ReferenceFrame | None = None
+        self.origin: spv.Point | None = None
+
+    # ----------------------------------------------------------------- symbols
+    def coordinates(self, names: str):
+        """Declare generalized coordinates (functions of time), ``sympy.symbols`` syntax.
+
+        ``m.coordinates("q1 q2")`` and ``m.coordinates("q1:3")`` return a tuple;
+        a single name returns a tuple of one (unpack it: ``q, = m.coordinates("q")``).
+        """
+        syms = _symbols(names, spv.dynamicsymbols)
+        self._claim(str(s.func) for s in syms)
+        self.coordinates_.extend(syms)
+        return syms
+
+    def speeds(self, names: str):
+        """Declare generalized speeds (functions of time); see :meth:`coordinates`."""
+        syms = _symbols(names, spv.dynamicsymbols)
+        self._claim(str(s.func) for s in syms)
+        self.speeds_.extend(syms)
+        return syms
+
+    def constants(self, names: str):
+        """Declare constant parameters (plain symbols); see :meth:`coordinates`."""
+        syms = _symbols(names, sm.symbols)
+        self._claim(str(s) for s in syms)
+        self.constants_.extend(syms)
+        return syms
+
+    def inputs(self, names: str):
+        """Declare inputs: forces or torques given at run time (functions of time)."""
+        syms = _symbols(names, spv.dynamicsymbols)
+        self._claim(str(s.func) for s in syms)
+        self.inputs_.extend(syms)
+        return syms
+
+    def prescribed(self, name: str, expression) -> sm.Expr:
+        """Record a prescribed motion: a quantity that is a given function of time.
+
+        Returns ``expression`` (a sympy expression in ``mbgen.model.t`` and
+        constants) so it can be used as a rotation angle or in an offset.
+        Example: a wire spun at constant rate, ``m.rotate(N, "B", 3,
+        m.prescribed("theta", omega * t))``.
+        """
+        expr = sm.sympify(expression)
+        if name in self.prescribed_:
+            raise ModelError(f"prescribed motion {name!r} is already defined")
+        self.prescribed_[name] = expr
+        return expr
+
+    def _claim(self, names: Iterable[str]) -> None:
+        for n in names:
+            if n in self._names:
+                raise ModelError(f"the name {n!r} is already used in model {self.name!r}; "
+                                 f"every coordinate, speed, constant, input, frame and point "
+                                 f"needs its own name")
+            self._names.add(n)
+
+    # ------------------------------------------------------------------ frames
+    def newtonian(self, name: str = "N", origin: str = "O") -> spv.ReferenceFrame:
+        """Create the Newtonian (inertial) frame and its origin point."""
+        if self.N is not None:
+            raise ModelError(f"model {self.name!r} already has a Newtonian frame {self.N}")
+        self._claim([name, origin])
+        self.N = spv.ReferenceFrame(name)
+        self.frames[self.N] = FrameDef(self.N, None, None, None)
+        self.origin = spv.Point(origin)
+        self.origin.set_vel(self.N, 0)
+        self.points[self.origin] = PointDef(self.origin, None, spv.Vector(0))
+        return self.N
+
+    def rotate(self, parent: spv.ReferenceFrame, name: str, axis, angle) -> spv.ReferenceFrame:
+        """Create frame ``name`` by a simple rotation of ``parent`` (SOPHIA ``&rot[P,B,axis,angle]``).
+
+        Parameters
+        ----------
+        parent : ReferenceFrame
+            A frame of this model.
+        name : str
+            Name of the new frame.
+        axis : {1, 2, 3}
+            Rotation axis, shared by ``parent`` and the new frame.
+        angle : sympy expression
+            Rotation angle: a coordinate, a constant, or a function of time.
+
+        Returns
+        -------
+        ReferenceFrame
+            The new frame; ``parent.dcm(frame)`` is the lecture notes' ``R_PB``
+            (its columns are the new basis vectors in ``parent`` components).
+        """
+        self._check_frame(parent)
+        k = _axis_index(axis)
+        angle = sm.sympify(angle)
+        self._claim([name])
+        unit = (parent.x, parent.y, parent.z)[k - 1]
+        frame = parent.orientnew(name, "Axis", [angle, unit])
+        self.frames[frame] = FrameDef(frame, parent, k, angle)
+        return frame
+
+    def chain_rotations(self, chain: Sequence[Sequence]) -> tuple[spv.ReferenceFrame, ...]:
+        """Build frames from a chain of simple rotations (SOPHIA ``chainSimpRot``).
+
+        ``chain`` lists ``[parent, name, axis, angle]`` rows; ``parent`` may be a
+        frame or the name of a frame created earlier in the same chain::
+
+            B, S = m.chain_rotations([[N, "B", 3, phi], ["B", "S", 2, theta]])
+        """
+        made: dict[str, spv.ReferenceFrame] = {}
+        out = []
+        for row in chain:
+            if len(row) != 4:
+                raise ModelError(f"chain row {row!r} must be [parent, name, axis, angle]")
+            parent, name, axis, angle = row
+            if isinstance(parent, str):
+                parent = made.get(parent) or self.frame(parent)
+            frame = self.rotate(parent, name, axis, angle)
+            made[name] = frame
+            out.append(frame)
+        return tuple(out)
+
+    def frame(self, name: str) -> spv.ReferenceFrame:
+        """Return the model's frame called ``name``."""
+        for f in self.frames:
+            if f.name == name:
+                return f
+        raise ModelError(f"model {self.name!r} has no frame {name!r}; "
+                         f"frames: {', '.join(f.name for f in self.frames) or 'none'}")
+
+    def angular_velocity(self, frame: spv.ReferenceFrame, vector: spv.Vector) -> None:
+        """Set the angular velocity of ``frame`` in N to ``vector`` (e.g. body rates).
+
+        The usual use is speeds defined as body-fixed angular-velocity components,
+        ``m.angular_velocity(B, u1*B.x + u2*B.y + u3*B.z)``.  mbgen adds
+        ``omega_chain(q, q') . b_i = vector . b_i`` (i = 1, 2, 3) to the kinematic
+        equations, where ``omega_chain`` is the angular velocity implied by the
+        frame's chain of simple rotations; do not also give kinematics for the
+        chain's angles.
+        """
+        self._check_frame(frame)
+        self._check_vector(vector, f"angular velocity of {frame}")
+        fd = self.frames[frame]
+        if fd.parent is None:
+            raise ModelError("the Newtonian frame cannot be given an angular velocity")
+        chain = frame.ang_vel_in(self.N)
+        self.frames[frame] = FrameDef(fd.frame, fd.parent, fd.axis, fd.angle, vector)
+        self.kinematic_equations_.extend(
+            (chain - vector).dot(e) for e in (frame.x, frame.y, frame.z))
+        frame.set_ang_vel(self.N, vector)
+
+    # ------------------------------------------------------------------ points
+    def point(self, name: str, parent: spv.Point | None = None, offset=0) -> spv.Point:
+        """Place point ``name`` at ``offset`` (a vector) from ``parent`` (default: origin)."""
+        parent = self.origin if parent is None else parent
+        self._check_point(parent)
+        offset = spv.Vector(0) if offset == 0 else offset
+        self._check_vector(offset, f"offset of point {name!r}")
+        self._claim([name])
+        p = parent.locatenew(name, offset)
+        self.points[p] = PointDef(p, parent, offset)
+        return p
+
+    def particle(self, name: str, point: spv.Point, mass) -> Particle:
+        """Add a point mass ``mass`` at ``point``."""
+        self._check_point(point)
+        mass = self._scalar(mass, f"mass of particle {name!r}")
+        self._claim([name])
+        p = Particle(name, point, mass)
+        self.particles.append(p)
+        return p
+
+    def body(self, name: str, frame: spv.ReferenceFrame, mass, inertia, center: spv.Point) -> RigidBody:
+        """Add a rigid body fixed in ``frame`` with mass centre ``center``.
+
+        Parameters
+        ----------
+        inertia : Dyadic, 3x3 matrix, or tuple
+            Inertia about the mass centre: a sympy ``Dyadic`` (any frames), a
+            3x3 matrix in ``frame`` components, or ``(Ixx, Iyy, Izz[, Ixy, Iyz,
+            Izx])`` in ``frame`` components.
+        """
+        self._check_frame(frame)
+        self._check_point(center)
+        mass = self._scalar(mass, f"mass of body {name!r}")
+        matrix = self._inertia_matrix(name, frame, inertia)
+        self._claim([name])
+        b = RigidBody(name, frame, center, mass, matrix)
+        self.bodies.append(b)
+        return b
+
+    def _inertia_matrix(self, name, frame, inertia) -> sm.ImmutableMatrix:
+        if inertia is None:
+            raise ModelError(f"rigid body {name!r} has no inertia; give inertia=(Ixx, Iyy, Izz) "
+                             f"in the body frame, a Dyadic, or use particle() for a point mass")
+        if isinstance(inertia, spv.Dyadic):
+            mat = inertia.to_matrix(frame)
+        elif isinstance(inertia, (tuple, list)) and len(inertia) in (3, 6) and not any(
+                isinstance(v, (tuple, list)) for v in inertia):
+            ixx, iyy, izz, *rest = (sm.sympify(v) for v in inertia)
+            ixy, iyz, izx = rest if rest else (0, 0, 0)
+            mat = sm.Matrix([[ixx, ixy, izx], [ixy, iyy, iyz], [izx, iyz, izz]])
+        else:
+            try:
+                mat = sm.Matrix(inertia)
+            except (TypeError, ValueError, sm.SympifyError):
+                mat = None
+            if mat is None or mat.shape != (3, 3):
+                raise ModelError(f"inertia of body {name!r} must be a Dyadic, a 3x3 matrix or "
+                                 f"(Ixx, Iyy, Izz[, Ixy, Iyz, Izx]); got {inertia!r}")
+        if (mat - mat.T).applyfunc(sm.expand) != sm.zeros(3, 3):
+            raise ModelError(f"inertia matrix of body {name!r} is not symmetric: {mat.tolist()}")
+        return sm.ImmutableMatrix(mat)
+
+    # ------------------------------------------------------------------- loads
+    def force(self, point: spv.Point, vector: spv.Vector, reaction: spv.Point | None = None) -> Force:
+        """Apply ``vector`` at ``point`` (and ``-vector`` at ``reaction`` if given)."""
+        self._check_point(point)
+        if reaction is not None:
+            self._check_point(reaction)
+        self._check_vector(vector, f"force at {point}")
+        f = Force(point, vector, reaction)
+        self.loads.append(f)
+        return f
+
+    def torque(self, frame: spv.ReferenceFrame, vector: spv.Vector,
+               reaction: spv.ReferenceFrame | None = None) -> Torque:
+        """Apply torque ``vector`` to ``frame`` (and ``-vector`` to ``reaction`` if given)."""
+        self._check_frame(frame)
+        if reaction is not None:
+            self._check_frame(reaction)
+        self._check_vector(vector, f"torque on {frame}")
+        tq = Torque(frame, vector, reaction)
+        self.loads.append(tq)
+        return tq
+
+    def gravity(self, vector: spv.Vector) -> Gravity:
+        """Uniform gravity: every particle and body gets ``mass * vector`` at its centre."""
+        self._check_vector(vector, "gravity")
+        if any(isinstance(ld, Gravity) for ld in self.loads):
+            raise ModelError("gravity is already set for this model")
+        g = Gravity(vector)
+        self.loads.append(g)
+        return g
+
+    def spring(self, name: str, a: spv.Point, b: spv.Point, stiffness, natural_length=0,
+               damping=0) -> LineElement:
+        """A linear spring (and optional damper) between points ``a`` and ``b``."""
+        return self._line(name, a, b, stiffness, damping, natural_length)
+
+    def damper(self, name: str, a: spv.Point, b: spv.Point, damping) -> LineElement:
+        """A linear damper between ``a`` and ``b`` (force ``-c L'`` along the line)."""
+        return self._line(name, a, b, 0, damping, 0)
+
+    def _line(self, name, a, b, stiffness, damping, natural_length) -> LineElement:
+        self._check_point(a)
+        self._check_point(b)
+        if a is b:
+            raise ModelError(f"line element {name!r} joins point {a} to itself")
+        el = LineElement(name, a, b,
+                         self._scalar(stiffness, f"stiffness of {name!r}"),
+                         self._scalar(damping, f"damping of {name!r}"),
+                         self._scalar(natural_length, f"natural length of {name!r}"))
+        self._claim([name])
+        self.loads.append(el)
+        return el
+
+    # -------------------------------------------------------------- kinematics
+    def kinematics(self, mapping: Mapping) -> None:
+        """Give the kinematic differential equations explicitly: ``{q_i: q_i'(q, u, t)}``."""
+        for q, rhs in mapping.items():
+            if q not in self.coordinates_:
+                raise ModelError(f"{q} is not a coordinate of model {self.name!r}")
+            self.kinematic_equations_.append(q.diff(t) - sm.sympify(rhs))
+
+    def kinematic_equations(self, equations: Iterable) -> None:
+        """Give kinematic differential equations implicitly: expressions in q, q', u, t that vanish.
+
+        They must be linear in the q'.  Example: ``[q1.diff(t) - u1, q2.diff(t) - u2/q1]``.
+        """
+        self.kinematic_equations_.extend(sm.sympify(e) for e in equations)
+
+    # ------------------------------------------------------------- validation
+    def _check_frame(self, frame) -> None:
+        if not isinstance(frame, spv.ReferenceFrame):
+            raise ModelError(f"expected a ReferenceFrame, got {frame!r}")
+        if frame not in self.frames:
+            raise ModelError(f"frame {frame} is not part of model {self.name!r}; create it "
+                             f"with model.newtonian() or model.rotate()")
+
+    def _check_point(self, point) -> None:
+        if not isinstance(point, spv.Point):
+            raise ModelError(f"expected a Point, got {point!r}")
+        if point not in self.points:
+            raise ModelError(f"point {point} is not part of model {self.name!r}; create it "
+                             f"with model.point()")
+
+    def _check_vector(self, vector, what: str) -> None:
+        if isinstance(vector, (int, float)) and vector == 0:
+            return
+        if not isinstance(vector, spv.Vector):
+            raise ModelError(f"{what} must be a sympy.physics.vector Vector, got {vector!r}")
+        for _, frame in vector.args:
+            if frame not in self.frames:
+                raise ModelError(f"{what} uses frame {frame}, which is not part of model "
+                                 f"{self.name!r}")
+
+    @staticmethod
+    def _scalar(value, what: str) -> sm.Expr:
+        try:
+            expr = sm.sympify(value)
+        except sm.SympifyError:
+            raise ModelError(f"{what} must be a number or sympy expression, got {value!r}") from None
+        if isinstance(expr, (spv.Vector, sm.MatrixBase)) or not isinstance(expr, sm.Expr):
+            raise ModelError(f"{what} must be a scalar, got {value!r}")
+        return expr
+
+    # --------------------------------------------------------------- summary
+    def __repr__(self) -> str:
+        return (f"Model({self.name!r}: {len(self.coordinates_)} coordinates, "
+                f"{len(self.speeds_)} speeds, {len(self.constants_)} constants, "
+                f"{len(self.frames)} frames, {len(self.points)} points, "
+                f"{len(self.particles)} particles, {len(self.bodies)} bodies, "
+                f"{len(self.loads)} loads)")

@@ -1,0 +1,112 @@
+"""Names that reach generated code.
+
+Symbol names of a model appear in generated C and Python (as local variable
+names and in comments), and the model name is the prefix of every C symbol.
+This module turns arbitrary names into identifiers that are valid in C99, C++
+and Python, deterministically.
+"""
+
+from __future__ import annotations
+
+import keyword
+import re
+
+from .errors import ModelError
+
+#: Reserved words of C99 and C++ (the generated header is also valid C++).
+C_KEYWORDS = frozenset(
+    """
+    auto break case char const continue default do double else enum extern
+    float for goto if inline int long register restrict return short signed
+    sizeof static struct switch typedef union unsigned void volatile while
+    _Bool _Complex _Imaginary
+    alignas alignof and and_eq asm bitand bitor bool catch char16_t char32_t
+    class compl constexpr const_cast decltype delete dynamic_cast explicit
+    export false friend mutable namespace new noexcept not not_eq nullptr
+    operator or or_eq private protected public reinterpret_cast static_assert
+    static_cast template this thread_local throw true try typeid typename using
+    virtual wchar_t xor xor_eq
+    """.split()
+)
+
+#: Names used by the generated code itself or by the C library it includes.
+RESERVED = frozenset(
+    """
+    t x p r dxdt out status math np numpy M F G i j k n s d L b A
+    sqrt sin cos tan asin acos atan atan2 sinh cosh tanh asinh acosh atanh exp exp2 expm1
+    log log2 log10 log1p pow fabs abs floor ceil fmod fmin fmax hypot cbrt erf erfc
+    tgamma lgamma isfinite isnan isinf copysign round trunc sign
+    min max float int len range sum list tuple dict set print object type
+    """.split()
+)
+
+_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+def model_prefix(name: str) -> str:
+    """Return the C prefix for a model called ``name``.
+
+    Characters that cannot appear in a C identifier become ``_``.  A name that
+    is a C, C++ or Python keyword is refused rather than renamed, because the
+    prefix is the public face of the generated ABI.
+
+    Raises
+    ------
+    ModelError
+        If ``name`` is empty, a keyword, or starts with a digit.
+    """
+    if not isinstance(name, str) or not name.strip():
+        raise ModelError("the model name must be a non-empty string, e.g. Model('pendulum')")
+    prefix = re.sub(r"[^A-Za-z0-9_]", "_", name.strip())
+    if prefix[0].isdigit():
+        raise ModelError(f"model name {name!r} starts with a digit; C identifiers cannot. "
+                         f"Rename it, e.g. 'm_{prefix}'.")
+    if prefix in C_KEYWORDS or keyword.iskeyword(prefix):
+        raise ModelError(f"model name {name!r} is a C/C++/Python keyword and cannot prefix "
+                         f"generated symbols; rename it, e.g. '{prefix}_model'.")
+    if prefix.startswith("__"):
+        raise ModelError(f"model name {name!r} starts with '__', which C reserves; rename it.")
+    return prefix
+
+
+def identifier(name: str) -> str:
+    """Turn a symbol name into an identifier valid in C99, C++ and Python.
+
+    ``theta.1`` becomes ``theta_1``, a keyword such as ``int`` or ``lambda``
+    becomes ``int_``, a leading digit gets a ``s_`` prefix.  Names that clash
+    with the generated code's own locals get a trailing ``_``.
+    """
+    ident = re.sub(r"[^A-Za-z0-9_]", "_", str(name))
+    if not ident or ident[0].isdigit():
+        ident = "s_" + ident
+    while ident in C_KEYWORDS or keyword.iskeyword(ident) or ident in RESERVED or ident.startswith("__"):
+        ident = ident.lstrip("_") + "_" if ident.startswith("__") else ident + "_"
+    return ident
+
+
+def unique_identifiers(names: list[str]) -> list[str]:
+    """Sanitise ``names`` with :func:`identifier`, refusing collisions.
+
+    Raises
+    ------
+    ModelError
+        If two different names map to the same identifier (``a.b`` and ``a_b``).
+    """
+    out = [identifier(n) for n in names]
+    seen: dict[str, str] = {}
+    for original, ident in zip(names, out):
+        if ident in seen and seen[ident] != original:
+            raise ModelError(f"symbols {seen[ident]!r} and {original!r} both become the C "
+                             f"identifier {ident!r}; rename one of them.")
+        seen[ident] = original
+    return out
+
+
+def comment_safe(text: str) -> str:
+    """Make ``text`` safe inside a C block comment and a Python comment."""
+    return str(text).replace("*/", "* /").replace("/*", "/ *").replace("\n", " ")
+
+
+def is_identifier(name: str) -> bool:
+    """True when ``name`` is already a plain C identifier."""
+    return bool(_IDENT.match(name))

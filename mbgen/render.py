@@ -1,0 +1,229 @@
+"""Rendering: ``Kernel -> Rendered`` (file texts and the cffi cdef).
+
+Printers turn expressions into code strings; the Jinja templates in
+``templates/`` own the file structure.  Templates receive plain data (strings,
+numbers, lists of tuples), never sympy objects or modules.
+
+The C prototypes and ``#define`` constants are produced once here and used both
+by the header template and by the cdef string, so they cannot drift apart.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+
+import jinja2
+
+from ._version import __version__
+from .names import comment_safe, model_prefix
+from .optimize import Kernel, KernelFunction
+from .printing import CPrinter, PyPrinter, math_functions
+
+STATUS_CODES = (("OK", 0, "success"),
+                ("NOT_POSITIVE_DEFINITE", 1, "the mass matrix is not positive definite"),
+                ("NONFINITE", 2, "an output is NaN or infinite"))
+
+
+@dataclass(frozen=True)
+class Rendered:
+    """Generated file texts of one model.
+
+    Attributes
+    ----------
+    prefix : str
+        C prefix and file stem (``<prefix>.h``, ``<prefix>.c``, ``<prefix>.py``).
+    files : dict
+        ``{file name: text}``.
+    cdef : str
+        Declarations for ``cffi.FFI.cdef`` (same prototypes as the header).
+    signature : tuple
+        ``(function name, argument names)`` per generated function, for runtimes.
+    """
+
+    prefix: str
+    files: dict
+    cdef: str
+    functions: tuple
+
+    @property
+    def header(self) -> str:
+        return self.files[f"{self.prefix}.h"]
+
+    @property
+    def source(self) -> str:
+        return self.files[f"{self.prefix}.c"]
+
+    @property
+    def python(self) -> str:
+        return self.files[f"{self.prefix}.py"]
+
+    def digest(self) -> str:
+        """Content hash of every file and the cdef (names the compiled module)."""
+        h = hashlib.sha256()
+        for name in sorted(self.files):
+            h.update(name.encode() + b"\0" + self.files[name].encode() + b"\0")
+        h.update(self.cdef.encode())
+        return h.hexdigest()
+
+
+@dataclass(frozen=True)
+class FunctionInfo:
+    """What a runtime needs to call one generated function."""
+
+    output: str          # Output value, e.g. "rhs"
+    c_name: str          # e.g. "pendulum_rhs"
+    args: tuple          # subset of ("t", "x", "p", "r") in call order
+    out_size: int
+    out_shape: tuple
+    out_labels: tuple
+
+
+@lru_cache(maxsize=1)
+def environment() -> jinja2.Environment:
+    """The Jinja environment over the packaged templates (``mbgen._templates``)."""
+    root = resources.files("mbgen._templates")
+    loader = jinja2.FunctionLoader(lambda name: (root / name).read_text(encoding="utf-8"))
+    return jinja2.Environment(loader=loader, undefined=jinja2.StrictUndefined,
+                              keep_trailing_newline=True, trim_blocks=True,
+                              lstrip_blocks=True, autoescape=False)
+
+
+def _signature_args(kernel: Kernel) -> tuple[str, ...]:
+    L = kernel.layout
+    return ("t", "x") + (("p",) if L.n_p else ()) + (("r",) if L.n_r else ())
+
+
+def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer, lang: str) -> dict:
+    """Plain-data description of one function for the templates."""
+    L = kernel.layout
+    arrays = L.arrays()
+    loads = [(L.identifiers[s], arrays[s][0], arrays[s][1]) for s in fn.symbols_used
+             if s != L.time]
+    time_name = L.identifiers[L.time]
+    args = _signature_args(kernel)
+    unused = [a for a in args if a not in fn.uses]
+    blocks = []
+    for b in fn.blocks:
+        blocks.append(dict(
+            name=fn.out_name if b.name == "out" else b.name,
+            local=b.name != "out",
+            size=b.size,
+            assignments=[(i, printer.doprint(e)) for i, e in b.entries],
+            mirror=list(b.mirror),
+        ))
+    shape = (L.n_u, L.n_u) if fn.out_name == "M" else (fn.out_size,)
+    return dict(
+        output=fn.output.value,
+        name=f"{prefix}_{fn.output.value}",
+        py_name=fn.output.value,
+        doc=fn.doc,
+        out=fn.out_name,
+        out_size=fn.out_size,
+        out_shape=shape,
+        out_labels=[comment_safe(x) for x in fn.out_labels],
+        args=list(args),
+        unused=unused,
+        time_name=time_name,
+        uses_time=L.time in fn.symbols_used,
+        loads=loads,
+        temps=[(printer.doprint(s), printer.doprint(e)) for s, e in fn.temporaries],
+        blocks=blocks,
+        solve=fn.solve,
+        n_q=L.n_q,
+        n_u=L.n_u,
+        ops_before=fn.ops_before,
+        ops_after=fn.ops_after,
+    )
+
+
+def _c_prototype(prefix: str, fn_view: dict, args) -> str:
+    params = []
+    for a in args:
+        params.append("double t" if a == "t" else f"const double *{a}")
+    params.append(f"double *{fn_view['out']}")
+    return f"int {fn_view['name']}({', '.join(params)})"
+
+
+def render(kernel: Kernel) -> Rendered:
+    """Render the C header, C source and Python module of ``kernel``.
+
+    Returns
+    -------
+    Rendered
+        Texts are deterministic: the same kernel always gives the same bytes.
+    """
+    eq = kernel.equations
+    L = kernel.layout
+    prefix = model_prefix(eq.name)
+    names = dict(L.identifiers)
+    for fn in kernel.functions:
+        for s, _ in fn.temporaries:
+            names[s] = str(s)
+    cprint, pyprint = CPrinter(names), PyPrinter(names)
+    args = _signature_args(kernel)
+    c_views = [_view(kernel, fn, prefix, cprint, "c") for fn in kernel.functions]
+    py_views = [_view(kernel, fn, prefix, pyprint, "py") for fn in kernel.functions]
+    for v in c_views:
+        v["prototype"] = _c_prototype(prefix, v, args)
+
+    upper = prefix.upper()
+    defaults = [eq.defaults.get(str(s)) for s in L.parameters]
+    has_defaults = bool(L.parameters) and all(d is not None for d in defaults)
+    defines = [(f"{upper}_N_Q", L.n_q, "number of generalized coordinates"),
+               (f"{upper}_N_U", L.n_u, "number of generalized speeds"),
+               (f"{upper}_N_X", L.n_x, "length of the state x = [q, u]"),
+               (f"{upper}_N_P", L.n_p, "number of parameters"),
+               (f"{upper}_N_R", L.n_r, "number of inputs")]
+    defines += [(f"{upper}_{code}", value, text) for code, value, text in STATUS_CODES]
+    prototypes = [v["prototype"] + ";" for v in c_views]
+    if has_defaults:
+        prototypes.append(f"void {prefix}_default_parameters(double *p);")
+
+    exprs = [e for fn in kernel.functions for _, e in fn.temporaries] + [
+        e for fn in kernel.functions for b in fn.blocks for _, e in b.entries]
+    funcs = sorted(math_functions(exprs))
+    ctx = dict(
+        version=__version__,
+        prefix=prefix,
+        upper=upper,
+        name=comment_safe(eq.name),
+        source=comment_safe(eq.source or eq.name),
+        method=comment_safe(eq.method),
+        cse=kernel.cse_backend.value,
+        states=[(i, comment_safe(n)) for i, n in enumerate(L.state_names)],
+        n_q=L.n_q,
+        n_u=L.n_u,
+        n_x=L.n_x,
+        parameters=[(i, comment_safe(n), None if d is None else repr(float(d)))
+                    for i, (n, d) in enumerate(zip(L.parameter_names, defaults))],
+        inputs=[(i, comment_safe(n)) for i, n in enumerate(L.input_names)],
+        state_names=list(L.state_names),
+        parameter_names=list(L.parameter_names),
+        input_names=list(L.input_names),
+        default_values=[repr(float(d)) for d in defaults] if has_defaults else [],
+        has_defaults=has_defaults,
+        defines=defines,
+        prototypes=prototypes,
+        functions=c_views,
+        math_functions=funcs,
+        ops_before=kernel.ops_before,
+        ops_after=kernel.ops_after,
+        any_solve=any(fn.solve for fn in kernel.functions),
+        args=list(args),
+        status_codes=STATUS_CODES,
+    )
+    env = environment()
+    header = env.get_template("model.h.j2").render(ctx)
+    source = env.get_template("model.c.j2").render(ctx)
+    python = env.get_template("model.py.j2").render(dict(ctx, functions=py_views))
+    cdef = "\n".join([f"#define {n} {v}" for n, v, _ in defines] + prototypes) + "\n"
+    infos = tuple(FunctionInfo(v["output"], v["name"], tuple(args), v["out_size"],
+                               tuple(v["out_shape"]), tuple(v["out_labels"])) for v in c_views)
+    return Rendered(prefix, {f"{prefix}.h": header, f"{prefix}.c": source,
+                             f"{prefix}.py": python}, cdef, infos)
+
+
+__all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES"]

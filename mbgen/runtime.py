@@ -1,0 +1,228 @@
+"""Runtime models: the compiled C, the generated Python and the lambdified reference.
+
+All three expose the same interface, so they can be compared and swapped:
+
+``rhs(t, x, p=None, r=None)``
+    ``dxdt``, shape ``(n_x,)``; works directly as ``solve_ivp(model.rhs, ...)``
+    (bind parameters with ``args=(p,)`` or :meth:`ModelBase.bind`).
+``mass_matrix``, ``forcing``, ``energy``
+    The other outputs, when they were generated.
+
+Every call returns a **new** array, validates ``x``, ``p`` and ``r`` (a wrong
+length is a ``ValueError``, a non-real dtype a ``TypeError``; non-contiguous
+input is accepted) and raises :class:`~mbgen.errors.SingularMassMatrixError` or
+:class:`~mbgen.errors.NonFiniteResultError` instead of returning NaNs.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from .errors import MbgenError, NonFiniteResultError, SingularMassMatrixError
+from .layout import Layout
+from .optimize import Output
+
+F64 = np.dtype(np.float64)
+
+
+class ModelBase:
+    """Shared validation, parameter defaults and binding.
+
+    Attributes
+    ----------
+    name : str
+    layout : Layout
+    state_names, parameter_names, input_names : tuple of str
+    default_parameters : ndarray, shape (n_p,), or None when not every default is known
+    outputs : tuple of Output
+    """
+
+    backend = "base"
+
+    def __init__(self, name: str, layout: Layout, defaults: Mapping[str, float] | None,
+                 outputs: Sequence[Output]):
+        self.name = name
+        self.layout = layout
+        self.state_names = layout.state_names
+        self.parameter_names = layout.parameter_names
+        self.input_names = layout.input_names
+        self.n_x, self.n_p, self.n_r = layout.n_x, layout.n_p, layout.n_r
+        defaults = dict(defaults or {})
+        values = [defaults.get(n) for n in self.parameter_names]
+        self.default_parameters = (np.array(values, dtype=float)
+                                   if all(v is not None for v in values) else None)
+        self.outputs = tuple(outputs)
+        self._zeros_r = np.zeros(self.n_r)
+
+    # -------------------------------------------------------------- validation
+    @staticmethod
+    def _vector(value, n: int, what: str, names) -> np.ndarray:
+        if (type(value) is np.ndarray and value.dtype is F64 and value.shape == (n,)
+                and value.flags.c_contiguous):
+            return value
+        try:
+            a = np.asarray(value)
+        except Exception as exc:  # ragged lists and the like
+            raise ValueError(f"{what} must be a 1-D array of {n} numbers {list(names)}: {exc}") from None
+        if a.dtype.kind not in "iuf":
+            raise TypeError(f"{what} must hold real numbers (float64); got dtype {a.dtype}")
+        if a.shape != (n,):
+            raise ValueError(f"{what} must have shape ({n},) for {list(names)}; got shape {a.shape}")
+        return np.ascontiguousarray(a, dtype=F64)
+
+    def _x(self, x) -> np.ndarray:
+        return self._vector(x, self.n_x, "state x", self.state_names)
+
+    def _p(self, p) -> np.ndarray:
+        if p is None:
+            if self.default_parameters is None and self.n_p:
+                raise ValueError(f"model {self.name!r} has no default for every parameter "
+                                 f"{list(self.parameter_names)}; pass p")
+            return self.default_parameters if self.n_p else np.zeros(0)
+        return self._vector(p, self.n_p, "parameters p", self.parameter_names)
+
+    def _r(self, r) -> np.ndarray:
+        if r is None:
+            return self._zeros_r
+        return self._vector(r, self.n_r, "inputs r", self.input_names)
+
+    @staticmethod
+    def _t(t) -> float:
+        try:
+            return float(t)
+        except (TypeError, ValueError):
+            raise TypeError(f"time t must be a real number, got {t!r}") from None
+
+    def _fail(self, status: int, what: str, t, x) -> None:
+        where = f"at t={t!r}, x={dict(zip(self.state_names, np.asarray(x).tolist()))}"
+        if status == 1:
+            raise SingularMassMatrixError(
+                f"{self.name}.{what}: the mass matrix is not positive definite {where}; "
+                f"check parameters (masses, inertias > 0) and avoid singular configurations")
+        if status == 2:
+            raise NonFiniteResultError(f"{self.name}.{what}: result is NaN or infinite {where}")
+        raise MbgenError(f"{self.name}.{what}: error status {status} {where}")  # pragma: no cover
+
+    # ------------------------------------------------------------------ outputs
+    def _evaluate(self, output: Output, t, x, p, r) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def _require(self, output: Output) -> None:
+        if output not in self.outputs:
+            raise MbgenError(f"output {output.value!r} was not generated for {self.name!r}; "
+                             f"compile with outputs including Output.{output.name}")
+
+    def rhs(self, t, x, p=None, r=None) -> np.ndarray:
+        """``dxdt = [G; M^-1 F]``, shape ``(n_x,)``."""
+        return self._evaluate(Output.RHS, t, x, p, r)
+
+    def mass_matrix(self, t, x, p=None, r=None) -> np.ndarray:
+        """``M(q, t)``, shape ``(n_u, n_u)``."""
+        return self._evaluate(Output.MASS_MATRIX, t, x, p, r)
+
+    def forcing(self, t, x, p=None, r=None) -> np.ndarray:
+        """``F(q, u, r, t)``, shape ``(n_u,)``."""
+        return self._evaluate(Output.FORCING, t, x, p, r)
+
+    def energy(self, t, x, p=None, r=None) -> np.ndarray:
+        """``[T, V]``: kinetic and potential energy."""
+        return self._evaluate(Output.ENERGY, t, x, p, r)
+
+    def bind(self, p=None, r=None, output: Output = Output.RHS) -> Callable:
+        """``f(t, x)`` with parameters and inputs fixed (for ``solve_ivp(f, ...)``)."""
+        output = Output(output)
+        self._require(output)
+        p_arr, r_arr = self._p(p).copy(), self._r(r).copy()
+
+        def f(t, x):
+            return self._evaluate(output, t, x, p_arr, r_arr)
+
+        return f
+
+    def __repr__(self) -> str:
+        return (f"<{type(self).__name__} {self.name!r}: x={list(self.state_names)}, "
+                f"p={list(self.parameter_names)}, outputs={[o.value for o in self.outputs]}>")
+
+
+class CompiledModel(ModelBase):
+    """The generated C, compiled with cffi; see :func:`mbgen.compile`."""
+
+    backend = "c"
+
+    def __init__(self, rendered, module, layout: Layout, defaults, outputs):
+        super().__init__(rendered.prefix, layout, defaults, outputs)
+        self.rendered = rendered
+        self.module = module
+        self.ffi, self.lib = module.ffi, module.lib
+        self._calls = {Output(info.output): self._make_call(info) for info in rendered.functions}
+
+    def _make_call(self, info):
+        ffi = self.ffi
+        buf = ffi.from_buffer
+        cfunc = getattr(self.lib, info.c_name)
+        size, shape = info.out_size, info.out_shape
+        has_p, has_r = "p" in info.args, "r" in info.args
+        what = info.output
+        check_x, check_p, check_r, as_t, fail = self._x, self._p, self._r, self._t, self._fail
+
+        def call(t, x, p, r):
+            xa = check_x(x)
+            out = np.empty(size)
+            if has_p and has_r:
+                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", check_p(p)),
+                               buf("double[]", check_r(r)), buf("double[]", out))
+            elif has_p:
+                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", check_p(p)),
+                               buf("double[]", out))
+            elif has_r:
+                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", check_r(r)),
+                               buf("double[]", out))
+            else:
+                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", out))
+            if status:
+                fail(status, what, t, xa)
+            return out if len(shape) == 1 else out.reshape(shape)
+
+        return call
+
+    def _evaluate(self, output, t, x, p, r):
+        try:
+            call = self._calls[output]
+        except KeyError:
+            self._require(output)
+            raise
+        return call(t, x, p, r)
+
+    def rhs(self, t, x, p=None, r=None) -> np.ndarray:  # fast path, no enum lookup
+        return self._calls[Output.RHS](t, x, p, r) if Output.RHS in self._calls else \
+            self._evaluate(Output.RHS, t, x, p, r)
+
+
+class PythonModel(ModelBase):
+    """The generated Python module (``<prefix>.py``) behind the same interface."""
+
+    backend = "python"
+
+    def __init__(self, rendered, module, layout: Layout, defaults, outputs):
+        super().__init__(rendered.prefix, layout, defaults, outputs)
+        self.rendered = rendered
+        self.module = module
+        self._args = {Output(info.output): info.args for info in rendered.functions}
+
+    def _evaluate(self, output, t, x, p, r):
+        self._require(output)
+        fn = getattr(self.module, output.value)
+        xa = self._x(x)
+        args = [self._t(t), xa]
+        if "p" in self._args[output]:
+            args.append(self._p(p))
+        if "r" in self._args[output]:
+            args.append(self._r(r))
+        try:
+            return fn(*args)
+        except self.module.NotPositiveDefinite:
+            self._fail(1, output.value, t, xa)
+        except self.module.NonFinite:
+            self._fail(2, output.value, t, xa)
