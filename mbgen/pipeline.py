@@ -13,7 +13,7 @@ import types
 from dataclasses import dataclass, field, replace
 from typing import Iterable, Mapping
 
-from .build import load
+from .build import compiled_path, load
 from .derive import Method, derive
 from .equations import Equations
 from .errors import ModelError
@@ -33,6 +33,7 @@ class PipelineResult:
     rendered: Rendered
     compiled: CompiledModel | None
     timings: Mapping[str, float] = field(default_factory=dict)
+    compile_cached: bool = False
 
 
 def equations_of(source: Model | Equations | Scene, method: Method = Method.KANE) -> Equations:
@@ -81,11 +82,12 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
                                                  **{k: float(v) for k, v in parameters.items()}})
     kernel = timed("cse", optimize, equations, outs, cse_backend)
     rendered = timed("render", render, kernel)
-    compiled = None
+    compiled, cached = None, False
     if build:
+        cached = compiled_path(rendered).exists()
         module = timed("compile", load, rendered)
         compiled = CompiledModel(rendered, module, equations.layout, equations.defaults, outs)
-    return PipelineResult(equations, kernel, rendered, compiled, timings)
+    return PipelineResult(equations, kernel, rendered, compiled, timings, cached)
 
 
 def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, *,

@@ -1,0 +1,280 @@
+"""Command-line interface: ``mbgen scenes | generate | check | simulate | demo | bench | golden``.
+
+Exit codes
+----------
+0  success
+1  a check failed (errors above tolerance, golden files out of date)
+2  usage error (bad arguments)
+3  bad model or scene (unknown scene, missing file, malformed model, bad option)
+4  the C compiler failed
+5  numerical failure (singular mass matrix, non-finite result, integrator failure)
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ._version import __version__
+from .errors import (BuildError, CheckFailed, MbgenError, ModelError, NonFiniteResultError,
+                     SceneError, SingularMassMatrixError)
+
+EXIT_OK, EXIT_CHECK, EXIT_USAGE, EXIT_MODEL, EXIT_BUILD, EXIT_NUMERIC = 0, 1, 2, 3, 4, 5
+
+
+def _options(pairs) -> dict:
+    out = {}
+    for pair in pairs or ():
+        if "=" not in pair:
+            raise SceneError(f"option {pair!r} must look like KEY=VALUE (e.g. -O n=4)")
+        k, v = pair.split("=", 1)
+        out[k.strip()] = v.strip()
+    return out
+
+
+def _scene(args):
+    from .scene import load_scene
+
+    return load_scene(args.scene, **_options(args.option))
+
+
+def _progress(msg: str) -> None:
+    print(f"  .. {msg}", file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------ commands
+def cmd_scenes(args) -> int:
+    from .scene import builtin_names, load_scene, scene_options
+
+    for name in builtin_names():
+        opts = scene_options(name)
+        scn = load_scene(name)
+        extra = f"  [options: {', '.join(f'{k}={v}' for k, v in opts.items())}]" if opts else ""
+        print(f"{name:<15} {scn.description}{extra}")
+    return EXIT_OK
+
+
+def cmd_generate(args) -> int:
+    from .fileio import write_files
+    from .pipeline import run
+
+    scene = _scene(args)
+    outputs = args.outputs.split(",") if args.outputs else None
+    result = run(scene, outputs, build=False)
+    folder = Path(args.output or Path("generated") / scene.name)
+    changed = write_files(folder, result.rendered.files)
+    for name in sorted(result.rendered.files):
+        state = "written" if folder / name in changed else "unchanged"
+        print(f"{folder / name}  ({state})")
+    k = result.kernel
+    print(f"operations: {k.ops_before} before CSE, {k.ops_after} after "
+          f"({', '.join(f.output.value for f in k.functions)})")
+    return EXIT_OK
+
+
+def cmd_check(args) -> int:
+    from .check import check
+
+    report = check(_scene(args), samples=args.samples, seed=args.seed, rtol=args.rtol,
+                   atol=args.atol)
+    print(report.format())
+    return EXIT_OK if report.ok else EXIT_CHECK
+
+
+def cmd_simulate(args) -> int:
+    from .pipeline import compile
+    from .simulate import simulate
+
+    scene = _scene(args)
+    model = compile(scene)
+    x0 = scene.x0(model.layout)
+    t_end = args.t_end if args.t_end is not None else scene.t_span[1]
+    traj = simulate(model, x0, (scene.t_span[0], t_end), method=args.method, rtol=args.rtol,
+                    atol=args.atol, n_out=args.points)
+    path = traj.write_csv(args.csv or f"{scene.name}.csv")
+    print(f"{scene.name}: {args.method} rtol={args.rtol:g} atol={args.atol:g}, "
+          f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls, {traj.wall_time:.3f} s")
+    print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
+    print(f"trajectory: {path} ({len(traj.t)} rows)")
+    return EXIT_OK
+
+
+def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
+    """Median over ``repeats`` of the mean time of ``calls`` calls, in microseconds."""
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        for _ in range(calls):
+            f(t, x)
+        samples.append((time.perf_counter() - start) / calls * 1e6)
+    return statistics.median(samples)
+
+
+def cmd_demo(args) -> int:
+    from .check import check
+    from .fileio import write_files
+    from .pipeline import python_model, run
+    from .reference import LambdifiedModel
+    from .scene import load_scene
+    from .simulate import simulate
+
+    scene = load_scene("disc_pendulum")
+    print(f"mbgen demo: {scene.description}")
+    _progress("derive, CSE, render, compile")
+    result = run(scene)
+    model = result.compiled
+    folder = Path(args.output)
+    write_files(folder, result.rendered.files)
+    _progress("check against lambdify")
+    report = check(scene, result=result, samples=50)
+    _progress("simulate")
+    x0, p = scene.x0(model.layout), scene.p(model.layout)
+    traj = simulate(model, x0, scene.t_span, rtol=1e-10, atol=1e-12)
+    csv_path = traj.write_csv(folder / "trajectory.csv")
+    _progress("time the right-hand sides side by side")
+    lam = LambdifiedModel(result.equations, model.outputs)
+    py = python_model(result.rendered, result.equations, model.outputs)
+    speeds = {name: _per_call_us(m.bind(p), 0.0, x0) for name, m in
+              (("compiled C", model), ("generated Python", py), ("lambdify", lam))}
+
+    k = result.kernel
+    rows = [("derive (Kane)", f"{result.timings['derive'] * 1e3:.1f} ms"),
+            ("CSE", f"{result.timings['cse'] * 1e3:.1f} ms"),
+            ("render", f"{result.timings['render'] * 1e3:.1f} ms"),
+            ("compile (cffi)", f"{result.timings['compile'] * 1e3:.1f} ms"
+             + (" (cache hit: source unchanged)" if result.compile_cached else "")),
+            ("operations before -> after CSE", f"{k.ops_before} -> {k.ops_after}"),
+            ("max rel error C vs lambdify", f"{report.max_rel:.2e} ({report.samples} states)"),
+            ("simulate t = 0..20 (DOP853, rtol 1e-10)",
+             f"{traj.wall_time * 1e3:.1f} ms, {traj.nfev} RHS calls"),
+            ("RHS call: compiled C", f"{speeds['compiled C']:.2f} us"),
+            ("RHS call: generated Python", f"{speeds['generated Python']:.2f} us"),
+            ("RHS call: lambdify", f"{speeds['lambdify']:.2f} us"),
+            ("C speed-up over lambdify", f"{speeds['lambdify'] / speeds['compiled C']:.1f}x")]
+    width = max(len(a) for a, _ in rows)
+    print("\n".join(f"  {a:<{width}}  {b}" for a, b in rows))
+    print("final state: " + ", ".join(f"{n} = {v:.8f}" for n, v in traj.final.items()))
+    print(f"generated code: {folder}/ ; trajectory: {csv_path}")
+    if not report.ok:
+        print(report.format())
+        return EXIT_CHECK
+    return EXIT_OK
+
+
+def cmd_bench(args) -> int:
+    if args.what != "scaling":
+        raise SceneError(f"unknown benchmark {args.what!r}; available: scaling")
+    from .bench import format_scaling, scaling
+
+    ns = tuple(int(v) for v in args.ns.split(","))
+    rows = scaling(ns, sympy_max_n=args.sympy_max_n, repeats=args.repeats, progress=_progress)
+    print(format_scaling(rows))
+    return EXIT_OK
+
+
+def cmd_golden(args) -> int:
+    from . import golden
+
+    root = Path(args.root)
+    if args.update:
+        changed = golden.update(root)
+        print(f"{len(changed)} file(s) rewritten under {root}")
+        for p in changed:
+            print(f"  {p}")
+        return EXIT_OK
+    diffs = golden.differences(root)
+    for d in diffs:
+        print(d)
+    print(f"{root}: {'up to date' if not diffs else f'{len(diffs)} difference(s); run mbgen golden --update'}")
+    return EXIT_OK if not diffs else EXIT_CHECK
+
+
+# ------------------------------------------------------------------- parser
+def parser() -> argparse.ArgumentParser:
+    top = argparse.ArgumentParser(
+        prog="mbgen", description="Multibody models to fast, verified C and Python.",
+        epilog="Exit codes: 0 ok, 1 check failed, 2 usage, 3 bad model/scene, 4 compiler "
+               "failed, 5 numerical failure.")
+    top.add_argument("--version", action="version", version=f"mbgen {__version__}")
+    sub = top.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    def scene_args(p):
+        p.add_argument("scene", metavar="SCENE",
+                       help="built-in scene name (see 'mbgen scenes') or path to a scene .py file")
+        p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
+                       help="scene option, e.g. -O n=8 (repeatable)")
+
+    p = sub.add_parser("scenes", help="list the built-in scenes")
+    p.set_defaults(func=cmd_scenes)
+
+    p = sub.add_parser("generate", help="write the generated C header, C source and Python")
+    scene_args(p)
+    p.add_argument("-o", "--output", metavar="DIR", help="output folder (default generated/SCENE)")
+    p.add_argument("--outputs", metavar="LIST",
+                   help="comma-separated outputs (rhs,mass_matrix,forcing,energy); "
+                        "default: the scene's")
+    p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("check", help="compare compiled C, generated Python and lambdify")
+    scene_args(p)
+    p.add_argument("--samples", type=int, default=20, help="random states (default 20)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance (default 1e-9)")
+    p.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    p.set_defaults(func=cmd_check)
+
+    p = sub.add_parser("simulate", help="integrate with the compiled RHS and write a CSV")
+    scene_args(p)
+    p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
+    p.add_argument("--method", default="DOP853", help="solve_ivp method (default DOP853)")
+    p.add_argument("--rtol", type=float, default=1e-9)
+    p.add_argument("--atol", type=float, default=1e-12)
+    p.add_argument("--points", type=int, default=201, help="output times (default 201)")
+    p.add_argument("--csv", metavar="PATH", help="trajectory file (default SCENE.csv)")
+    p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("demo", help="the main job on the pendulum on a rotating disc")
+    p.add_argument("-o", "--output", default="mbgen-demo", metavar="DIR",
+                   help="folder for the generated code and trajectory (default mbgen-demo)")
+    p.set_defaults(func=cmd_demo)
+
+    p = sub.add_parser("bench", help="benchmarks: 'scaling' (n-link pendulum vs sympy)")
+    p.add_argument("what", metavar="WHAT", help="'scaling'")
+    p.add_argument("--ns", default="2,4,8,16,32", help="link counts (default 2,4,8,16,32)")
+    p.add_argument("--sympy-max-n", type=int, default=32,
+                   help="largest n run through sympy's KanesMethod (default 32)")
+    p.add_argument("--repeats", type=int, default=5, help="repeats of timed calls (default 5)")
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("golden", help="compare (or --update) generated/ with the generator")
+    p.add_argument("--root", default="generated", help="folder (default generated)")
+    p.add_argument("--update", action="store_true", help="rewrite the files")
+    p.set_defaults(func=cmd_golden)
+    return top
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except CheckFailed as exc:
+        print(f"mbgen: check failed: {exc}", file=sys.stderr)
+        return EXIT_CHECK
+    except (SceneError, ModelError) as exc:
+        print(f"mbgen: error: {exc}", file=sys.stderr)
+        return EXIT_MODEL
+    except BuildError as exc:
+        print(f"mbgen: compiler error: {exc}", file=sys.stderr)
+        return EXIT_BUILD
+    except (SingularMassMatrixError, NonFiniteResultError, MbgenError) as exc:
+        print(f"mbgen: numerical error: {exc}", file=sys.stderr)
+        return EXIT_NUMERIC
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,59 @@
+"""The checked-in generated code of the built-in scenes (``generated/<scene>/``).
+
+``mbgen golden`` compares the tree with freshly generated code and
+``mbgen golden --update`` rewrites it; ``tests/test_golden.py`` fails on any
+difference, so the checked-in files always match the generator.
+"""
+
+from __future__ import annotations
+
+import difflib
+from pathlib import Path
+
+from .fileio import write_files
+from .pipeline import run
+from .scene import builtin_names, load_scene
+
+#: Scene options used for the checked-in code (kept small).
+GOLDEN_OPTIONS: dict[str, dict] = {"n_link_cart": {"n": 3}}
+
+
+def scene_files(name: str) -> dict[str, str]:
+    """``{file name: text}`` generated for built-in scene ``name``."""
+    scene = load_scene(name, **GOLDEN_OPTIONS.get(name, {}))
+    return dict(run(scene, build=False).rendered.files)
+
+
+def expected(names=None) -> dict[str, dict[str, str]]:
+    """Generated files of every built-in scene (or of ``names``)."""
+    return {n: scene_files(n) for n in (names or builtin_names())}
+
+
+def update(root: Path, names=None) -> list[Path]:
+    """Rewrite ``root/<scene>/`` for every scene; returns the files that changed."""
+    changed = []
+    for name, files in expected(names).items():
+        changed += write_files(Path(root) / name, files)
+    return changed
+
+
+def differences(root: Path, names=None) -> list[str]:
+    """Unified diffs (or 'missing'/'unexpected' lines) between ``root`` and the generator."""
+    root = Path(root)
+    out = []
+    for name, files in expected(names).items():
+        folder = root / name
+        for fname, text in sorted(files.items()):
+            path = folder / fname
+            if not path.exists():
+                out.append(f"missing: {path}")
+                continue
+            old = path.read_text(encoding="utf-8")
+            if old != text:
+                out.append("".join(difflib.unified_diff(
+                    old.splitlines(True), text.splitlines(True), str(path), f"{path} (generated)",
+                    n=1)))
+        if folder.exists():
+            extra = sorted(p.name for p in folder.iterdir() if p.name not in files)
+            out += [f"unexpected: {folder / e}" for e in extra]
+    return out

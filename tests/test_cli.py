@@ -1,0 +1,99 @@
+"""The command line: every command, --help, and exit codes."""
+
+import re
+import subprocess
+import sys
+
+import pytest
+
+from mbgen.cli import EXIT_CHECK, EXIT_MODEL, EXIT_OK, main, parser
+
+
+def test_help_everywhere(capsys):
+    commands = [a.dest for a in parser()._subparsers._group_actions[0]._choices_actions]
+    assert {"scenes", "generate", "check", "simulate", "demo", "bench", "golden"} <= set(commands)
+    for cmd in [[]] + [[c] for c in commands]:
+        with pytest.raises(SystemExit) as info:
+            main(cmd + ["--help"])
+        assert info.value.code == 0
+        assert "usage: mbgen" in capsys.readouterr().out
+
+
+def test_scenes_lists_builtins(capsys):
+    assert main(["scenes"]) == EXIT_OK
+    out = capsys.readouterr().out
+    assert "disc_pendulum" in out and "n_link_cart" in out and "n=3" in out
+
+
+def test_generate_writes_files_and_is_idempotent(tmp_path, capsys):
+    assert main(["generate", "disc_pendulum", "-o", str(tmp_path)]) == EXIT_OK
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert names == ["disc_pendulum.c", "disc_pendulum.h", "disc_pendulum.py"]
+    assert "written" in capsys.readouterr().out
+    assert main(["generate", "disc_pendulum", "-o", str(tmp_path)]) == EXIT_OK
+    assert "unchanged" in capsys.readouterr().out
+
+
+def test_check_passes(capsys):
+    assert main(["check", "n_link_cart", "-O", "n=2", "--samples", "5"]) == EXIT_OK
+    out = capsys.readouterr().out
+    assert "PASSED" in out and "python" in out
+
+
+def test_check_fails_above_tolerance(capsys):
+    assert main(["check", "disc_pendulum", "--rtol", "0", "--atol", "0",
+                 "--samples", "5"]) == EXIT_CHECK
+    assert "FAILED" in capsys.readouterr().out
+
+
+def test_simulate_writes_csv(tmp_path, capsys):
+    csv = tmp_path / "traj.csv"
+    assert main(["simulate", "disc_pendulum", "--csv", str(csv), "--points", "11"]) == EXIT_OK
+    lines = csv.read_text().splitlines()
+    assert lines[0] == "t,q1,q2,u1,u2" and len(lines) == 12
+    assert "final state" in capsys.readouterr().out
+
+
+def test_user_scene_file(tmp_path, capsys):
+    scene = tmp_path / "my_scene.py"
+    scene.write_text(
+        "from mbgen import Model, Scene\n"
+        "def scene(k: float = 2.0):\n"
+        "    m = Model('spring_mass')\n"
+        "    x, = m.coordinates('x')\n"
+        "    m.speeds('v')\n"
+        "    kk, mass = m.constants('k mass')\n"
+        "    N = m.newtonian()\n"
+        "    P = m.point('P', m.origin, x * N.x)\n"
+        "    m.particle('body', P, mass)\n"
+        "    m.spring('s', P, m.origin, kk)\n"
+        "    return Scene('spring_mass', m, parameters={'k': k, 'mass': 1.0},\n"
+        "                 initial_state={'x': 1.0}, t_span=(0.0, 3.14159265358979))\n")
+    assert main(["check", str(scene), "--samples", "3"]) == EXIT_OK
+    assert main(["simulate", str(scene), "-O", "k=1", "--csv", str(tmp_path / "s.csv")]) == EXIT_OK
+    out = capsys.readouterr().out
+    final_x = float(re.search(r"final state: x = (\S+),", out).group(1))
+    assert final_x == pytest.approx(-1.0, abs=1e-8)  # half a period of a unit oscillator
+
+
+def test_bad_scene_exit_codes(tmp_path, capsys):
+    assert main(["check", "no_such_scene"]) == EXIT_MODEL
+    assert main(["check", str(tmp_path / "missing.py")]) == EXIT_MODEL
+    assert main(["check", "n_link_cart", "-O", "n=x"]) == EXIT_MODEL
+    assert main(["check", "n_link_cart", "-O", "n"]) == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert "no scene 'no_such_scene'" in err and "does not exist" in err
+
+
+def test_usage_error_exit_code():
+    proc = subprocess.run([sys.executable, "-m", "mbgen.cli", "check"], capture_output=True,
+                          text=True)
+    assert proc.returncode == 2 and "SCENE" in proc.stderr
+
+
+def test_golden_check_and_update(tmp_path, capsys):
+    root = tmp_path / "g"
+    assert main(["golden", "--root", str(root)]) == EXIT_CHECK
+    assert main(["golden", "--root", str(root), "--update"]) == EXIT_OK
+    assert main(["golden", "--root", str(root)]) == EXIT_OK
+    assert "up to date" in capsys.readouterr().out

@@ -1,0 +1,24 @@
+"""generated/ holds exactly what the generator produces today.
+
+Regenerate with ``mbgen golden --update`` (run from the repository root).
+"""
+
+from pathlib import Path
+
+from mbgen import golden
+from mbgen.scene import builtin_names
+
+ROOT = Path(__file__).resolve().parent.parent / "generated"
+
+
+def test_every_builtin_scene_has_a_folder():
+    assert sorted(p.name for p in ROOT.iterdir() if p.is_dir()) == builtin_names()
+
+
+def test_generated_tree_matches_generator(tmp_path):
+    fresh = tmp_path / "generated"
+    golden.update(fresh)
+    assert not golden.differences(fresh), "update() must produce a tree with no differences"
+    diffs = golden.differences(ROOT)
+    assert not diffs, ("generated/ is out of date; run 'mbgen golden --update':\n"
+                       + "\n".join(diffs)[:5000])
