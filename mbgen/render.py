@@ -14,6 +14,7 @@ import hashlib
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
+from pathlib import Path
 
 import jinja2
 
@@ -83,8 +84,11 @@ class FunctionInfo:
 
 @lru_cache(maxsize=1)
 def environment() -> jinja2.Environment:
-    """The Jinja environment over the packaged templates (``mbgen._templates``)."""
-    root = resources.files("mbgen._templates")
+    """The Jinja environment over the templates (shipped in the wheel as ``mbgen._templates``)."""
+    try:
+        root = resources.files("mbgen._templates")
+    except ModuleNotFoundError:  # a source checkout used without installing
+        root = Path(__file__).resolve().parent.parent / "templates"
     loader = jinja2.FunctionLoader(lambda name: (root / name).read_text(encoding="utf-8"))
     return jinja2.Environment(loader=loader, undefined=jinja2.StrictUndefined,
                               keep_trailing_newline=True, trim_blocks=True,
