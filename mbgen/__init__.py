@@ -11,6 +11,7 @@ from .derive import Method, derive
 from .equations import Equations
 from .errors import (BuildError, CheckFailed, MbgenError, ModelError, NonFiniteResultError,
                      SceneError, SingularMassMatrixError)
+from .importers import from_sympy
 from .layout import Layout
 from .model import Model, t
 from .optimize import CseBackend, Output
@@ -20,7 +21,7 @@ from .runtime import CompiledModel, PythonModel
 from .scene import Scene, load_scene
 
 
-__all__ = ["Model", "t", "derive", "Output", "CseBackend", "compile", "equations_of", "run",
+__all__ = ["Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "BuildError", "SingularMassMatrixError", "NonFiniteResultError",

@@ -24,15 +24,19 @@ remaining plain symbols                    parameters, natural name order (``m2 
 =========================================  =============================================
 
 A :class:`~sympy.physics.mechanics.System` is converted through its
-``eom_method``.  Dependent coordinates or speeds, auxiliary speeds, Lagrange
-multipliers and derivatives of inputs are refused with a
-:class:`~mbgen.errors.ModelError`.
+``eom_method``; ``form_eoms`` is not called here, because it would change the
+caller's System and choose the method for them.  Dependent coordinates or
+speeds, auxiliary speeds, Lagrange multipliers and derivatives of inputs are
+refused with a :class:`~mbgen.errors.ModelError`.  Every function of time that
+is not a coordinate or speed becomes an input, as in sympy's own ``specified``.
+No expression is simplified: the conversion only renames atoms.
 """
 
 from __future__ import annotations
 
 import re
-from typing import Sequence
+from collections import Counter
+from typing import NamedTuple, Sequence
 
 import sympy as sm
 from sympy.core.function import AppliedUndef
@@ -46,6 +50,17 @@ from .symbolic import walk_unique
 
 SUPPORTED = ("a KanesMethod after kanes_equations(), a LagrangesMethod after "
              "form_lagranges_equations(), or a System after form_eoms()")
+
+
+class _Formed(NamedTuple):
+    """What a formed sympy method holds, still in functions of time."""
+
+    coordinates: list        # q_i(t)
+    speeds: list             # u_i(t), or q_i'(t) for LagrangesMethod
+    speed_names: list[str]
+    mass_matrix: sm.Matrix
+    forcing: sm.Matrix
+    kinematics: list         # G_i with q_i' = G_i
 
 
 def from_sympy(obj: KanesMethod | LagrangesMethod | System, *, name: str | None = None,
@@ -75,31 +90,37 @@ def from_sympy(obj: KanesMethod | LagrangesMethod | System, *, name: str | None 
         auxiliary speeds, derivatives of inputs or a wrong ``parameters`` list.
     """
     name = "sympy_model" if name is None else name
-    model_prefix(name)
-    source = "sympy"
+    model_prefix(name)  # refuse a name that cannot prefix C symbols before any work
+    system_speeds: set[str] = set()
+    source = "sympy {}"
     if isinstance(obj, System):
         if obj.eom_method is None:
             raise ModelError("the System has no equations of motion yet (or it changed since "
                              "they were formed); call system.form_eoms() first")
-        source, obj = f"sympy System ({_base(obj.eom_method).__name__})", obj.eom_method
+        system_speeds = {str(u.func) for u in obj.u if isinstance(u, AppliedUndef)}
+        source, obj = "sympy System ({})", obj.eom_method
     if isinstance(obj, KanesMethod):
-        parts = _kane(obj)
+        method, formed = "KanesMethod", _kane(obj)
     elif isinstance(obj, LagrangesMethod):
-        parts = _lagrange(obj)
+        method, formed = "LagrangesMethod", _lagrange(obj)
     else:
         raise ModelError(f"from_sympy() cannot convert a {type(obj).__name__}; pass {SUPPORTED}")
-    method = _base(obj).__name__
-    if source == "sympy":
-        source = f"sympy {method}"
-    return _convert(name, *parts, parameters, source=source, method=f"sympy.{method}")
+    eq = _convert(name, formed, parameters, source=source.format(method),
+                  method=f"sympy.{method}")
+    leaked = sorted(system_speeds & set(eq.layout.input_names))
+    if leaked:
+        raise ModelError(f"the {method} equations contain the System speeds {leaked}, which it "
+                         f"does not know; for LagrangesMethod give the joints the coordinates' "
+                         f"derivatives as speeds (e.g. PinJoint(..., speeds=q.diff(t)))")
+    return eq
 
 
-def _base(obj) -> type:
-    return KanesMethod if isinstance(obj, KanesMethod) else LagrangesMethod
+def _kane(km: KanesMethod) -> _Formed:
+    """The equations of a KanesMethod; refuses constrained and auxiliary speeds.
 
-
-def _kane(km: KanesMethod):
-    """Coordinates, speeds, speed names, ``M``, ``F``, ``G`` of a KanesMethod (functions of t)."""
+    ``_uaux``, ``_qdep`` and ``_udep`` are private to sympy (checked with 1.14):
+    KanesMethod has no public accessor for them.
+    """
     try:
         M, F = km.mass_matrix, km.forcing
     except ValueError:
@@ -115,11 +136,11 @@ def _kane(km: KanesMethod):
     qdot = km.kindiffdict()
     q, u = list(km.q), list(km.u)
     G = [qdot[qi.diff(dynamicsymbols._t)] for qi in q]
-    return q, u, [str(ui.func) for ui in u], M, F, G
+    return _Formed(q, u, [str(ui.func) for ui in u], M, F, G)
 
 
-def _lagrange(lm: LagrangesMethod):
-    """Coordinates, speeds ``q'``, speed names, ``M``, ``F``, ``G = q'`` of a LagrangesMethod."""
+def _lagrange(lm: LagrangesMethod) -> _Formed:
+    """The equations of a LagrangesMethod, with speeds ``u = q'``; refuses multipliers."""
     if lm.eom is None:
         raise ModelError("the LagrangesMethod has no equations yet; call "
                          "lagrange.form_lagranges_equations() first")
@@ -127,22 +148,27 @@ def _lagrange(lm: LagrangesMethod):
         raise ModelError("constraint equations (Lagrange multipliers) are not supported yet; "
                          "use a minimal set of independent coordinates")
     q, qd = list(lm.q), list(lm.u)
-    return q, qd, [f"{qi.func}_dot" for qi in q], lm.mass_matrix, lm.forcing, qd
+    return _Formed(q, qd, [f"{qi.func}_dot" for qi in q], lm.mass_matrix, lm.forcing, qd)
 
 
-def _natural(name: str) -> tuple:
+def _natural(name: str) -> tuple[tuple, str]:
     """Sort key with digit runs compared as numbers: ``m2 < m10``."""
     parts = re.split(r"(\d+)", name)
     return tuple(int(p) if i % 2 else p for i, p in enumerate(parts)), name
 
 
-def _convert(name, q, u, speed_names, M, F, G, parameters, *, source, method) -> Equations:
+def _convert(name: str, formed: _Formed, parameters: Sequence[str | sm.Symbol] | None, *,
+             source: str, method: str) -> Equations:
+    """Replace functions of time by plain symbols and collect inputs and parameters."""
     t = dynamicsymbols._t
-    coords = tuple(sm.Symbol(str(qi.func)) for qi in q)
-    speeds = tuple(sm.Symbol(s) for s in speed_names)
-    known = dict(zip(q, coords)) | dict(zip(u, speeds))
+    coords = tuple(sm.Symbol(str(qi.func)) for qi in formed.coordinates)
+    speeds = tuple(sm.Symbol(s) for s in formed.speed_names)
+    known = dict(zip(formed.coordinates, coords)) | dict(zip(formed.speeds, speeds))
+    M, F, G = formed.mass_matrix, formed.forcing, formed.kinematics
 
-    symbols, inputs, stray = set(), {}, []
+    symbols: set[sm.Symbol] = set()
+    inputs: dict[AppliedUndef, sm.Symbol] = {}
+    stray = []
     for node in walk_unique([*M, *F, *G]):
         if isinstance(node, sm.Symbol):
             symbols.add(node)
@@ -157,8 +183,8 @@ def _convert(name, q, u, speed_names, M, F, G, parameters, *, source, method) ->
                          f"of inputs are not supported: make such a derivative an input itself")
     inputs = dict(sorted(inputs.items(), key=lambda kv: _natural(kv[1].name)))
     params = symbols - {t}
-    names = [s.name for s in (*coords, *speeds, *inputs.values(), *params)]
-    clash = sorted({n for n in names if names.count(n) > 1})
+    names = Counter(s.name for s in (*coords, *speeds, *inputs.values(), *params))
+    clash = sorted(n for n, k in names.items() if k > 1)
     if clash:
         raise ModelError(f"the name(s) {clash} belong to two different symbols (a plain symbol "
                          f"named like a coordinate, speed or input, or symbols with different "
@@ -171,7 +197,8 @@ def _convert(name, q, u, speed_names, M, F, G, parameters, *, source, method) ->
                      source=source, method=method)
 
 
-def _order(params: set, order: Sequence[str | sm.Symbol] | None) -> tuple[sm.Symbol, ...]:
+def _order(params: set[sm.Symbol],
+           order: Sequence[str | sm.Symbol] | None) -> tuple[sm.Symbol, ...]:
     """Parameters in natural name order, or in ``order`` (which must name each exactly once)."""
     by_name = {s.name: s for s in params}
     if order is None:

@@ -1,0 +1,19 @@
+"""The wheel ships the templates, and an installed mbgen renders from them."""
+
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_wheel_contains_templates_and_scenes(tmp_path):
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
+                    "-q", "-w", str(tmp_path), str(ROOT)], check=True, capture_output=True)
+    wheel, = tmp_path.glob("mbgen-*.whl")
+    names = set(zipfile.ZipFile(wheel).namelist())
+    for template in (ROOT / "templates").glob("*.j2"):
+        assert f"mbgen/_templates/{template.name}" in names
+    assert "mbgen/scenes/disc_pendulum.py" in names
+    assert "mbgen/derive/kane.py" in names
