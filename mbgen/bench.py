@@ -25,6 +25,9 @@ Method
 * Symbolic stages (derive, CSE, render, compile) take seconds, so each is
   measured **once** per ``n``.  sympy's global cache is cleared before each
   side's derive so neither side profits from expressions the other built.
+  A warm-up pass at ``n = 1`` (not reported) first pays the one-time costs
+  (imports, template loading, the first compiler start), which would
+  otherwise land on the first row.
 * An RHS call is timed as a loop of ``number`` calls divided by ``number``
   (``number`` doubled until a loop takes at least :data:`MIN_LOOP_S`), with the
   garbage collector off as in :mod:`timeit`; the median of ``repeats`` loops is
@@ -36,13 +39,8 @@ Method
   does (each temporary and each output expression once).  mbgen's RHS holds the
   lower triangle of ``M`` (n_u x n_u), ``F`` and ``G``; sympy's holds all of
   ``M_full`` (2 n_u square, with the identity block) and ``F_full``.
-* BLAS threads: the sympy RHS calls ``numpy.linalg.solve``.  Pin OpenBLAS/OpenMP
-  to one thread by setting ``OMP_NUM_THREADS=1`` and ``OPENBLAS_NUM_THREADS=1``
-  in the environment *before* Python starts (or before anything imports numpy;
-  importing :mod:`mbgen` already does), e.g.
-  ``OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 mbgen bench scaling``.  The values
-  in effect are printed under the table by :func:`format_scaling`.  (Runtime
-  pinning would need ``threadpoolctl``, which is not a dependency.)
+* BLAS threads are pinned to one for the whole run with ``threadpoolctl``
+  (the sympy RHS calls ``numpy.linalg.solve``); the table footer says so.
 
 Timings on a shared or small machine are noisy; compare ratios within one run.
 """
@@ -60,6 +58,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 import sympy as sm
+from threadpoolctl import threadpool_limits
 
 from .build import load
 from .derive import derive
@@ -72,13 +71,29 @@ from .symbolic import count_ops_dag, count_ops_tree
 #: Shortest loop (seconds) of RHS calls that counts as one timing.
 MIN_LOOP_S = 0.05
 
-#: Environment variables that pin BLAS threads when set before numpy loads.
-BLAS_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS")
 
 
 @dataclass(frozen=True)
 class ScalingRow:
-    """Timings (seconds) and operation counts of one ``n``; ``sympy_*`` is None when skipped."""
+    """Timings and operation counts of one ``n``; the ratios are sympy / mbgen.
+
+    Attributes
+    ----------
+    n : int
+        Number of links.
+    derive_s, cse_s, render_s, compile_s : float
+        mbgen's stages, seconds (each measured once).
+    rhs_s : float
+        One call of the compiled RHS, seconds (median).
+    ops_before, ops_after : int
+        mbgen's operation counts before and after CSE (``Kernel.ops_before/after``).
+    sympy_derive_s, sympy_cse_s, sympy_rhs_s : float or None
+        The sympy baseline, same meaning; None when sympy was skipped for this ``n``.
+    sympy_ops_before, sympy_ops_after : int or None
+        Operations of ``M_full`` and ``F_full`` before and after ``sympy.cse``.
+    rhs_max_abs_diff : float or None
+        Largest difference between the two RHS results at the timed point.
+    """
 
     n: int
     derive_s: float
@@ -125,7 +140,7 @@ class ScalingRow:
 def _fresh_cache():
     """Point ``MBGEN_CACHE_DIR`` at an empty temporary folder, restore it afterwards."""
     old = os.environ.get("MBGEN_CACHE_DIR")
-    with tempfile.TemporaryDirectory(prefix="mbgen-bench-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="mbgen-bench-", ignore_cleanup_errors=True) as tmp:
         os.environ["MBGEN_CACHE_DIR"] = tmp
         try:
             yield
@@ -171,8 +186,7 @@ def _ops_after(reps, reduced) -> int:
 
 def _point(layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """State, parameters and input at which both RHS are timed (by layout name)."""
-    n_q = layout.n_q
-    x = np.concatenate([0.1 * np.arange(n_q), 0.05 * np.arange(1, layout.n_u + 1)])
+    x = np.concatenate([0.1 * np.arange(layout.n_q), 0.05 * np.arange(1, layout.n_u + 1)])
     p = np.array([9.81 if name == "g" else 1.0 for name in layout.parameter_names])
     r = np.full(layout.n_r, 0.5)
     return x, p, r
@@ -182,7 +196,7 @@ def _mbgen_side(n: int, repeats: int, say: Callable[[str], None]):
     """Run and time mbgen's stages; returns ``(fields, layout, (x, p, r), dxdt)``."""
     say(f"n={n}: mbgen derive")
     sm.core.cache.clear_cache()
-    equations, derive_s = _timed(lambda: derive(build_model(n)))
+    equations, derive_s = _timed(lambda: derive(build_model(n), energy=False))
     say(f"n={n}: mbgen CSE")
     kernel, cse_s = _timed(optimize, equations, (Output.RHS,))
     say(f"n={n}: mbgen render")
@@ -256,20 +270,30 @@ def scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, sympy_max_n: int = 32, rep
 
     Notes
     -----
-    Compilation uses an empty temporary cache (``MBGEN_CACHE_DIR`` is set for
-    the duration of the call and restored afterwards).  See the module
-    docstring for the method.
+    Each ``n`` compiles into its own empty temporary cache (``MBGEN_CACHE_DIR``
+    is set for the duration of mbgen's stages and restored afterwards).  See
+    the module docstring for the method.
     """
-    say = progress or (lambda message: None)
-    rows = []
+    if repeats < 1:
+        raise ValueError(f"repeats must be at least 1, got {repeats}")
+    with threadpool_limits(limits=1):
+        return _scaling(ns, sympy_max_n, repeats, progress or (lambda message: None))
+
+
+def _scaling(ns, sympy_max_n, repeats, say) -> list[ScalingRow]:
+    say("warm-up (n=1, not reported)")
     with _fresh_cache():
-        for n in ns:
+        _, layout, point, _ = _mbgen_side(1, 1, lambda message: None)
+    if any(n <= sympy_max_n for n in ns):
+        _sympy_side(1, 1, layout, point, lambda message: None)
+    rows = []
+    for n in ns:
+        with _fresh_cache():
             fields, layout, point, ours = _mbgen_side(n, repeats, say)
-            if n <= sympy_max_n:
-                theirs_fields, theirs = _sympy_side(n, repeats, layout, point, say)
-                fields.update(theirs_fields,
-                              rhs_max_abs_diff=float(np.max(np.abs(ours - theirs))))
-            rows.append(ScalingRow(**fields))
+        if n <= sympy_max_n:
+            theirs_fields, theirs = _sympy_side(n, repeats, layout, point, say)
+            fields.update(theirs_fields, rhs_max_abs_diff=float(np.max(np.abs(ours - theirs))))
+        rows.append(ScalingRow(**fields))
     return rows
 
 
@@ -305,12 +329,12 @@ def _opt(value, spec: str) -> str:
 def format_scaling(rows: Sequence[ScalingRow]) -> str:
     """Plain-text table of :func:`scaling` rows, fixed-width columns.
 
-    Below the table: :data:`LEGEND` and the BLAS thread settings in effect.
+    Below the table: :data:`LEGEND` and the BLAS thread pinning.
     """
     def line(cells) -> str:
         return "  ".join(f"{c:>{w}}" for c, (_, w, _) in zip(cells, _COLUMNS)).rstrip()
 
     header = line(h for h, _, _ in _COLUMNS)
     body = [line(fmt(r) for _, _, fmt in _COLUMNS) for r in rows]
-    blas = ", ".join(f"{v}={os.environ.get(v, 'unset')}" for v in BLAS_THREAD_VARS)
-    return "\n".join([header, "-" * len(header), *body, "", LEGEND, f"BLAS threads: {blas}"])
+    return "\n".join([header, "-" * len(header), *body, "", LEGEND,
+                      "BLAS threads pinned to 1 (threadpoolctl)."])

@@ -18,6 +18,7 @@ import sympy as sm
 
 from .errors import ModelError
 from .layout import Layout
+from .symbolic import applied_functions, free_symbols
 
 
 @dataclass(frozen=True)
@@ -70,13 +71,13 @@ class Equations:
         known = L.symbols()
         for what, exprs in (("mass matrix", self.mass_matrix), ("forcing", self.forcing),
                             ("kinematics", self.kinematics)):
-            unknown = set().union(*(e.free_symbols for e in exprs)) - known
+            unknown = free_symbols(exprs) - known
             if unknown:
                 names = ", ".join(sorted(map(str, unknown)))
                 raise ModelError(f"the {what} contains symbol(s) {names} that are neither "
                                  f"coordinates, speeds, parameters, inputs nor time; declare "
                                  f"them (e.g. model.constants('{names.split(', ')[0]}'))")
-            funcs = set().union(*(e.atoms(sm.core.function.AppliedUndef) for e in exprs))
+            funcs = applied_functions(exprs)
             if funcs:
                 raise ModelError(f"the {what} still contains function(s) of time "
                                  f"{sorted(map(str, funcs))}; declare them as coordinates, "

@@ -36,20 +36,21 @@ class PipelineResult:
     compile_cached: bool = False
 
 
-def equations_of(source: Model | Equations | Scene, method: Method = Method.KANE) -> Equations:
+def equations_of(source: Model | Equations | Scene, method: Method = Method.KANE, *,
+                 energy: bool = True) -> Equations:
     """Derive (for a ``Model`` or a scene holding one) or pass through ``Equations``.
 
     A scene's parameter values become the equations' defaults and its name and
-    file the equations' source line.
+    file the equations' source line.  ``energy``: derive energies too.
     """
     if isinstance(source, Scene):
-        eq = equations_of(source.model, method)
+        eq = equations_of(source.model, method, energy=energy)
         src = f"scene {source.name!r} ({source.source})" if source.source else f"scene {source.name!r}"
         return replace(eq, defaults={**eq.defaults, **{k: float(v) for k, v in
                                                           source.parameters.items()}},
                        source=src)
     if isinstance(source, Model):
-        return derive(source, method)
+        return derive(source, method, energy=energy)
     if isinstance(source, Equations):
         return source
     raise ModelError(f"expected a Model, Equations or Scene, got {type(source).__name__}")
@@ -76,7 +77,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         timings[stage] = time.perf_counter() - t0
         return value
 
-    equations = timed("derive", equations_of, source)
+    equations = timed("derive", equations_of, source, energy=Output.ENERGY in outs)
     if parameters:
         equations = replace(equations, defaults={**equations.defaults,
                                                  **{k: float(v) for k, v in parameters.items()}})

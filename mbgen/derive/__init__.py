@@ -16,7 +16,7 @@ class Method(str, Enum):
     KANE = "kane"
 
 
-def derive(model: Model, method: Method = Method.KANE) -> Equations:
+def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True) -> Equations:
     """Derive the equations of motion of ``model``.
 
     Parameters
@@ -25,6 +25,8 @@ def derive(model: Model, method: Method = Method.KANE) -> Equations:
         The multibody model.
     method : Method
         ``Method.KANE`` (Kane's method with partial velocities).
+    energy : bool
+        Also derive the kinetic and potential energy (needed for ``Output.ENERGY``).
 
     Returns
     -------
@@ -35,7 +37,7 @@ def derive(model: Model, method: Method = Method.KANE) -> Equations:
         raise ModelError(f"derive() needs an mbgen.Model, got {type(model).__name__}")
     method = Method(method)
     if method is Method.KANE:
-        return kane(model)
+        return kane(model, energy)
     raise ModelError(f"unknown derivation method {method!r}")  # pragma: no cover
 
 
