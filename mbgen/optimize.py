@@ -1,116 +1,70 @@
 r"""Optimisation: ``Equations + outputs -> Kernel``.
 
-Only the outputs a scene asks for are kept.  Every expression those outputs
-need goes through **one** common-subexpression-elimination pass; each generated
-function then takes the temporaries its own expressions depend on.  Operation
-counts before (expressions printed as trees) and after (temporaries plus
-reduced outputs) are recorded per function.
-
-Outputs
--------
-``RHS``
-    ``dxdt = [G; M^{-1} F]`` of length ``n_x``.  ``M`` is filled in its lower
-    triangle only and solved numerically (Cholesky) in the generated code.
-``MASS_MATRIX``
-    ``M`` (``n_u x n_u``, row-major), each symmetric pair computed once.
-``FORCING``
-    ``F`` (``n_u``).
-``ENERGY``
-    ``[T, V]``: kinetic energy and the potential of gravity and springs.
+Only the outputs a scene asks for are kept (:mod:`mbgen.outputs` says what each
+computes).  Every expression of every kept output goes through **one**
+common-subexpression-elimination pass (:mod:`mbgen.cse`); each generated
+function then takes the temporaries its own expressions depend on, split into
+those computed before the mass matrix is solved and those that need the
+accelerations.  Operation counts before (expressions evaluated as trees) and
+after (temporaries plus reduced outputs) are recorded per function.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum
-from typing import Iterable
 
 import sympy as sm
 
+from .cse import CseBackend, cse
 from .equations import Equations
 from .errors import ModelError
+from .outputs import (INTEGRATORS, Block, Output, Spec, acceleration_symbols, spec,
+                      with_dependencies)
 from .symbolic import count_ops_dag, count_ops_tree, free_symbols
 
-
-class Output(str, Enum):
-    """What a generated model computes."""
-
-    RHS = "rhs"
-    MASS_MATRIX = "mass_matrix"
-    FORCING = "forcing"
-    ENERGY = "energy"
-
-    @classmethod
-    def parse(cls, values: Iterable) -> tuple["Output", ...]:
-        """Outputs from enum members or their names, in canonical (declaration) order."""
-        wanted = set()
-        for v in values:
-            try:
-                wanted.add(v if isinstance(v, cls) else cls(str(v).lower()))
-            except ValueError:
-                raise ModelError(f"unknown output {v!r}; choose from "
-                                 f"{', '.join(o.value for o in cls)}") from None
-        return tuple(o for o in cls if o in wanted)
-
-
-class CseBackend(str, Enum):
-    """Which library performs common-subexpression elimination."""
-
-    SYMENGINE = "symengine"
-    SYMPY = "sympy"
-
-
-@dataclass(frozen=True)
-class Block:
-    """Assignments to one array: ``name[index] = expr`` for each entry.
-
-    ``mirror`` lists ``(dst, src)`` index pairs copied after the block is
-    computed (the upper triangle of a symmetric matrix).
-    """
-
-    name: str
-    size: int
-    entries: tuple[tuple[int, sm.Expr], ...]
-    mirror: tuple[tuple[int, int], ...] = ()
-    labels: tuple[str, ...] = ()
+__all__ = ["Output", "CseBackend", "Block", "KernelFunction", "Kernel", "optimize"]
 
 
 @dataclass(frozen=True)
 class KernelFunction:
-    """One generated function.
+    """One generated function: a :class:`~mbgen.outputs.Spec` after CSE.
 
-    ``blocks`` are local arrays (``M``, ``F``) or the output array itself;
-    ``solve`` means: after the blocks, solve ``M y = F`` (Cholesky, lower
-    triangle of ``M``) and write ``y`` to ``out[n_q:]``.
+    ``temporaries`` are evaluated before the solve, ``post_temporaries`` after
+    it (they use the accelerations).
     """
 
-    output: Output
-    out_name: str
-    out_size: int
-    out_labels: tuple[str, ...]
+    spec: Spec
     temporaries: tuple[tuple[sm.Symbol, sm.Expr], ...]
-    blocks: tuple[Block, ...]
-    local_blocks: tuple[str, ...]
-    solve: bool
+    pre: tuple[Block, ...]
+    post_temporaries: tuple[tuple[sm.Symbol, sm.Expr], ...]
+    post: tuple[Block, ...]
     uses: frozenset            # subset of {"t", "x", "p", "r"}
-    symbols_used: tuple        # layout symbols the function reads
+    symbols_used: tuple        # layout symbols the function reads, in layout order
     ops_before: int
     ops_after: int
-    doc: str
+
+    @property
+    def output(self) -> Output:
+        return self.spec.output
 
 
 @dataclass(frozen=True)
 class Kernel:
-    """Optimised, ready-to-print functions of one model."""
+    """Optimised, ready-to-print functions of one model, plus the integrators asked for."""
 
     equations: Equations
     functions: tuple[KernelFunction, ...]
+    integrators: tuple[Output, ...]
     cse_backend: CseBackend
     temp_prefix: str
 
     @property
     def layout(self):
         return self.equations.layout
+
+    @property
+    def outputs(self) -> tuple[Output, ...]:
+        return tuple(f.output for f in self.functions) + self.integrators
 
     @property
     def ops_before(self) -> int:
@@ -135,93 +89,6 @@ def _temp_prefix(equations: Equations) -> str:
     return "mbgen_tmp"  # pragma: no cover
 
 
-def _blocks(equations: Equations, output: Output):
-    """``(out name, out size, out labels, blocks, local blocks, solve, doc)`` of an output."""
-    L = equations.layout
-    n = L.n_u
-    M = equations.mass_matrix
-    lower = tuple((i * n + j, M[i, j]) for i in range(n) for j in range(i + 1))
-    mirror = tuple((j * n + i, i * n + j) for i in range(n) for j in range(i))
-    m_labels = tuple(f"M[{L.speeds[i]},{L.speeds[j]}]" for i in range(n) for j in range(n))
-    f_labels = tuple(f"F[{s}]" for s in L.speeds)
-    if output is Output.RHS:
-        g = Block("out", L.n_x, tuple((i, e) for i, e in enumerate(equations.kinematics)))
-        return ("dxdt", L.n_x, L.derivative_names,
-                (g, Block("M", n * n, lower, (), m_labels),
-                 Block("F", n, tuple(enumerate(equations.forcing)), (), f_labels)),
-                ("M", "F"), True,
-                "First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.")
-    if output is Output.MASS_MATRIX:
-        return ("M", n * n, m_labels, (Block("out", n * n, lower, mirror),), (), False,
-                "Mass matrix M(q,t), row-major n_u x n_u, symmetric.")
-    if output is Output.FORCING:
-        return ("F", n, f_labels, (Block("out", n, tuple(enumerate(equations.forcing))),), (),
-                False, "Forcing F(q,u,r,t) of M u' = F.")
-    if output is Output.ENERGY:
-        if equations.kinetic_energy is None:
-            raise ModelError(f"model {equations.name!r} has no energy expressions; "
-                             f"leave Output.ENERGY out")
-        pot = equations.potential_energy if equations.potential_energy is not None else sm.S.Zero
-        return ("energy", 2, ("T", "V"),
-                (Block("out", 2, ((0, equations.kinetic_energy), (1, pot))),), (), False,
-                "Kinetic energy T and potential energy V (gravity, springs).")
-    raise ModelError(f"output {output} is not supported")  # pragma: no cover
-
-
-def _cse(exprs: list, prefix: str, backend: CseBackend):
-    """One CSE pass: ``(replacements, reduced)`` with temporaries ``prefix0, prefix1, ...``."""
-    symbols = sm.numbered_symbols(prefix)
-    if backend is CseBackend.SYMENGINE:
-        import symengine as se
-
-        reps, reduced = se.cse([se.sympify(e) for e in exprs])
-        sub: dict = {}
-        out_reps = []
-        for old, expr in reps:
-            new = next(symbols)
-            sub[sm.sympify(old)] = new
-            out_reps.append((new, sm.sympify(expr).xreplace(sub)))
-        return _hoist_power_bases(out_reps, [sm.sympify(e).xreplace(sub) for e in reduced],
-                                  symbols)
-    reps, reduced = sm.cse(exprs, symbols=symbols, order="none")
-    return _hoist_power_bases(list(reps), list(reduced), symbols)
-
-
-def _hoist_power_bases(reps, reduced, symbols):
-    """Give every compound base of a small integer power its own temporary.
-
-    Powers print as repeated multiplication (``b*b*b``); a compound ``b``
-    (``cos(q1)``, ``q1 + q2``) would then be evaluated once per factor.  The new
-    temporary is placed right after the last temporary its base depends on.
-    """
-    from .printing import MAX_UNROLLED_POWER
-    from .symbolic import walk_unique
-
-    bases = []
-    seen = set()
-    for node in walk_unique([e for _, e in reps] + list(reduced)):
-        if (isinstance(node, sm.Pow) and node.exp.is_Integer and node.base.args
-                and 2 <= abs(int(node.exp)) <= MAX_UNROLLED_POWER and node.base not in seen):
-            seen.add(node.base)
-            bases.append(node.base)
-    if not bases:
-        return reps, reduced
-    bases.reverse()  # nested bases (descendants) before the bases that contain them
-    position = {s: i for i, (s, _) in enumerate(reps)}
-    new_of = {b: next(symbols) for b in bases}
-    sub = {sm.Pow(b, k): sm.Pow(new_of[b], k) for b in bases
-           for k in range(-MAX_UNROLLED_POWER, MAX_UNROLLED_POWER + 1) if abs(k) >= 2}
-    inserts: dict[int, list] = {}
-    for base in bases:
-        deps = [position[s] for s in base.free_symbols if s in position]
-        inserts.setdefault(max(deps) if deps else -1, []).append((new_of[base], base.xreplace(sub)))
-    out = list(inserts.get(-1, []))
-    for i, (s, e) in enumerate(reps):
-        out.append((s, e.xreplace(sub)))
-        out.extend(inserts.get(i, []))
-    return out, [e.xreplace(sub) for e in reduced]
-
-
 def optimize(equations: Equations, outputs=(Output.RHS,),
              cse_backend: CseBackend = CseBackend.SYMENGINE) -> Kernel:
     """Select ``outputs`` of ``equations`` and eliminate common subexpressions once.
@@ -230,55 +97,70 @@ def optimize(equations: Equations, outputs=(Output.RHS,),
     ----------
     equations : Equations
     outputs : iterable of Output (or names)
-        What to emit; default ``(Output.RHS,)``.
+        What to emit; default ``(Output.RHS,)``.  Integrators pull in what they
+        call (the RHS, and for ``ROSENBROCK`` the Jacobian).
     cse_backend : CseBackend
         ``SYMENGINE`` (default; faster and finds more sharing) or ``SYMPY``.
-
-    Returns
-    -------
-    Kernel
     """
-    outputs = Output.parse(outputs)
+    outputs = with_dependencies(outputs, equations)
     if not outputs:
         raise ModelError("no outputs requested; ask for at least Output.RHS")
     cse_backend = CseBackend(cse_backend)
     prefix = _temp_prefix(equations)
-    specs = [(o, *_blocks(equations, o)) for o in outputs]
+    specs = [spec(equations, o) for o in outputs if not o.is_integrator]
 
     # one CSE pass over every distinct expression of every output
     distinct: dict = {}
-    for spec in specs:
-        for block in spec[4]:
+    for s in specs:
+        for block in s.pre + s.post:
             for _, e in block.entries:
                 if e.args and e not in distinct:
                     distinct[e] = len(distinct)
-    exprs = list(distinct)
-    reps, reduced = _cse(exprs, prefix, cse_backend) if exprs else ([], [])
+    reps, reduced = cse(list(distinct), prefix, cse_backend)
     reduced_of = {e: reduced[i] for e, i in distinct.items()}
     rep_expr = dict(reps)
     order = {s: i for i, (s, _) in enumerate(reps)}
+    after_solve = _depends_on(reps, set(acceleration_symbols(equations.layout.n_u)))
 
     functions = []
-    layout_syms = equations.layout.symbols()
-    for output, out_name, out_size, labels, blocks, local, solve, doc in specs:
-        new_blocks = tuple(
-            Block(b.name, b.size, tuple((i, reduced_of.get(e, e)) for i, e in b.entries),
-                  b.mirror, b.labels) for b in blocks)
-        roots = [e for b in new_blocks for _, e in b.entries]
-        needed = _closure(roots, rep_expr)
-        temps = tuple(sorted(((s, rep_expr[s]) for s in needed), key=lambda se: order[se[0]]))
-        used = free_symbols(roots + [e for _, e in temps]) & layout_syms
-        L = equations.layout
-        symbols_used = tuple(s for s in L.states + L.parameters + L.inputs + (L.time,)
-                             if s in used)
-        uses = frozenset(k for k, group in (("t", {L.time}), ("x", set(L.states)),
-                                            ("p", set(L.parameters)), ("r", set(L.inputs)))
-                         if used & group)
-        before = count_ops_tree([e for b in blocks for _, e in b.entries])
-        after = count_ops_dag([e for _, e in temps]) + sum(count_ops_dag([e]) for e in roots)
-        functions.append(KernelFunction(output, out_name, out_size, labels, temps, new_blocks,
-                                        local, solve, uses, symbols_used, before, after, doc))
-    return Kernel(equations, tuple(functions), cse_backend, prefix)
+    for s in specs:
+        pre = tuple(_reduce(b, reduced_of) for b in s.pre)
+        post = tuple(_reduce(b, reduced_of) for b in s.post)
+        roots = [e for b in pre + post for _, e in b.entries]
+        needed = sorted(_closure(roots, rep_expr), key=order.__getitem__)
+        temps = tuple((t, rep_expr[t]) for t in needed if t not in after_solve)
+        post_temps = tuple((t, rep_expr[t]) for t in needed if t in after_solve)
+        used_syms, uses = _usage(equations, roots + [e for _, e in temps + post_temps])
+        before = count_ops_tree([e for b in s.pre + s.post for _, e in b.entries])
+        after = (count_ops_dag([e for _, e in temps + post_temps])
+                 + sum(count_ops_dag([e]) for e in roots))
+        functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,
+                                        before, after))
+    integrators = tuple(o for o in outputs if o in INTEGRATORS)
+    return Kernel(equations, tuple(functions), integrators, cse_backend, prefix)
+
+
+def _reduce(block: Block, reduced_of: dict) -> Block:
+    return Block(block.name, block.size,
+                 tuple((i, reduced_of.get(e, e)) for i, e in block.entries), block.mirror)
+
+
+def _usage(equations: Equations, exprs) -> tuple[tuple, frozenset]:
+    L = equations.layout
+    used = free_symbols(exprs) & L.symbols()
+    ordered = tuple(s for s in L.states + L.parameters + L.inputs + (L.time,) if s in used)
+    groups = (("t", {L.time}), ("x", set(L.states)), ("p", set(L.parameters)),
+              ("r", set(L.inputs)))
+    return ordered, frozenset(k for k, group in groups if used & group)
+
+
+def _depends_on(reps, roots: set) -> set:
+    """Temporaries whose value depends (transitively) on any symbol in ``roots``."""
+    tainted = set(roots)
+    for s, e in reps:
+        if free_symbols([e]) & tainted:
+            tainted.add(s)
+    return tainted - roots
 
 
 def _closure(roots, rep_expr) -> set:

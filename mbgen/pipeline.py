@@ -87,7 +87,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
     if build:
         cached = compiled_path(rendered).exists()
         module = timed("compile", load, rendered)
-        compiled = CompiledModel(rendered, module, equations.layout, equations.defaults, outs)
+        compiled = CompiledModel(rendered, module, equations.layout, equations.defaults,
+                                 kernel.outputs)
     return PipelineResult(equations, kernel, rendered, compiled, timings, cached)
 
 

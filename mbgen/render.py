@@ -21,11 +21,17 @@ import jinja2
 from ._version import __version__
 from .names import comment_safe, model_prefix
 from .optimize import Kernel, KernelFunction
+from .outputs import Output, acceleration_symbols
 from .printing import CPrinter, PyPrinter, math_functions
 
 STATUS_CODES = (("OK", 0, "success"),
                 ("NOT_POSITIVE_DEFINITE", 1, "the mass matrix is not positive definite"),
                 ("NONFINITE", 2, "an output is NaN or infinite"))
+INTEGRATOR_STATUS_CODES = (
+    ("STEP_TOO_SMALL", 3, "the step size fell below the resolution of t"),
+    ("MAX_STEPS", 4, "the step limit was reached before the last output time"),
+    ("SINGULAR_ITERATION_MATRIX", 5, "the implicit method's matrix I - h*gamma*J is singular"),
+    ("BAD_ARGUMENT", 6, "invalid argument (output times not increasing, bad tolerances, ...)"))
 
 
 @dataclass(frozen=True)
@@ -100,42 +106,44 @@ def _signature_args(kernel: Kernel) -> tuple[str, ...]:
     return ("t", "x") + (("p",) if L.n_p else ()) + (("r",) if L.n_r else ())
 
 
-def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer, lang: str) -> dict:
+def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
     """Plain-data description of one function for the templates."""
     L = kernel.layout
+    s = fn.spec
     arrays = L.arrays()
-    loads = [(L.identifiers[s], arrays[s][0], arrays[s][1]) for s in fn.symbols_used
-             if s != L.time]
-    time_name = L.identifiers[L.time]
+    loads = [(L.identifiers[sym], arrays[sym][0], arrays[sym][1]) for sym in fn.symbols_used
+             if sym != L.time]
     args = _signature_args(kernel)
-    unused = [a for a in args if a not in fn.uses]
-    blocks = []
-    for b in fn.blocks:
-        blocks.append(dict(
-            name=fn.out_name if b.name == "out" else b.name,
-            local=b.name != "out",
-            size=b.size,
-            assignments=[(i, printer.doprint(e)) for i, e in b.entries],
-            mirror=list(b.mirror),
-        ))
-    shape = (L.n_u, L.n_u) if fn.out_name == "M" else (fn.out_size,)
+
+    def blocks(bs):
+        return [dict(name=s.out_name if b.name == "out" else b.name, local=b.name != "out",
+                     size=b.size, assignments=[(i, printer.doprint(e)) for i, e in b.entries],
+                     mirror=list(b.mirror)) for b in bs]
+
+    def temps(ts):
+        return [(printer.doprint(sym), printer.doprint(e)) for sym, e in ts]
+
     return dict(
-        output=fn.output.value,
-        name=f"{prefix}_{fn.output.value}",
-        py_name=fn.output.value,
-        doc=fn.doc,
-        out=fn.out_name,
-        out_size=fn.out_size,
-        out_shape=shape,
-        out_labels=[comment_safe(x) for x in fn.out_labels],
+        output=s.output.value,
+        name=f"{prefix}_{s.output.value}",
+        py_name=s.output.value,
+        doc=s.doc,
+        out=s.out_name,
+        out_size=s.out_size,
+        out_shape=list(s.out_shape),
+        out_labels=[comment_safe(x) for x in s.labels],
         args=list(args),
-        unused=unused,
-        time_name=time_name,
+        unused=[a for a in args if a not in fn.uses],
+        time_name=L.identifiers[L.time],
         uses_time=L.time in fn.symbols_used,
         loads=loads,
-        temps=[(printer.doprint(s), printer.doprint(e)) for s, e in fn.temporaries],
-        blocks=blocks,
-        solve=fn.solve,
+        temps=temps(fn.temporaries),
+        pre=blocks(fn.pre),
+        solve=s.solve,
+        rhs=s.output is Output.RHS,
+        post_temps=temps(fn.post_temporaries),
+        post=blocks(fn.post),
+        columns=s.columns,
         n_q=L.n_q,
         n_u=L.n_u,
         ops_before=fn.ops_before,
@@ -143,10 +151,8 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer, lang: str) -
     )
 
 
-def _c_prototype(prefix: str, fn_view: dict, args) -> str:
-    params = []
-    for a in args:
-        params.append("double t" if a == "t" else f"const double *{a}")
+def _c_prototype(fn_view: dict, args) -> str:
+    params = ["double t" if a == "t" else f"const double *{a}" for a in args]
     params.append(f"double *{fn_view['out']}")
     return f"int {fn_view['name']}({', '.join(params)})"
 
@@ -164,31 +170,33 @@ def render(kernel: Kernel) -> Rendered:
     prefix = model_prefix(eq.name)
     names = dict(L.identifiers)
     for fn in kernel.functions:
-        for s, _ in fn.temporaries:
-            names[s] = str(s)
-    cprint, pyprint = CPrinter(names), PyPrinter(names)
+        for sym, _ in fn.temporaries + fn.post_temporaries:
+            names[sym] = str(sym)
+    c_names, py_names = dict(names), dict(names)
+    for i, a in enumerate(acceleration_symbols(L.n_u)):
+        c_names[a] = py_names[a] = f"F[{i}]"
     args = _signature_args(kernel)
-    c_views = [_view(kernel, fn, prefix, cprint, "c") for fn in kernel.functions]
-    py_views = [_view(kernel, fn, prefix, pyprint, "py") for fn in kernel.functions]
+    c_views = [_view(kernel, fn, prefix, CPrinter(c_names)) for fn in kernel.functions]
+    py_views = [_view(kernel, fn, prefix, PyPrinter(py_names)) for fn in kernel.functions]
     for v in c_views:
-        v["prototype"] = _c_prototype(prefix, v, args)
+        v["prototype"] = _c_prototype(v, args)
 
     upper = prefix.upper()
-    defaults = [eq.defaults.get(str(s)) for s in L.parameters]
+    defaults = [eq.defaults.get(str(sym)) for sym in L.parameters]
     has_defaults = bool(L.parameters) and all(d is not None for d in defaults)
     defines = [(f"{upper}_N_Q", L.n_q, "number of generalized coordinates"),
                (f"{upper}_N_U", L.n_u, "number of generalized speeds"),
                (f"{upper}_N_X", L.n_x, "length of the state x = [q, u]"),
                (f"{upper}_N_P", L.n_p, "number of parameters"),
                (f"{upper}_N_R", L.n_r, "number of inputs")]
-    defines += [(f"{upper}_{code}", value, text) for code, value, text in STATUS_CODES]
+    codes = STATUS_CODES + (INTEGRATOR_STATUS_CODES if kernel.integrators else ())
+    defines += [(f"{upper}_{code}", value, text) for code, value, text in codes]
     prototypes = [v["prototype"] + ";" for v in c_views]
     if has_defaults:
         prototypes.append(f"void {prefix}_default_parameters(double *p);")
 
-    exprs = [e for fn in kernel.functions for _, e in fn.temporaries] + [
-        e for fn in kernel.functions for b in fn.blocks for _, e in b.entries]
-    funcs = sorted(math_functions(exprs))
+    exprs = [e for fn in kernel.functions for _, e in fn.temporaries + fn.post_temporaries] + [
+        e for fn in kernel.functions for b in fn.pre + fn.post for _, e in b.entries]
     ctx = dict(
         version=__version__,
         prefix=prefix,
@@ -210,24 +218,32 @@ def render(kernel: Kernel) -> Rendered:
         default_values=[repr(float(d)) for d in defaults] if has_defaults else [],
         has_defaults=has_defaults,
         defines=defines,
-        prototypes=prototypes,
         functions=c_views,
-        math_functions=funcs,
+        math_functions=sorted(math_functions(exprs)),
         ops_before=kernel.ops_before,
         ops_after=kernel.ops_after,
-        any_solve=any(fn.solve for fn in kernel.functions),
+        any_solve=any(fn.spec.solve for fn in kernel.functions),
+        any_columns=any(fn.spec.columns for fn in kernel.functions),
         args=list(args),
-        status_codes=STATUS_CODES,
+        integrators=[o.value for o in kernel.integrators],
     )
     env = environment()
+    declarations = list(prototypes)
+    if kernel.integrators:
+        from .integrators import integrator_context
+
+        ctx.update(integrator_context(kernel))
+        declarations.append(env.get_template("integrators.h.j2").render(ctx).strip())
+    ctx["declarations"] = declarations
     header = env.get_template("model.h.j2").render(ctx)
     source = env.get_template("model.c.j2").render(ctx)
     python = env.get_template("model.py.j2").render(dict(ctx, functions=py_views))
-    cdef = "\n".join([f"#define {n} {v}" for n, v, _ in defines] + prototypes) + "\n"
+    cdef = "\n".join([f"#define {n} {v}" for n, v, _ in defines] + declarations) + "\n"
     infos = tuple(FunctionInfo(v["output"], v["name"], tuple(args), v["out_size"],
                                tuple(v["out_shape"]), tuple(v["out_labels"])) for v in c_views)
     return Rendered(prefix, {f"{prefix}.h": header, f"{prefix}.c": source,
                              f"{prefix}.py": python}, cdef, infos)
 
 
-__all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES"]
+__all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES",
+           "INTEGRATOR_STATUS_CODES"]

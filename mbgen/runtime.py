@@ -130,6 +130,18 @@ class ModelBase:
         """``[T, V]``: kinetic and potential energy."""
         return self._evaluate(Output.ENERGY, t, x, p, r)
 
+    def jacobian(self, t, x, p=None, r=None) -> np.ndarray:
+        """``df/dx`` of the right-hand side, shape ``(n_x, n_x)`` (``jac=`` for solve_ivp)."""
+        return self._evaluate(Output.JACOBIAN, t, x, p, r)
+
+    def parameter_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
+        """``df/dp`` of the right-hand side, shape ``(n_x, n_p)``."""
+        return self._evaluate(Output.PARAMETER_JACOBIAN, t, x, p, r)
+
+    def time_derivative(self, t, x, p=None, r=None) -> np.ndarray:
+        """``df/dt`` of the right-hand side (explicit time dependence), shape ``(n_x,)``."""
+        return self._evaluate(Output.TIME_DERIVATIVE, t, x, p, r)
+
     def bind(self, p=None, r=None, output: Output = Output.RHS) -> Callable:
         """``f(t, x)`` with parameters and inputs fixed (for ``solve_ivp(f, ...)``)."""
         output = Output(output)

@@ -6,10 +6,10 @@
 #include <math.h>
 #include "bead_wire.h"
 
-/* Solve A y = b in place for symmetric positive definite A (row-major n x n),
- * using only its lower triangle: A <- L (Cholesky), b <- y.
- * Returns BEAD_WIRE_NOT_POSITIVE_DEFINITE when a pivot is not positive (or NaN). */
-static int bead_wire_cholesky_solve(int n, double *A, double *b)
+/* Cholesky factorisation A = L L^T in place (row-major n x n, lower triangle
+ * read and overwritten).  Returns BEAD_WIRE_NOT_POSITIVE_DEFINITE when a pivot
+ * is not positive (NaN included). */
+static int bead_wire_cholesky(int n, double *A)
 {
     int i, j, k;
     for (j = 0; j < n; ++j) {
@@ -30,21 +30,27 @@ static int bead_wire_cholesky_solve(int n, double *A, double *b)
             A[i * n + j] = s / d;
         }
     }
+    return BEAD_WIRE_OK;
+}
+
+/* Solve L L^T y = b in place (b <- y) with the factor from bead_wire_cholesky. */
+static void bead_wire_cholesky_solve(int n, const double *L, double *b)
+{
+    int i, k;
     for (i = 0; i < n; ++i) {
         double s = b[i];
         for (k = 0; k < i; ++k) {
-            s -= A[i * n + k] * b[k];
+            s -= L[i * n + k] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
     for (i = n - 1; i >= 0; --i) {
         double s = b[i];
         for (k = i + 1; k < n; ++k) {
-            s -= A[k * n + i] * b[k];
+            s -= L[k * n + i] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
-    return BEAD_WIRE_OK;
 }
 
 void bead_wire_default_parameters(double *p)
@@ -68,10 +74,11 @@ int bead_wire_rhs(double t, const double *x, const double *p, double *dxdt)
     dxdt[0] = u;
     M[0] = m;
     F[0] = m*(omega*omega)*rho;
-    i = bead_wire_cholesky_solve(1, M, F);
+    i = bead_wire_cholesky(1, M);
     if (i != BEAD_WIRE_OK) {
         return i;
     }
+    bead_wire_cholesky_solve(1, M, F);
     for (i = 0; i < 1; ++i) {
         dxdt[1 + i] = F[i];
     }

@@ -36,8 +36,8 @@ class NonFinite(ArithmeticError):
     """An output is NaN or infinite."""
 
 
-def _cholesky_solve(n, A, b):
-    """Solve A y = b (A row-major, lower triangle used) in place; the same algorithm as the C."""
+def _cholesky(n, A):
+    """Cholesky factor A = L L^T in place (row-major, lower triangle); the same algorithm as the C."""
     for j in range(n):
         d = A[j * n + j]
         for k in range(j):
@@ -51,22 +51,26 @@ def _cholesky_solve(n, A, b):
             for k in range(j):
                 s -= A[i * n + k] * A[j * n + k]
             A[i * n + j] = s / d
+
+
+def _cholesky_solve(n, L, b, offset=0):
+    """Solve L L^T y = b[offset:offset + n] in place."""
     for i in range(n):
-        s = b[i]
+        s = b[offset + i]
         for k in range(i):
-            s -= A[i * n + k] * b[k]
-        b[i] = s / A[i * n + i]
+            s -= L[i * n + k] * b[offset + k]
+        b[offset + i] = s / L[i * n + i]
     for i in range(n - 1, -1, -1):
-        s = b[i]
+        s = b[offset + i]
         for k in range(i + 1, n):
-            s -= A[k * n + i] * b[k]
-        b[i] = s / A[i * n + i]
+            s -= L[k * n + i] * b[offset + k]
+        b[offset + i] = s / L[i * n + i]
 
 
 def rhs(t, x, p):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
 
-    Returns a new array of shape (2,); 3 operations (3 before CSE).
+    Returns a new array of shape 2; 3 operations (3 before CSE).
     """
     rho = x[0]
     u = x[1]
@@ -78,6 +82,7 @@ def rhs(t, x, p):
     M[0] = m
     F = [0.0] * 1
     F[0] = m*(omega*omega)*rho
+    _cholesky(1, M)
     _cholesky_solve(1, M, F)
     dxdt[1:] = F
     result = np.array(dxdt, dtype=np.float64)

@@ -6,10 +6,10 @@
 #include <math.h>
 #include "bent_pipe.h"
 
-/* Solve A y = b in place for symmetric positive definite A (row-major n x n),
- * using only its lower triangle: A <- L (Cholesky), b <- y.
- * Returns BENT_PIPE_NOT_POSITIVE_DEFINITE when a pivot is not positive (or NaN). */
-static int bent_pipe_cholesky_solve(int n, double *A, double *b)
+/* Cholesky factorisation A = L L^T in place (row-major n x n, lower triangle
+ * read and overwritten).  Returns BENT_PIPE_NOT_POSITIVE_DEFINITE when a pivot
+ * is not positive (NaN included). */
+static int bent_pipe_cholesky(int n, double *A)
 {
     int i, j, k;
     for (j = 0; j < n; ++j) {
@@ -30,21 +30,27 @@ static int bent_pipe_cholesky_solve(int n, double *A, double *b)
             A[i * n + j] = s / d;
         }
     }
+    return BENT_PIPE_OK;
+}
+
+/* Solve L L^T y = b in place (b <- y) with the factor from bent_pipe_cholesky. */
+static void bent_pipe_cholesky_solve(int n, const double *L, double *b)
+{
+    int i, k;
     for (i = 0; i < n; ++i) {
         double s = b[i];
         for (k = 0; k < i; ++k) {
-            s -= A[i * n + k] * b[k];
+            s -= L[i * n + k] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
     for (i = n - 1; i >= 0; --i) {
         double s = b[i];
         for (k = i + 1; k < n; ++k) {
-            s -= A[k * n + i] * b[k];
+            s -= L[k * n + i] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
-    return BENT_PIPE_OK;
 }
 
 void bent_pipe_default_parameters(double *p)
@@ -66,7 +72,7 @@ int bent_pipe_rhs(double t, const double *x, const double *p, double *dxdt)
     const double u2 = x[3];
     const double phi = p[0];
     const double m = p[2];
-    const double J = p[3];
+    const double J_ = p[3];
     const double g = p[4];
     double M[4];
     double F[2];
@@ -76,15 +82,16 @@ int bent_pipe_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v1 = q2*v0;
     dxdt[0] = u1;
     dxdt[1] = u2;
-    M[0] = J + (q2*q2)*v0;
+    M[0] = J_ + (q2*q2)*v0;
     M[2] = 0.0;
     M[3] = m;
     F[0] = -2.0*u1*u2*v1;
     F[1] = g*m*cos(phi) + (u1*u1)*v1;
-    i = bent_pipe_cholesky_solve(2, M, F);
+    i = bent_pipe_cholesky(2, M);
     if (i != BENT_PIPE_OK) {
         return i;
     }
+    bent_pipe_cholesky_solve(2, M, F);
     for (i = 0; i < 2; ++i) {
         dxdt[2 + i] = F[i];
     }

@@ -36,8 +36,8 @@ class NonFinite(ArithmeticError):
     """An output is NaN or infinite."""
 
 
-def _cholesky_solve(n, A, b):
-    """Solve A y = b (A row-major, lower triangle used) in place; the same algorithm as the C."""
+def _cholesky(n, A):
+    """Cholesky factor A = L L^T in place (row-major, lower triangle); the same algorithm as the C."""
     for j in range(n):
         d = A[j * n + j]
         for k in range(j):
@@ -51,29 +51,33 @@ def _cholesky_solve(n, A, b):
             for k in range(j):
                 s -= A[i * n + k] * A[j * n + k]
             A[i * n + j] = s / d
+
+
+def _cholesky_solve(n, L, b, offset=0):
+    """Solve L L^T y = b[offset:offset + n] in place."""
     for i in range(n):
-        s = b[i]
+        s = b[offset + i]
         for k in range(i):
-            s -= A[i * n + k] * b[k]
-        b[i] = s / A[i * n + i]
+            s -= L[i * n + k] * b[offset + k]
+        b[offset + i] = s / L[i * n + i]
     for i in range(n - 1, -1, -1):
-        s = b[i]
+        s = b[offset + i]
         for k in range(i + 1, n):
-            s -= A[k * n + i] * b[k]
-        b[i] = s / A[i * n + i]
+            s -= L[k * n + i] * b[offset + k]
+        b[offset + i] = s / L[i * n + i]
 
 
 def rhs(t, x, p):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
 
-    Returns a new array of shape (4,); 16 operations (23 before CSE).
+    Returns a new array of shape 4; 16 operations (23 before CSE).
     """
     q2 = x[1]
     u1 = x[2]
     u2 = x[3]
     phi = p[0]
     m = p[2]
-    J = p[3]
+    J_ = p[3]
     g = p[4]
     v2 = math.sin(phi)
     v0 = m*(v2*v2)
@@ -82,12 +86,13 @@ def rhs(t, x, p):
     dxdt[0] = u1
     dxdt[1] = u2
     M = [0.0] * 4
-    M[0] = J + (q2*q2)*v0
+    M[0] = J_ + (q2*q2)*v0
     M[2] = 0
     M[3] = m
     F = [0.0] * 2
     F[0] = -2*u1*u2*v1
     F[1] = g*m*math.cos(phi) + (u1*u1)*v1
+    _cholesky(2, M)
     _cholesky_solve(2, M, F)
     dxdt[2:] = F
     result = np.array(dxdt, dtype=np.float64)

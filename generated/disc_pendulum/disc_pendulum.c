@@ -6,10 +6,10 @@
 #include <math.h>
 #include "disc_pendulum.h"
 
-/* Solve A y = b in place for symmetric positive definite A (row-major n x n),
- * using only its lower triangle: A <- L (Cholesky), b <- y.
- * Returns DISC_PENDULUM_NOT_POSITIVE_DEFINITE when a pivot is not positive (or NaN). */
-static int disc_pendulum_cholesky_solve(int n, double *A, double *b)
+/* Cholesky factorisation A = L L^T in place (row-major n x n, lower triangle
+ * read and overwritten).  Returns DISC_PENDULUM_NOT_POSITIVE_DEFINITE when a pivot
+ * is not positive (NaN included). */
+static int disc_pendulum_cholesky(int n, double *A)
 {
     int i, j, k;
     for (j = 0; j < n; ++j) {
@@ -30,21 +30,27 @@ static int disc_pendulum_cholesky_solve(int n, double *A, double *b)
             A[i * n + j] = s / d;
         }
     }
+    return DISC_PENDULUM_OK;
+}
+
+/* Solve L L^T y = b in place (b <- y) with the factor from disc_pendulum_cholesky. */
+static void disc_pendulum_cholesky_solve(int n, const double *L, double *b)
+{
+    int i, k;
     for (i = 0; i < n; ++i) {
         double s = b[i];
         for (k = 0; k < i; ++k) {
-            s -= A[i * n + k] * b[k];
+            s -= L[i * n + k] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
     for (i = n - 1; i >= 0; --i) {
         double s = b[i];
         for (k = i + 1; k < n; ++k) {
-            s -= A[k * n + i] * b[k];
+            s -= L[k * n + i] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
-    return DISC_PENDULUM_OK;
 }
 
 void disc_pendulum_default_parameters(double *p)
@@ -86,10 +92,11 @@ int disc_pendulum_rhs(double t, const double *x, const double *p, double *dxdt)
     M[3] = v3;
     F[0] = -v4*v6 - v6*v7;
     F[1] = -g*v2 + v4*v8 + v7*v8;
-    i = disc_pendulum_cholesky_solve(2, M, F);
+    i = disc_pendulum_cholesky(2, M);
     if (i != DISC_PENDULUM_OK) {
         return i;
     }
+    disc_pendulum_cholesky_solve(2, M, F);
     for (i = 0; i < 2; ++i) {
         dxdt[2 + i] = F[i];
     }

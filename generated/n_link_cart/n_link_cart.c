@@ -6,10 +6,10 @@
 #include <math.h>
 #include "n_link_cart.h"
 
-/* Solve A y = b in place for symmetric positive definite A (row-major n x n),
- * using only its lower triangle: A <- L (Cholesky), b <- y.
- * Returns N_LINK_CART_NOT_POSITIVE_DEFINITE when a pivot is not positive (or NaN). */
-static int n_link_cart_cholesky_solve(int n, double *A, double *b)
+/* Cholesky factorisation A = L L^T in place (row-major n x n, lower triangle
+ * read and overwritten).  Returns N_LINK_CART_NOT_POSITIVE_DEFINITE when a pivot
+ * is not positive (NaN included). */
+static int n_link_cart_cholesky(int n, double *A)
 {
     int i, j, k;
     for (j = 0; j < n; ++j) {
@@ -30,21 +30,27 @@ static int n_link_cart_cholesky_solve(int n, double *A, double *b)
             A[i * n + j] = s / d;
         }
     }
+    return N_LINK_CART_OK;
+}
+
+/* Solve L L^T y = b in place (b <- y) with the factor from n_link_cart_cholesky. */
+static void n_link_cart_cholesky_solve(int n, const double *L, double *b)
+{
+    int i, k;
     for (i = 0; i < n; ++i) {
         double s = b[i];
         for (k = 0; k < i; ++k) {
-            s -= A[i * n + k] * b[k];
+            s -= L[i * n + k] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
     for (i = n - 1; i >= 0; --i) {
         double s = b[i];
         for (k = i + 1; k < n; ++k) {
-            s -= A[k * n + i] * b[k];
+            s -= L[k * n + i] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
-    return N_LINK_CART_OK;
 }
 
 void n_link_cart_default_parameters(double *p)
@@ -130,10 +136,11 @@ int n_link_cart_rhs(double t, const double *x, const double *p, const double *r,
     F[1] = g*v22 - m3*(-v10*v25 + v26*v7) - v0*(-v10*v23 + v24*v7);
     F[2] = g*v20 - m3*(-v11*v25 + v26*v9) - v0*(-v11*v27 + v28*v9);
     F[3] = g*v18 - m3*(v15*v24 - v16*v23) - m3*(v15*v28 - v16*v27);
-    i = n_link_cart_cholesky_solve(4, M, F);
+    i = n_link_cart_cholesky(4, M);
     if (i != N_LINK_CART_OK) {
         return i;
     }
+    n_link_cart_cholesky_solve(4, M, F);
     for (i = 0; i < 4; ++i) {
         dxdt[4 + i] = F[i];
     }

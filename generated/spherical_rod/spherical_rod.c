@@ -6,10 +6,10 @@
 #include <math.h>
 #include "spherical_rod.h"
 
-/* Solve A y = b in place for symmetric positive definite A (row-major n x n),
- * using only its lower triangle: A <- L (Cholesky), b <- y.
- * Returns SPHERICAL_ROD_NOT_POSITIVE_DEFINITE when a pivot is not positive (or NaN). */
-static int spherical_rod_cholesky_solve(int n, double *A, double *b)
+/* Cholesky factorisation A = L L^T in place (row-major n x n, lower triangle
+ * read and overwritten).  Returns SPHERICAL_ROD_NOT_POSITIVE_DEFINITE when a pivot
+ * is not positive (NaN included). */
+static int spherical_rod_cholesky(int n, double *A)
 {
     int i, j, k;
     for (j = 0; j < n; ++j) {
@@ -30,21 +30,27 @@ static int spherical_rod_cholesky_solve(int n, double *A, double *b)
             A[i * n + j] = s / d;
         }
     }
+    return SPHERICAL_ROD_OK;
+}
+
+/* Solve L L^T y = b in place (b <- y) with the factor from spherical_rod_cholesky. */
+static void spherical_rod_cholesky_solve(int n, const double *L, double *b)
+{
+    int i, k;
     for (i = 0; i < n; ++i) {
         double s = b[i];
         for (k = 0; k < i; ++k) {
-            s -= A[i * n + k] * b[k];
+            s -= L[i * n + k] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
     for (i = n - 1; i >= 0; --i) {
         double s = b[i];
         for (k = i + 1; k < n; ++k) {
-            s -= A[k * n + i] * b[k];
+            s -= L[k * n + i] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
-    return SPHERICAL_ROD_OK;
 }
 
 void spherical_rod_default_parameters(double *p)
@@ -79,10 +85,11 @@ int spherical_rod_rhs(double t, const double *x, const double *p, double *dxdt)
     M[3] = v2;
     F[0] = -2.0/3.0*u1*u2*v1*v3;
     F[1] = (1.0/2.0)*L_*g*m*v0 + (u1*u1)*v2*v3;
-    i = spherical_rod_cholesky_solve(2, M, F);
+    i = spherical_rod_cholesky(2, M);
     if (i != SPHERICAL_ROD_OK) {
         return i;
     }
+    spherical_rod_cholesky_solve(2, M, F);
     for (i = 0; i < 2; ++i) {
         dxdt[2 + i] = F[i];
     }

@@ -6,10 +6,10 @@
 #include <math.h>
 #include "torque_free.h"
 
-/* Solve A y = b in place for symmetric positive definite A (row-major n x n),
- * using only its lower triangle: A <- L (Cholesky), b <- y.
- * Returns TORQUE_FREE_NOT_POSITIVE_DEFINITE when a pivot is not positive (or NaN). */
-static int torque_free_cholesky_solve(int n, double *A, double *b)
+/* Cholesky factorisation A = L L^T in place (row-major n x n, lower triangle
+ * read and overwritten).  Returns TORQUE_FREE_NOT_POSITIVE_DEFINITE when a pivot
+ * is not positive (NaN included). */
+static int torque_free_cholesky(int n, double *A)
 {
     int i, j, k;
     for (j = 0; j < n; ++j) {
@@ -30,21 +30,27 @@ static int torque_free_cholesky_solve(int n, double *A, double *b)
             A[i * n + j] = s / d;
         }
     }
+    return TORQUE_FREE_OK;
+}
+
+/* Solve L L^T y = b in place (b <- y) with the factor from torque_free_cholesky. */
+static void torque_free_cholesky_solve(int n, const double *L, double *b)
+{
+    int i, k;
     for (i = 0; i < n; ++i) {
         double s = b[i];
         for (k = 0; k < i; ++k) {
-            s -= A[i * n + k] * b[k];
+            s -= L[i * n + k] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
     for (i = n - 1; i >= 0; --i) {
         double s = b[i];
         for (k = i + 1; k < n; ++k) {
-            s -= A[k * n + i] * b[k];
+            s -= L[k * n + i] * b[k];
         }
-        b[i] = s / A[i * n + i];
+        b[i] = s / L[i * n + i];
     }
-    return TORQUE_FREE_OK;
 }
 
 void torque_free_default_parameters(double *p)
@@ -96,10 +102,11 @@ int torque_free_rhs(double t, const double *x, const double *p, double *dxdt)
     F[0] = -u2*v5 + u3*v6;
     F[1] = u1*v5 - u3*v7;
     F[2] = -u1*v6 + u2*v7;
-    i = torque_free_cholesky_solve(3, M, F);
+    i = torque_free_cholesky(3, M);
     if (i != TORQUE_FREE_OK) {
         return i;
     }
+    torque_free_cholesky_solve(3, M, F);
     for (i = 0; i < 3; ++i) {
         dxdt[3 + i] = F[i];
     }
