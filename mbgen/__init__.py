@@ -9,8 +9,8 @@ Pipeline (each arrow is one function returning a frozen value)::
 from ._version import __version__
 from .derive import Method, derive
 from .equations import Equations
-from .errors import (BuildError, CheckFailed, MbgenError, ModelError, NonFiniteResultError,
-                     SceneError, SingularMassMatrixError)
+from .errors import (BuildError, CheckFailed, IntegrationError, MbgenError, ModelError,
+                     NonFiniteResultError, SceneError, SingularMassMatrixError)
 from .importers import from_sympy
 from .layout import Layout
 from .model import Model, t
@@ -25,4 +25,4 @@ __all__ = ["Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compil
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "BuildError", "SingularMassMatrixError", "NonFiniteResultError",
-           "CheckFailed"]
+           "CheckFailed", "IntegrationError"]

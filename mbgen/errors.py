@@ -37,5 +37,17 @@ class NonFiniteResultError(MbgenError, ArithmeticError):
     """An output evaluated to NaN or infinity (e.g. a 1/cos(q) at gimbal lock)."""
 
 
+class IntegrationError(MbgenError, ArithmeticError):
+    """An integrator (C or solve_ivp) failed: step too small, step limit, singular matrix, ...
+
+    ``status`` is the C status code (or None) and ``t`` the time reached.
+    """
+
+    def __init__(self, message: str, status: int | None = None, t: float | None = None):
+        super().__init__(message)
+        self.status = status
+        self.t = t
+
+
 class CheckFailed(MbgenError, AssertionError):
     """A verification found an error above its tolerance."""
