@@ -134,13 +134,13 @@ def check(source, *, samples: int = 20, seed: int = 0, rtol: float = 1e-9, atol:
         Reuse an already compiled pipeline result.
     """
     result = result or run(source)
-    eq, compiled = result.equations, result.compiled
-    outputs = compiled.outputs
-    models = {"c": compiled, "python": python_model(result.rendered, eq, outputs)}
-    reference = LambdifiedModel(eq, outputs)
+    compiled = result.compiled
+    outputs = tuple(o for o in compiled.outputs if not o.is_integrator)
+    models = {"c": compiled, "python": python_model(result.rendered)}
+    reference = LambdifiedModel(result.baked, outputs, layout=result.layout)
     p = compiled.default_parameters
-    if p is None and eq.layout.n_p:
-        p = np.random.default_rng(seed + 1).uniform(0.5, 1.5, eq.layout.n_p)
+    if p is None and compiled.n_p:
+        p = np.random.default_rng(seed + 1).uniform(0.5, 1.5, compiled.n_p)
     rows = compare(models, reference, outputs, p=p, samples=samples, seed=seed, rtol=rtol,
                    atol=atol)
-    return CheckReport(eq.name, rows, samples, seed, rtol, atol)
+    return CheckReport(compiled.name, rows, samples, seed, rtol, atol)

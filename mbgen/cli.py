@@ -137,8 +137,8 @@ def cmd_demo(args) -> int:
     traj = simulate(model, x0, scene.t_span, rtol=1e-10, atol=1e-12)
     csv_path = traj.write_csv(folder / "trajectory.csv")
     _progress("time the right-hand sides side by side")
-    lam = LambdifiedModel(result.equations, model.outputs)
-    py = python_model(result.rendered, result.equations, model.outputs)
+    lam = LambdifiedModel(result.baked, model.outputs, layout=result.layout)
+    py = python_model(result.rendered)
     speeds = {name: _per_call_us(m.bind(p), 0.0, x0) for name, m in
               (("compiled C", model), ("generated Python", py), ("lambdify", lam))}
 

@@ -22,6 +22,15 @@ from .symbolic import applied_functions, free_symbols
 
 
 @dataclass(frozen=True)
+class PointKinematics:
+    """Position and velocity of a named point, 3x1 each, in Newtonian-frame components."""
+
+    name: str
+    position: sm.ImmutableMatrix
+    velocity: sm.ImmutableMatrix
+
+
+@dataclass(frozen=True)
 class Equations:
     """Mass matrix, forcing and kinematics of a model, plus optional extras.
 
@@ -39,6 +48,8 @@ class Equations:
         ``G(q, u, t)`` with ``q' = G``.
     kinetic_energy, potential_energy : Expr or None
         Energies when the derivation knows them (potential: gravity and springs).
+    points : tuple of PointKinematics
+        Positions and velocities of the points asked for at derivation.
     source : str
         Where the equations came from (shown in generated headers).
     method : str
@@ -54,6 +65,7 @@ class Equations:
     kinematics: sm.ImmutableMatrix
     kinetic_energy: sm.Expr | None = None
     potential_energy: sm.Expr | None = None
+    points: tuple[PointKinematics, ...] = ()
     source: str = ""
     method: str = ""
     defaults: Mapping[str, float] = field(default_factory=dict)

@@ -18,6 +18,7 @@ import sympy as sm
 from .cse import CseBackend, cse
 from .equations import Equations
 from .errors import ModelError
+from .layout import Layout
 from .outputs import (INTEGRATORS, Block, Output, Spec, acceleration_symbols, spec,
                       with_dependencies)
 from .symbolic import count_ops_dag, count_ops_tree, free_symbols
@@ -50,17 +51,18 @@ class KernelFunction:
 
 @dataclass(frozen=True)
 class Kernel:
-    """Optimised, ready-to-print functions of one model, plus the integrators asked for."""
+    """Optimised, ready-to-print functions of one model, plus the integrators asked for.
+
+    ``layout`` is the ABI: the equations' layout without parameters and inputs
+    that no emitted function reads.
+    """
 
     equations: Equations
     functions: tuple[KernelFunction, ...]
     integrators: tuple[Output, ...]
     cse_backend: CseBackend
     temp_prefix: str
-
-    @property
-    def layout(self):
-        return self.equations.layout
+    layout: Layout
 
     @property
     def outputs(self) -> tuple[Output, ...]:
@@ -137,7 +139,11 @@ def optimize(equations: Equations, outputs=(Output.RHS,),
         functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,
                                         before, after))
     integrators = tuple(o for o in outputs if o in INTEGRATORS)
-    return Kernel(equations, tuple(functions), integrators, cse_backend, prefix)
+    L = equations.layout
+    used = {sym for f in functions for sym in f.symbols_used + f.spec.variables}
+    abi = Layout(L.coordinates, L.speeds, tuple(p for p in L.parameters if p in used),
+                 tuple(r for r in L.inputs if r in used), L.time)
+    return Kernel(equations, tuple(functions), integrators, cse_backend, prefix, abi)
 
 
 def _reduce(block: Block, reduced_of: dict) -> Block:

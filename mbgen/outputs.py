@@ -29,6 +29,9 @@ Outputs
         = M^{-1}\Big(\frac{\partial F}{\partial v} - \frac{\partial M}{\partial v} a\Big),
 
     so ``M`` is factored once and :math:`\partial R/\partial v` is symbolic.
+``POSITIONS``, ``VELOCITIES``
+    Newtonian components of the named points' positions and velocities,
+    shape ``(k, 3)`` (the points the equations were derived with).
 ``DOPRI5``, ``RK4``, ``ROSENBROCK``
     Integrators rendered into the C with the model (no expressions of their
     own); they pull in the outputs they call.
@@ -56,6 +59,8 @@ class Output(str, Enum):
     JACOBIAN = "jacobian"
     PARAMETER_JACOBIAN = "parameter_jacobian"
     TIME_DERIVATIVE = "time_derivative"
+    POSITIONS = "positions"
+    VELOCITIES = "velocities"
     DOPRI5 = "dopri5"
     RK4 = "rk4"
     ROSENBROCK = "rosenbrock"
@@ -126,6 +131,7 @@ class Spec:
     post: tuple[Block, ...] = ()
     columns: int = 0
     doc: str = ""
+    variables: tuple = ()   # symbols differentiated by (sensitivity outputs)
 
     @property
     def out_size(self) -> int:
@@ -177,20 +183,57 @@ def spec(eq: Equations, output: Output) -> Spec:
         return Spec(output, "energy", (2,), ("T", "V"),
                     (Block("out", 2, ((0, eq.kinetic_energy), (1, pot))),),
                     doc="Kinetic energy T and potential energy V (gravity, springs).")
+    if output in (Output.POSITIONS, Output.VELOCITIES):
+        if not eq.points:
+            raise ModelError(f"the equations of {eq.name!r} carry no points; list the points "
+                             f"to report in the scene (Scene.points) or derive with points=...")
+        position = output is Output.POSITIONS
+        entries = tuple((3 * k + i, (pk.position if position else pk.velocity)[i])
+                        for k, pk in enumerate(eq.points) for i in range(3))
+        labels = tuple(f"{'r' if position else 'v'}_{pk.name}.{axis}"
+                       for pk in eq.points for axis in ("x", "y", "z"))
+        name = "positions" if position else "velocities"
+        return Spec(output, name, (len(eq.points), 3), labels,
+                    (Block("out", 3 * len(eq.points), entries),),
+                    doc=f"{'Positions' if position else 'Velocities'} of "
+                        f"{', '.join(pk.name for pk in eq.points)} in Newtonian components, "
+                        f"row-major k x 3.")
     if output is Output.JACOBIAN:
         return _sensitivity(eq, output, L.states, "J", names,
                             "Jacobian df/dx of the first-order right-hand side, row-major "
                             "n_x x n_x.")
     if output is Output.PARAMETER_JACOBIAN:
-        if not L.parameters:
-            raise ModelError(f"model {eq.name!r} has no parameters, so no parameter Jacobian")
-        return _sensitivity(eq, output, L.parameters, "Jp", L.parameter_names,
+        variables = dynamic_parameters(eq)
+        if not variables:
+            raise ModelError(f"the equations of motion of {eq.name!r} have no parameters, so "
+                             f"no parameter Jacobian")
+        return _sensitivity(eq, output, variables, "Jp", tuple(map(str, variables)),
                             "Parameter Jacobian df/dp of the right-hand side, row-major "
                             "n_x x n_p.")
     if output is Output.TIME_DERIVATIVE:
         return _sensitivity(eq, output, (L.time,), "dfdt", ("t",),
                             "Partial time derivative df/dt of the right-hand side.")
     raise ModelError(f"output {output.value!r} has no expressions of its own")
+
+
+def dynamic_parameters(eq: Equations) -> tuple:
+    """Parameters that appear in ``M``, ``F`` or ``G`` (the others have zero sensitivity)."""
+    from .symbolic import free_symbols
+
+    used = free_symbols(list(eq.mass_matrix) + list(eq.forcing) + list(eq.kinematics))
+    return tuple(p for p in eq.layout.parameters if p in used)
+
+
+def applicable(eq: Equations) -> tuple[Output, ...]:
+    """Every expression output the equations can give (energy, parameters, points permitting)."""
+    skip = set()
+    if eq.kinetic_energy is None:
+        skip.add(Output.ENERGY)
+    if not dynamic_parameters(eq):
+        skip.add(Output.PARAMETER_JACOBIAN)
+    if not eq.points:
+        skip |= {Output.POSITIONS, Output.VELOCITIES}
+    return tuple(o for o in EXPRESSION_OUTPUTS if o not in skip)
 
 
 def _derivatives(exprs, variables) -> list[list[sm.Expr]]:
@@ -228,7 +271,9 @@ def _sensitivity(eq: Equations, output: Output, variables, out_name: str, var_na
     if all(e == 0 for _, e in d_entries):  # u' does not depend on v: no solve needed
         rows = g_entries + tuple(((nq + i) * nv + j, sm.S.Zero)
                                  for i in range(nu) for j in range(nv))
-        return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, rows),), doc=doc)
+        return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, rows),), doc=doc,
+                    variables=tuple(variables))
     return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, g_entries),
                                                   *_mass_blocks(eq)),
-                solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv, doc=doc)
+                solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv, doc=doc,
+                variables=tuple(variables))

@@ -2,7 +2,12 @@
 
 ::
 
-    Model --derive--> Equations --optimize--> Kernel --render--> Rendered --build--> CompiledModel
+    Model --derive--> Equations --bake--> Equations --optimize--> Kernel --render--> Rendered
+          --build--> CompiledModel
+
+``bake`` is the scene's slice: fixed parameters become numbers and absent
+inputs zero (:mod:`mbgen.slicing`); ``optimize`` keeps only the requested
+outputs and the parameters they read (:mod:`mbgen.optimize`).
 """
 
 from __future__ import annotations
@@ -11,7 +16,7 @@ import builtins
 import time
 import types
 from dataclasses import dataclass, field, replace
-from typing import Iterable, Mapping
+from typing import Iterable, Mapping, Sequence
 
 from .build import compiled_path, load
 from .derive import Method, derive
@@ -22,35 +27,48 @@ from .optimize import CseBackend, Kernel, Output, optimize
 from .render import Rendered, render
 from .runtime import CompiledModel, PythonModel
 from .scene import Scene
+from .slicing import bake
 
 
 @dataclass(frozen=True)
 class PipelineResult:
-    """Every value the pipeline produced, and how long each stage took (seconds)."""
+    """Every value the pipeline produced, and how long each stage took (seconds).
+
+    ``equations`` are the derived equations, ``baked`` the scene's slice of them
+    (what was optimised); ``kernel.layout`` is the generated ABI.
+    """
 
     equations: Equations
+    baked: Equations
     kernel: Kernel
     rendered: Rendered
     compiled: CompiledModel | None
     timings: Mapping[str, float] = field(default_factory=dict)
     compile_cached: bool = False
 
+    @property
+    def layout(self):
+        return self.kernel.layout
+
 
 def equations_of(source: Model | Equations | Scene, method: Method = Method.KANE, *,
-                 energy: bool = True) -> Equations:
+                 energy: bool = True, points: Sequence[str] | None = None) -> Equations:
     """Derive (for a ``Model`` or a scene holding one) or pass through ``Equations``.
 
     A scene's parameter values become the equations' defaults and its name and
-    file the equations' source line.  ``energy``: derive energies too.
+    file the equations' source line.  ``energy``: derive energies too;
+    ``points``: names of points whose position and velocity to carry (``None``:
+    the scene's points, else none).
     """
     if isinstance(source, Scene):
-        eq = equations_of(source.model, method, energy=energy)
+        eq = equations_of(source.model, method, energy=energy,
+                          points=source.points if points is None else points)
         src = f"scene {source.name!r} ({source.source})" if source.source else f"scene {source.name!r}"
         return replace(eq, defaults={**eq.defaults, **{k: float(v) for k, v in
                                                           source.parameters.items()}},
                        source=src)
     if isinstance(source, Model):
-        return derive(source, method, energy=energy)
+        return derive(source, method, energy=energy, points=tuple(points or ()))
     if isinstance(source, Equations):
         return source
     raise ModelError(f"expected a Model, Equations or Scene, got {type(source).__name__}")
@@ -59,16 +77,41 @@ def equations_of(source: Model | Equations | Scene, method: Method = Method.KANE
 def _outputs(source, outputs) -> tuple[Output, ...]:
     if outputs is None:
         outputs = source.outputs if isinstance(source, Scene) else (Output.RHS,)
-    if isinstance(outputs, (str, Output)):
-        outputs = (outputs,)
     return Output.parse(outputs)
+
+
+def _all_points(source) -> tuple[str, ...]:
+    model = source.model if isinstance(source, Scene) else source
+    if not isinstance(model, Model):
+        return ()
+    return tuple(p.name for p in model.points if p is not model.origin)
 
 
 def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         build: bool = True, parameters: Mapping[str, float] | None = None,
+        fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
+        name: str | None = None, sliced: bool = True,
         cse_backend: CseBackend = CseBackend.SYMENGINE) -> PipelineResult:
-    """Run every stage and time it: derive, optimize, render, and (optionally) compile."""
+    """Run every stage and time it: derive, bake, optimize, render, and (optionally) compile.
+
+    Parameters
+    ----------
+    source : Model, Equations or Scene
+    outputs : iterable of Output or names, optional
+        Default: the scene's outputs, else ``RHS``.
+    build : bool
+        Compile and load the C (else stop after rendering).
+    parameters : mapping, optional
+        Default values of free parameters (override a scene's).
+    fixed, inputs : optional
+        Parameters to bake in and inputs present (default: the scene's).
+    name : str, optional
+        Model name, i.e. the C prefix (default: the model's or the scene's prefix).
+    sliced : bool
+        ``False`` ignores the scene's fixed parameters and input selection.
+    """
     outs = _outputs(source, outputs)
+    scene = source if isinstance(source, Scene) else None
     timings: dict[str, float] = {}
 
     def timed(stage, fn, *args, **kw):
@@ -77,23 +120,36 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         timings[stage] = time.perf_counter() - t0
         return value
 
-    equations = timed("derive", equations_of, source, energy=Output.ENERGY in outs)
+    wants_points = bool({Output.POSITIONS, Output.VELOCITIES} & set(outs))
+    points = None if not wants_points or (scene and scene.points) else _all_points(source)
+    equations = timed("derive", equations_of, source, energy=Output.ENERGY in outs,
+                      points=points)
     if parameters:
         equations = replace(equations, defaults={**equations.defaults,
                                                  **{k: float(v) for k, v in parameters.items()}})
-    kernel = timed("cse", optimize, equations, outs, cse_backend)
+    name = name or (scene.prefix if scene and scene.prefix else None)
+    if name:
+        equations = replace(equations, name=name)
+    if fixed is None and sliced and scene:
+        fixed = scene.fixed
+    if inputs is None and sliced and scene:
+        inputs = scene.inputs
+    baked = timed("bake", bake, equations, fixed, inputs)
+    kernel = timed("cse", optimize, baked, outs, cse_backend)
     rendered = timed("render", render, kernel)
     compiled, cached = None, False
     if build:
         cached = compiled_path(rendered).exists()
         module = timed("compile", load, rendered)
-        compiled = CompiledModel(rendered, module, equations.layout, equations.defaults,
-                                 kernel.outputs)
-    return PipelineResult(equations, kernel, rendered, compiled, timings, cached)
+        compiled = CompiledModel(rendered, module, rendered.layout, rendered.defaults,
+                                 rendered.outputs)
+    return PipelineResult(equations, baked, kernel, rendered, compiled, timings, cached)
 
 
 def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
             parameters: Mapping[str, float] | None = None,
+            fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
+            name: str | None = None,
             cse_backend: CseBackend = CseBackend.SYMENGINE) -> CompiledModel:
     """Generate, compile (cached by content hash) and load ``source``.
 
@@ -104,20 +160,31 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         Default: the scene's outputs, else ``{Output.RHS}``.
     parameters : mapping, optional
         Default parameter values (override a scene's).
+    fixed : mapping, optional
+        Parameters baked into the code as constants (default: the scene's).
+    inputs : sequence of str, optional
+        Inputs given at run time; the others are zero (default: the scene's, else all).
+    name : str, optional
+        C prefix, so that two slices of one model can live in one C program.
 
     Returns
     -------
     CompiledModel
         ``model.rhs(t, x, p=None, r=None)`` and the other requested outputs.
     """
-    return run(source, outputs, parameters=parameters, cse_backend=cse_backend).compiled
+    return run(source, outputs, parameters=parameters, fixed=fixed, inputs=inputs, name=name,
+               cse_backend=cse_backend).compiled
 
 
-def python_model(rendered: Rendered, equations: Equations, outputs: Iterable) -> PythonModel:
-    """Load the generated Python module of ``rendered`` (no files written)."""
+def python_model(rendered: Rendered, *_legacy) -> PythonModel:
+    """Load the generated Python module of ``rendered`` (no files written).
+
+    The ABI layout, defaults and outputs come from ``rendered``; extra
+    positional arguments (the equations and outputs that older callers pass)
+    are ignored.
+    """
     name = f"mbgen_generated_{rendered.prefix}"
     module = types.ModuleType(name)
     module.__file__ = f"<generated {rendered.prefix}.py>"
     exec(builtins.compile(rendered.python, module.__file__, "exec"), module.__dict__)
-    return PythonModel(rendered, module, equations.layout, equations.defaults, Output.parse(outputs))
-
+    return PythonModel(rendered, module, rendered.layout, rendered.defaults, rendered.outputs)

@@ -8,6 +8,7 @@ Python are checked against.
 Jacobians are sympy's ``Matrix.jacobian`` of ``G`` and of ``R = F - M a`` (the
 accelerations ``a`` held fixed), lambdified, with
 :math:`\partial u'/\partial v = M^{-1} \partial R/\partial v` solved numerically.
+Every expression is lambdified on first use.
 """
 
 from __future__ import annotations
@@ -16,73 +17,106 @@ import numpy as np
 import sympy as sm
 
 from .equations import Equations
+from .errors import ModelError
+from .layout import Layout
 from .optimize import Output
+from .outputs import dynamic_parameters
 from .runtime import ModelBase
+from .symbolic import free_symbols
+
+_SENSITIVITY = (Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE)
 
 
 class LambdifiedModel(ModelBase):
-    """``Equations`` evaluated through ``sympy.lambdify`` (NumPy backend)."""
+    """``Equations`` evaluated through ``sympy.lambdify`` (NumPy backend).
+
+    Parameters
+    ----------
+    equations : Equations
+    outputs : iterable of Output
+        Outputs to offer (those the equations cannot give are dropped).
+    layout : Layout, optional
+        Argument order (default: the equations' layout).  Pass a generated
+        model's ABI layout to call both with the same arrays.
+    """
 
     backend = "lambdify"
 
-    def __init__(self, equations: Equations, outputs=tuple(Output)):
+    def __init__(self, equations: Equations, outputs=tuple(Output), layout: Layout | None = None):
+        L = layout or equations.layout
         outputs = tuple(o for o in Output.parse(outputs) if not o.is_integrator and (
             o is not Output.ENERGY or equations.kinetic_energy is not None) and (
-            o is not Output.PARAMETER_JACOBIAN or equations.layout.n_p))
-        super().__init__(equations.name, equations.layout, equations.defaults, outputs)
-        L = equations.layout
-        args = (L.time, list(L.states), list(L.parameters), list(L.inputs))
-        self._M = sm.lambdify(args, equations.mass_matrix, modules="numpy", cse=False)
-        self._F = sm.lambdify(args, equations.forcing, modules="numpy", cse=False)
-        self._G = sm.lambdify(args, equations.kinematics, modules="numpy", cse=False)
-        self._E = None
-        if equations.kinetic_energy is not None:
-            pot = equations.potential_energy if equations.potential_energy is not None else 0
-            self._E = sm.lambdify(args, [equations.kinetic_energy, pot], modules="numpy",
-                                  cse=False)
+            o is not Output.PARAMETER_JACOBIAN or L.n_p) and (
+            o not in (Output.POSITIONS, Output.VELOCITIES) or equations.points))
+        super().__init__(equations.name, L, equations.defaults, outputs)
         self.equations = equations
         self._n_u = L.n_u
-        self._args = args
-        self._sensitivities: dict = {}
+        self._args = (L.time, list(L.states), list(L.parameters), list(L.inputs))
+        self._known = L.symbols()
+        self._cache: dict = {}
 
-    def _sensitivity(self, output):
-        """Lambdified ``(dG/dv, dR/dv)`` for the variables of ``output`` (built on first use)."""
-        hit = self._sensitivities.get(output)
+    def _lambdify(self, key, make_expr, extra_args=()):
+        hit = self._cache.get(key)
         if hit is None:
-            eq, L = self.equations, self.equations.layout
-            variables = {Output.JACOBIAN: L.states, Output.PARAMETER_JACOBIAN: L.parameters,
-                         Output.TIME_DERIVATIVE: (L.time,)}[output]
-            acc = sm.symbols(f"acc0:{L.n_u}")
-            R = sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)
-            args = self._args + (list(acc),)
-            dG = sm.lambdify(args, sm.Matrix(eq.kinematics).jacobian(variables), "numpy")
-            dR = sm.lambdify(args, R.jacobian(variables), "numpy")
-            hit = self._sensitivities[output] = (dG, dR, len(variables))
+            expr = make_expr()
+            symbols = free_symbols(list(sm.Matrix(expr)))
+            unknown = symbols - self._known - set(sm.flatten(extra_args))
+            if unknown:
+                raise ModelError(f"{self.name}: {key} needs {sorted(map(str, unknown))}, "
+                                 f"which the layout does not provide")
+            hit = sm.lambdify(self._args + tuple(extra_args), expr, modules="numpy", cse=False)
+            self._cache[key] = hit
         return hit
+
+    def _mf(self, t, x, p, r):
+        eq, n = self.equations, self._n_u
+        M = self._lambdify("M", lambda: eq.mass_matrix)(t, x, p, r)
+        F = self._lambdify("F", lambda: eq.forcing)(t, x, p, r)
+        return np.array(M, dtype=float).reshape(n, n), np.array(F, dtype=float).reshape(-1)
+
+    def _sensitivity(self, output, t, x, p, r):
+        eq, L = self.equations, self.layout
+        variables = {Output.JACOBIAN: L.states, Output.PARAMETER_JACOBIAN: L.parameters,
+                     Output.TIME_DERIVATIVE: (L.time,)}[output]
+        if output is Output.PARAMETER_JACOBIAN:  # as generated: parameters of M, F and G
+            variables = tuple(v for v in variables if v in dynamic_parameters(eq))
+        acc = list(sm.symbols(f"acc0:{L.n_u}"))
+        dG = self._lambdify(("dG", output),
+                            lambda: sm.Matrix(eq.kinematics).jacobian(variables), (acc,))
+        dR = self._lambdify(("dR", output), lambda: (
+            sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)).jacobian(variables),
+                            (acc,))
+        M, F = self._mf(t, x, p, r)
+        a = np.linalg.solve(M, F)
+        G_v = np.array(dG(t, x, p, r, a), dtype=float).reshape(-1, len(variables))
+        R_v = np.array(dR(t, x, p, r, a), dtype=float).reshape(self._n_u, len(variables))
+        out = np.vstack([G_v, np.linalg.solve(M, R_v)])
+        return out.reshape(-1) if output is Output.TIME_DERIVATIVE else out
 
     def _evaluate(self, output, t, x, p, r):
         self._require(output)
         t = self._t(t)
         xa, pa, ra = self._x(x), self._p(p), self._r(r)
+        eq = self.equations
         if output is Output.MASS_MATRIX:
-            out = np.array(self._M(t, xa, pa, ra), dtype=float).reshape(self._n_u, self._n_u)
+            out = self._mf(t, xa, pa, ra)[0]
         elif output is Output.FORCING:
-            out = np.array(self._F(t, xa, pa, ra), dtype=float).reshape(-1)
+            out = self._mf(t, xa, pa, ra)[1]
         elif output is Output.ENERGY:
-            out = np.array(self._E(t, xa, pa, ra), dtype=float).reshape(-1)
-        elif output in (Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE):
-            dG, dR, nv = self._sensitivity(output)
-            M = np.array(self._M(t, xa, pa, ra), dtype=float).reshape(self._n_u, self._n_u)
-            a = np.linalg.solve(M, np.array(self._F(t, xa, pa, ra), dtype=float).reshape(-1))
-            G_v = np.array(dG(t, xa, pa, ra, a), dtype=float).reshape(-1, nv)
-            R_v = np.array(dR(t, xa, pa, ra, a), dtype=float).reshape(self._n_u, nv)
-            out = np.vstack([G_v, np.linalg.solve(M, R_v)])
-            if output is Output.TIME_DERIVATIVE:
-                out = out.reshape(-1)
+            pot = eq.potential_energy if eq.potential_energy is not None else sm.S.Zero
+            f = self._lambdify("E", lambda: sm.Matrix([eq.kinetic_energy, pot]))
+            out = np.array(f(t, xa, pa, ra), dtype=float).reshape(-1)
+        elif output in (Output.POSITIONS, Output.VELOCITIES):
+            attr = "position" if output is Output.POSITIONS else "velocity"
+            f = self._lambdify(output, lambda: sm.Matrix.hstack(
+                *(getattr(pk, attr) for pk in eq.points)).T)
+            out = np.array(f(t, xa, pa, ra), dtype=float).reshape(len(eq.points), 3)
+        elif output in _SENSITIVITY:
+            out = self._sensitivity(output, t, xa, pa, ra)
         else:
-            M = np.array(self._M(t, xa, pa, ra), dtype=float).reshape(self._n_u, self._n_u)
-            F = np.array(self._F(t, xa, pa, ra), dtype=float).reshape(-1)
-            G = np.array(self._G(t, xa, pa, ra), dtype=float).reshape(-1)
+            M, F = self._mf(t, xa, pa, ra)
+            G = np.array(self._lambdify("G", lambda: eq.kinematics)(t, xa, pa, ra),
+                         dtype=float).reshape(-1)
             try:
                 np.linalg.cholesky(M)
             except np.linalg.LinAlgError:

@@ -19,6 +19,7 @@ from pathlib import Path
 import jinja2
 
 from ._version import __version__
+from .layout import Layout
 from .names import comment_safe, model_prefix
 from .optimize import Kernel, KernelFunction
 from .outputs import Output, acceleration_symbols
@@ -46,14 +47,23 @@ class Rendered:
         ``{file name: text}``.
     cdef : str
         Declarations for ``cffi.FFI.cdef`` (same prototypes as the header).
-    signature : tuple
-        ``(function name, argument names)`` per generated function, for runtimes.
+    functions : tuple of FunctionInfo
+        How to call each generated function.
+    layout : Layout
+        The ABI: order of states, parameters and inputs of the generated code.
+    defaults : dict
+        Default values of the ABI's parameters (by name) where known.
+    outputs : tuple of Output
+        Every output generated, integrators included.
     """
 
     prefix: str
     files: dict
     cdef: str
     functions: tuple
+    layout: Layout
+    defaults: dict
+    outputs: tuple
 
     @property
     def header(self) -> str:
@@ -242,7 +252,9 @@ def render(kernel: Kernel) -> Rendered:
     infos = tuple(FunctionInfo(v["output"], v["name"], tuple(args), v["out_size"],
                                tuple(v["out_shape"]), tuple(v["out_labels"])) for v in c_views)
     return Rendered(prefix, {f"{prefix}.h": header, f"{prefix}.c": source,
-                             f"{prefix}.py": python}, cdef, infos)
+                             f"{prefix}.py": python}, cdef, infos, L,
+                    {str(sym): eq.defaults[str(sym)] for sym in L.parameters
+                     if str(sym) in eq.defaults}, kernel.outputs)
 
 
 __all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES",

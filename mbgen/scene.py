@@ -58,6 +58,18 @@ class Scene:
     conserves_energy : bool
         True when T + V is constant along solutions (no inputs, no dissipation,
         no prescribed motion).
+    fixed : mapping str -> float
+        Parameters baked into the generated code as constants (folded away);
+        the other parameters stay free (run-time values, defaults from
+        ``parameters``).
+    inputs : tuple of str or None
+        Inputs given at run time; the model's other inputs are zero and leave
+        the generated code.  ``None``: every input.
+    points : tuple of str
+        Points whose positions/velocities ``Output.POSITIONS``/``VELOCITIES`` report.
+    prefix : str or None
+        C prefix of the generated code (default: the model name); give two
+        slices of one model different prefixes to link them into one program.
     options : mapping
         The options the scene was built with.
     source : str
@@ -73,6 +85,10 @@ class Scene:
     description: str = ""
     closed_form: Callable | None = None
     conserves_energy: bool = False
+    fixed: Mapping[str, float] = field(default_factory=dict)
+    inputs: tuple[str, ...] | None = None
+    points: tuple[str, ...] = ()
+    prefix: str | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
     source: str = ""
 
@@ -86,10 +102,11 @@ class Scene:
 
     def p(self, layout) -> np.ndarray:
         """Parameter values in ``layout`` order; every parameter needs a value."""
-        missing = [n for n in layout.parameter_names if n not in self.parameters]
+        values = {**self.parameters, **self.fixed}
+        missing = [n for n in layout.parameter_names if n not in values]
         if missing:
             raise SceneError(f"scene {self.name!r} gives no value for parameter(s) {missing}")
-        return np.array([float(self.parameters[n]) for n in layout.parameter_names])
+        return np.array([float(values[n]) for n in layout.parameter_names])
 
 
 def builtin_names() -> list[str]:

@@ -57,7 +57,7 @@ def test_against_finite_differences_of_compiled_rhs(result):
 
 def test_shapes_and_fresh_arrays(result):
     model = result.compiled
-    x = np.full(model.n_x, 0.3)
+    x = np.linspace(0.1, 0.9, model.n_x)  # distinct values: no coinciding points
     J1, J2 = model.jacobian(0.0, x), model.jacobian(0.0, x)
     assert J1.shape == (model.n_x, model.n_x) and J1 is not J2
     assert model.parameter_jacobian(0.0, x).shape == (model.n_x, model.n_p)

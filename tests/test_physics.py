@@ -12,7 +12,7 @@ from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
 from mbgen import Output
-from mbgen.outputs import EXPRESSION_OUTPUTS
+from mbgen.outputs import applicable
 from mbgen.scene import builtin_names
 from mbgen.scenes import bent_pipe, n_link_cart, torque_free
 
@@ -27,7 +27,8 @@ def scene(name):
 @cache
 def pipeline(name):
     """Equations, rendered code and compiled C of scene ``name`` with every output."""
-    return mbgen.run(scene(name), outputs=EXPRESSION_OUTPUTS)
+    equations = mbgen.equations_of(scene(name))
+    return mbgen.run(scene(name), outputs=applicable(equations))
 
 
 def symbols_of(equations):
@@ -224,7 +225,7 @@ def random_point(scn, layout, rng):
 @pytest.mark.parametrize("name", builtin_names())
 def test_backends_agree(name):
     res = pipeline(name)
-    outputs = EXPRESSION_OUTPUTS
+    outputs = applicable(res.baked)
     backends = [res.compiled, mbgen.python_model(res.rendered, res.equations, outputs)]
     reference = mbgen.LambdifiedModel(res.equations)
     rng = np.random.default_rng(2024)

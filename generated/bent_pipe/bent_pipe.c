@@ -56,10 +56,9 @@ static void bent_pipe_cholesky_solve(int n, const double *L, double *b)
 void bent_pipe_default_parameters(double *p)
 {
     p[0] = 2.0943951023931953;
-    p[1] = 0.5;
-    p[2] = 0.2;
-    p[3] = 0.05;
-    p[4] = 9.81;
+    p[1] = 0.2;
+    p[2] = 0.05;
+    p[3] = 9.81;
 }
 
 /* First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
@@ -71,9 +70,9 @@ int bent_pipe_rhs(double t, const double *x, const double *p, double *dxdt)
     const double u1 = x[2];
     const double u2 = x[3];
     const double phi = p[0];
-    const double m = p[2];
-    const double J_ = p[3];
-    const double g = p[4];
+    const double m = p[1];
+    const double J_ = p[2];
+    const double g = p[3];
     double M[4];
     double F[2];
     int i;

@@ -14,12 +14,11 @@
  *   x[1] = q2
  *   x[2] = u1
  *   x[3] = u2
- * Parameters p[5]:
+ * Parameters p[4]:
  *   p[0] = phi  (default 2.0943951023931953)
- *   p[1] = h  (default 0.5)
- *   p[2] = m  (default 0.2)
- *   p[3] = J  (default 0.05)
- *   p[4] = g  (default 9.81)
+ *   p[1] = m  (default 0.2)
+ *   p[2] = J  (default 0.05)
+ *   p[3] = g  (default 9.81)
  *
  * Functions (each returns BENT_PIPE_OK or an error code; reentrant, no globals):
  *   bent_pipe_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
@@ -40,7 +39,7 @@ extern "C" {
 #define BENT_PIPE_N_Q 2 /* number of generalized coordinates */
 #define BENT_PIPE_N_U 2 /* number of generalized speeds */
 #define BENT_PIPE_N_X 4 /* length of the state x = [q, u] */
-#define BENT_PIPE_N_P 5 /* number of parameters */
+#define BENT_PIPE_N_P 4 /* number of parameters */
 #define BENT_PIPE_N_R 0 /* number of inputs */
 #define BENT_PIPE_OK 0 /* success */
 #define BENT_PIPE_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */

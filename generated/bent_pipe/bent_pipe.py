@@ -7,7 +7,7 @@ Operations: 16 after CSE (23 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as bent_pipe.h:
 state x = ['q1', 'q2', 'u1', 'u2']
-parameters p = ['phi', 'h', 'm', 'J', 'g']
+parameters p = ['phi', 'm', 'J', 'g']
 inputs r = []
 
 Each function takes the arrays named in its signature and returns a new
@@ -23,9 +23,9 @@ N_Q = 2
 N_U = 2
 N_X = 4
 STATE_NAMES = ['q1', 'q2', 'u1', 'u2']
-PARAMETER_NAMES = ['phi', 'h', 'm', 'J', 'g']
+PARAMETER_NAMES = ['phi', 'm', 'J', 'g']
 INPUT_NAMES = []
-DEFAULT_PARAMETERS = (2.0943951023931953, 0.5, 0.2, 0.05, 9.81)
+DEFAULT_PARAMETERS = (2.0943951023931953, 0.2, 0.05, 9.81)
 
 
 class NotPositiveDefinite(ArithmeticError):
@@ -76,9 +76,9 @@ def rhs(t, x, p):
     u1 = x[2]
     u2 = x[3]
     phi = p[0]
-    m = p[2]
-    J_ = p[3]
-    g = p[4]
+    m = p[1]
+    J_ = p[2]
+    g = p[3]
     v2 = math.sin(phi)
     v0 = m*(v2*v2)
     v1 = q2*v0

@@ -16,7 +16,8 @@ class Method(str, Enum):
     KANE = "kane"
 
 
-def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True) -> Equations:
+def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
+           points=()) -> Equations:
     """Derive the equations of motion of ``model``.
 
     Parameters
@@ -27,6 +28,9 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True) -
         ``Method.KANE`` (Kane's method with partial velocities).
     energy : bool
         Also derive the kinetic and potential energy (needed for ``Output.ENERGY``).
+    points : sequence of str
+        Points whose Newtonian position and velocity the equations carry
+        (needed for ``Output.POSITIONS`` and ``Output.VELOCITIES``).
 
     Returns
     -------
@@ -37,7 +41,7 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True) -
         raise ModelError(f"derive() needs an mbgen.Model, got {type(model).__name__}")
     method = Method(method)
     if method is Method.KANE:
-        return kane(model, energy)
+        return kane(model, energy, tuple(points))
     raise ModelError(f"unknown derivation method {method!r}")  # pragma: no cover
 
 
