@@ -65,7 +65,7 @@ def cmd_generate(args) -> int:
 
     scene = _scene(args)
     outputs = args.outputs.split(",") if args.outputs else None
-    result = run(scene, outputs, build=False)
+    result = run(scene, outputs, build=False, sliced=not args.no_slice)
     folder = Path(args.output or Path("generated") / scene.name)
     changed = write_files(folder, result.rendered.files)
     for name in sorted(result.rendered.files):
@@ -74,6 +74,11 @@ def cmd_generate(args) -> int:
     k = result.kernel
     print(f"operations: {k.ops_before} before CSE, {k.ops_after} after "
           f"({', '.join(f.output.value for f in k.functions)})")
+    if args.explain:
+        from .audit import audit
+
+        print()
+        print(audit(scene).format())
     return EXIT_OK
 
 
@@ -216,8 +221,11 @@ def parser() -> argparse.ArgumentParser:
     scene_args(p)
     p.add_argument("-o", "--output", metavar="DIR", help="output folder (default generated/SCENE)")
     p.add_argument("--outputs", metavar="LIST",
-                   help="comma-separated outputs (rhs,mass_matrix,forcing,energy); "
-                        "default: the scene's")
+                   help="comma-separated outputs (e.g. rhs,jacobian,dopri5); default: the scene's")
+    p.add_argument("--explain", action="store_true",
+                   help="print the audit: what was left out of the generated code and why")
+    p.add_argument("--no-slice", action="store_true",
+                   help="ignore the scene's fixed parameters and input selection")
     p.set_defaults(func=cmd_generate)
 
     p = sub.add_parser("check", help="compare compiled C, generated Python and lambdify")
@@ -262,6 +270,9 @@ def main(argv=None) -> int:
     args = parser().parse_args(argv)
     try:
         return args.func(args)
+    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
+        sys.stderr.close()
+        return EXIT_OK
     except CheckFailed as exc:
         print(f"mbgen: check failed: {exc}", file=sys.stderr)
         return EXIT_CHECK

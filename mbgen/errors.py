@@ -28,8 +28,8 @@ class BuildError(MbgenError, RuntimeError):
 class SingularMassMatrixError(MbgenError, ArithmeticError):
     """The mass matrix is not positive definite at the given state.
 
-    Raised by the compiled and generated right-hand sides when the Cholesky
-    factorisation of M(q, t) fails (a non-positive or non-finite pivot).
+    Raised by the compiled and generated right-hand sides when the ``L D L^T``
+    factorisation of M(q, t) meets a pivot that is not positive (or NaN).
     """
 
 

@@ -63,6 +63,7 @@ class Kernel:
     cse_backend: CseBackend
     temp_prefix: str
     layout: Layout
+    mass_pattern: frozenset   # (i, j), i > j: structural nonzeros of M below the diagonal
 
     @property
     def outputs(self) -> tuple[Output, ...]:
@@ -143,7 +144,9 @@ def optimize(equations: Equations, outputs=(Output.RHS,),
     used = {sym for f in functions for sym in f.symbols_used + f.spec.variables}
     abi = Layout(L.coordinates, L.speeds, tuple(p for p in L.parameters if p in used),
                  tuple(r for r in L.inputs if r in used), L.time)
-    return Kernel(equations, tuple(functions), integrators, cse_backend, prefix, abi)
+    M = equations.mass_matrix
+    pattern = frozenset((i, j) for i in range(L.n_u) for j in range(i) if M[i, j] != 0)
+    return Kernel(equations, tuple(functions), integrators, cse_backend, prefix, abi, pattern)
 
 
 def _reduce(block: Block, reduced_of: dict) -> Block:

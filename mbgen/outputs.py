@@ -4,7 +4,7 @@ Every function follows one pattern (the templates render it):
 
 1. *pre* blocks: expressions of ``t, x, p, r`` written to the output array or to
    local arrays ``M`` (lower triangle) and ``F``;
-2. if ``solve``: factor ``M = L L^T`` (Cholesky) and overwrite ``F`` with the
+2. if ``solve``: factor ``M = L D L^T`` (:mod:`mbgen.solver`) and overwrite ``F`` with the
    accelerations ``u' = M^{-1} F``;
 3. *post* blocks: expressions that may also use those accelerations;
 4. if ``columns``: solve ``M Y = D`` column by column and write ``Y`` below
@@ -163,7 +163,7 @@ def spec(eq: Equations, output: Output) -> Spec:
         return Spec(output, "dxdt", (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
                     solve=True,
                     doc="First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by "
-                        "Cholesky.")
+                        "L D L^T.")
     if output is Output.MASS_MATRIX:
         M = eq.mass_matrix
         lower = tuple((i * n + j, M[i, j]) for i in range(n) for j in range(i + 1))

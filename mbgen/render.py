@@ -24,6 +24,7 @@ from .names import comment_safe, model_prefix
 from .optimize import Kernel, KernelFunction
 from .outputs import Output, acceleration_symbols
 from .printing import CPrinter, PyPrinter, math_functions
+from .solver import UNROLL_MAX, c_lines, factor_program, py_lines, solve_program
 
 STATUS_CODES = (("OK", 0, "success"),
                 ("NOT_POSITIVE_DEFINITE", 1, "the mass matrix is not positive definite"),
@@ -207,6 +208,10 @@ def render(kernel: Kernel) -> Rendered:
 
     exprs = [e for fn in kernel.functions for _, e in fn.temporaries + fn.post_temporaries] + [
         e for fn in kernel.functions for b in fn.pre + fn.post for _, e in b.entries]
+    funcs = sorted(math_functions(exprs))
+    any_solve = any(fn.spec.solve for fn in kernel.functions)
+    unrolled = any_solve and L.n_u <= UNROLL_MAX
+    factor = factor_program(L.n_u, kernel.mass_pattern) if unrolled else []
     ctx = dict(
         version=__version__,
         prefix=prefix,
@@ -229,10 +234,18 @@ def render(kernel: Kernel) -> Rendered:
         has_defaults=has_defaults,
         defines=defines,
         functions=c_views,
-        math_functions=sorted(math_functions(exprs)),
+        math_functions=funcs,
         ops_before=kernel.ops_before,
         ops_after=kernel.ops_after,
-        any_solve=any(fn.spec.solve for fn in kernel.functions),
+        any_solve=any_solve,
+        unrolled=unrolled,
+        ldl_factor_c=c_lines(factor, f"{upper}_NOT_POSITIVE_DEFINITE") if unrolled else [],
+        ldl_solve_c=c_lines(solve_program(L.n_u, kernel.mass_pattern), "") if unrolled else [],
+        ldl_factor_py=py_lines(factor, "NotPositiveDefinite('mass matrix is not positive "
+                                       "definite')") if unrolled else [],
+        ldl_solve_py=py_lines(solve_program(L.n_u, kernel.mass_pattern, "b", "o + "), "")
+        if unrolled else [],
+        needs_math=bool(funcs) or bool(kernel.integrators),
         any_columns=any(fn.spec.columns for fn in kernel.functions),
         args=list(args),
         integrators=[o.value for o in kernel.integrators],

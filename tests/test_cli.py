@@ -41,7 +41,7 @@ def test_check_passes(capsys):
 
 
 def test_check_fails_above_tolerance(capsys):
-    assert main(["check", "disc_pendulum", "--rtol", "0", "--atol", "0",
+    assert main(["check", "n_link_cart", "-O", "n=3", "--rtol", "0", "--atol", "0",
                  "--samples", "5"]) == EXIT_CHECK
     assert "FAILED" in capsys.readouterr().out
 

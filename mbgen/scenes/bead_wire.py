@@ -62,7 +62,8 @@ def scene() -> Scene:
     return Scene(
         name="bead_wire",
         model=build_model(),
-        parameters={"omega": 2.0, "m": 0.1},
+        parameters={"omega": 2.0},
+        fixed={"m": 0.1},
         initial_state={"rho": 0.5, "u": -0.8},
         t_span=(0.0, 3.0),
         description="bead on a straight wire spun at constant rate (lecture 1, example 2)",

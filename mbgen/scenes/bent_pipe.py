@@ -52,7 +52,8 @@ def scene() -> Scene:
     return Scene(
         name="bent_pipe",
         model=build_model(),
-        parameters={"phi": 2 * math.pi / 3, "h": 0.5, "m": 0.2, "J": 0.05, "g": 9.81},
+        parameters={"phi": 2 * math.pi / 3, "h": 0.5, "m": 0.2, "J": 0.05},
+        fixed={"g": 9.81},
         initial_state={"q1": 0.0, "q2": 0.5, "u1": 4.0, "u2": 0.0},
         t_span=(0.0, 10.0),
         description="ball sliding in a spinning bent pipe (problem P2.2)",

@@ -42,7 +42,8 @@ def scene() -> Scene:
     return Scene(
         name="paraboloid",
         model=build_model(),
-        parameters={"k": 0.5, "g": 9.81, "m": 1.0},
+        parameters={"k": 0.5, "m": 1.0},
+        fixed={"g": 9.81},
         initial_state={"q1": 1.0, "q2": 0.0, "u1": 0.0, "u2": 2.5},
         t_span=(0.0, 10.0),
         description="particle sliding on a paraboloid under gravity (lecture 1, example 1)",

@@ -44,7 +44,8 @@ def scene() -> Scene:
     return Scene(
         name="spherical_rod",
         model=build_model(),
-        parameters={"L": 1.0, "m": 1.0, "g": 9.81},
+        parameters={"L": 1.0, "m": 1.0},
+        fixed={"g": 9.81},
         initial_state={"q1": 0.0, "q2": 2.5, "u1": 2.0, "u2": 0.0},
         t_span=(0.0, 10.0),
         description="thin rod on a spherical joint under gravity (problem P2.1)",

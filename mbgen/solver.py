@@ -1,0 +1,120 @@
+r"""Straight-line ``L D L^T`` solvers for the mass matrix's sparsity pattern.
+
+``M`` is symmetric positive definite, so ``M = L D L^T`` with unit lower
+triangular ``L`` and diagonal ``D > 0``; a pivot ``d_j <= 0`` (or NaN) means
+``M`` is not positive definite.  Unlike Cholesky this needs no square root.
+
+For ``n_u <= UNROLL_MAX`` the factorisation and the solve are emitted as
+straight-line code that touches only the structural nonzeros of ``L`` (the
+nonzeros of ``M`` plus fill-in); a diagonal ``M`` becomes ``n_u`` checks and
+divisions.  Larger systems use the dense loops in the templates.
+
+Storage: ``M`` row-major ``n x n``; the factor overwrites the lower triangle
+(``L`` strictly below the diagonal, ``D`` on it).  The solve overwrites ``b``.
+
+Algorithm (column ``j``, with ``w_k = L_jk d_k``)::
+
+    d_j  = M_jj - sum_k L_jk w_k
+    L_ij = (M_ij - sum_k L_ik w_k) / d_j          (i > j)
+    solve: b_i -= sum_k L_ik b_k (k < i);  b_i /= d_i;  b_i -= sum_k L_ki b_k (k > i)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Largest ``n_u`` whose solver is unrolled into straight-line code.
+UNROLL_MAX = 12
+
+
+def fill_pattern(n: int, pattern: frozenset) -> frozenset:
+    """Structural nonzeros ``(i, j)``, ``i > j``, of ``L`` for the lower pattern of ``M``."""
+    L: set = set()
+    for j in range(n):
+        for i in range(j + 1, n):
+            if (i, j) in pattern or any((i, k) in L and (j, k) in L for k in range(j)):
+                L.add((i, j))
+    return frozenset(L)
+
+
+@dataclass(frozen=True)
+class Statement:
+    """One step: ``target = value``, a positivity check of ``target``, or ``target op= value``."""
+
+    kind: str      # "let" (new local), "set" (array element), "check"
+    target: str
+    value: str = ""
+
+
+def _m(n, i, j, name="M"):
+    return f"{name}[{i * n + j}]"
+
+
+def factor_program(n: int, pattern: frozenset) -> list[Statement]:
+    """Unrolled in-place ``L D L^T`` factorisation of ``M`` (pattern: lower nonzeros, i > j)."""
+    L = fill_pattern(n, pattern)
+    out: list[Statement] = []
+    for j in range(n):
+        ks = [k for k in range(j) if (j, k) in L]
+        for k in ks:
+            out.append(Statement("let", f"w{j}_{k}", f"{_m(n, j, k)}*{_m(n, k, k)}"))
+        if ks:
+            out.append(Statement("set", _m(n, j, j), " - ".join(
+                [_m(n, j, j)] + [f"{_m(n, j, k)}*w{j}_{k}" for k in ks])))
+        out.append(Statement("check", _m(n, j, j)))
+        for i in range(j + 1, n):
+            if (i, j) not in L:
+                continue
+            terms = [f"{_m(n, i, k)}*w{j}_{k}" for k in ks if (i, k) in L]
+            num = " - ".join([_m(n, i, j)] + terms)
+            out.append(Statement("set", _m(n, i, j),
+                                 f"({num})/{_m(n, j, j)}" if terms else f"{num}/{_m(n, j, j)}"))
+    return out
+
+
+def solve_program(n: int, pattern: frozenset, b: str = "b", offset: str = "") -> list[Statement]:
+    """Unrolled solve of ``L D L^T y = b`` in place (``b[offset + i]``)."""
+    L = fill_pattern(n, pattern)
+
+    def bi(i):
+        return f"{b}[{offset}{i}]" if offset else f"{b}[{i}]"
+
+    out: list[Statement] = []
+    for i in range(n):
+        ks = [k for k in range(i) if (i, k) in L]
+        if ks:
+            out.append(Statement("set", bi(i), " - ".join(
+                [bi(i)] + [f"{_m(n, i, k)}*{bi(k)}" for k in ks])))
+    for i in range(n):
+        out.append(Statement("set", bi(i), f"{bi(i)}/{_m(n, i, i)}"))
+    for i in reversed(range(n)):
+        ks = [k for k in range(i + 1, n) if (k, i) in L]
+        if ks:
+            out.append(Statement("set", bi(i), " - ".join(
+                [bi(i)] + [f"{_m(n, k, i)}*{bi(k)}" for k in ks])))
+    return out
+
+
+def c_lines(program: list[Statement], fail: str) -> list[str]:
+    """C statements; a failed check returns ``fail``."""
+    out = []
+    for s in program:
+        if s.kind == "let":
+            out.append(f"const double {s.target} = {s.value};")
+        elif s.kind == "set":
+            out.append(f"{s.target} = {s.value};")
+        else:
+            out.append(f"if (!({s.target} > 0.0)) return {fail};")
+    return out
+
+
+def py_lines(program: list[Statement], fail: str) -> list[str]:
+    """Python statements; a failed check raises ``fail`` (an exception expression)."""
+    out = []
+    for s in program:
+        if s.kind in ("let", "set"):
+            out.append(f"{s.target} = {s.value}")
+        else:
+            out.append(f"if not {s.target} > 0.0:")
+            out.append(f"    raise {fail}")
+    return out
