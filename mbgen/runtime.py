@@ -16,13 +16,16 @@ input is accepted) and raises :class:`~mbgen.errors.SingularMassMatrixError` or
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .errors import MbgenError, NonFiniteResultError, SingularMassMatrixError
+from .errors import IntegrationError, MbgenError, NonFiniteResultError, SingularMassMatrixError
 from .layout import Layout
 from .optimize import Output
+from .render import INTEGRATOR_STATUS_CODES, STATUS_CODES
 
 F64 = np.dtype(np.float64)
 
@@ -142,6 +145,14 @@ class ModelBase:
         """``df/dt`` of the right-hand side (explicit time dependence), shape ``(n_x,)``."""
         return self._evaluate(Output.TIME_DERIVATIVE, t, x, p, r)
 
+    def positions(self, t, x, p=None, r=None) -> np.ndarray:
+        """Newtonian positions of the reported points, shape ``(k, 3)``."""
+        return self._evaluate(Output.POSITIONS, t, x, p, r)
+
+    def velocities(self, t, x, p=None, r=None) -> np.ndarray:
+        """Newtonian velocities of the reported points, shape ``(k, 3)``."""
+        return self._evaluate(Output.VELOCITIES, t, x, p, r)
+
     def bind(self, p=None, r=None, output: Output = Output.RHS) -> Callable:
         """``f(t, x)`` with parameters and inputs fixed (for ``solve_ivp(f, ...)``)."""
         output = Output(output)
@@ -156,6 +167,38 @@ class ModelBase:
     def __repr__(self) -> str:
         return (f"<{type(self).__name__} {self.name!r}: x={list(self.state_names)}, "
                 f"p={list(self.parameter_names)}, outputs={[o.value for o in self.outputs]}>")
+
+
+@dataclass(frozen=True)
+class Integration:
+    """A trajectory computed by a generated C integrator (:meth:`CompiledModel.integrate`).
+
+    Attributes
+    ----------
+    t : ndarray, shape (k,)
+        The requested output times.
+    x : ndarray, shape (k, n_x)
+        The state at those times (row 0 is ``x0``).
+    method : str
+        ``"dopri5"``, ``"rk4"`` or ``"rosenbrock"``.
+    status : int
+        The C status code (0: success; failures raise instead).
+    n_steps, n_rejected, n_rhs, n_jac, n_lu : int
+        Accepted and rejected steps, right-hand side and Jacobian calls, LU factorisations.
+    wall_time : float
+        Seconds spent in the C call (``time.perf_counter``).
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    method: str
+    status: int
+    n_steps: int
+    n_rejected: int
+    n_rhs: int
+    n_jac: int
+    n_lu: int
+    wall_time: float
 
 
 class CompiledModel(ModelBase):
@@ -210,6 +253,110 @@ class CompiledModel(ModelBase):
     def rhs(self, t, x, p=None, r=None) -> np.ndarray:  # fast path, no enum lookup
         return self._calls[Output.RHS](t, x, p, r) if Output.RHS in self._calls else \
             self._evaluate(Output.RHS, t, x, p, r)
+
+    def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = 1e-6,
+                  atol: float = 1e-9, h: float | None = None, h_max: float = 0.0,
+                  max_steps: int = 0) -> Integration:
+        """Run a generated C integrator over ``t_eval`` (no Python per step).
+
+        Parameters
+        ----------
+        method : Output or str
+            ``"dopri5"`` (Dormand-Prince 5(4), as scipy's RK45), ``"rk4"`` (fixed
+            step ``h``) or ``"rosenbrock"`` (stiff, Rodas4 with the compiled
+            Jacobian); it must have been generated (``mbgen.compile(...,
+            outputs={"dopri5"})``).
+        t_eval : array_like, shape (k,)
+            Output times, strictly increasing; ``t_eval[0]`` is the initial time.
+        x0, p, r
+            Initial state, parameters (default: the model's) and inputs (held constant).
+        rtol, atol : float
+            Error tolerances of the adaptive methods (as solve_ivp).
+        h : float, optional
+            The step of ``rk4`` (required); the first step of the adaptive methods.
+        h_max : float
+            Largest step (0: unbounded).
+        max_steps : int
+            Limit on attempted steps (0: 1000000).
+
+        Raises
+        ------
+        MbgenError
+            The integrator was not generated.
+        ValueError
+            Bad ``t_eval``, ``x0``, tolerances or steps.
+        IntegrationError
+            The C integrator failed (step too small, step limit, singular
+            matrix, mass matrix not positive definite, non-finite result).
+        """
+        try:
+            output = method if isinstance(method, Output) else Output(str(method).lower())
+        except ValueError:
+            output = None
+        if output is None or not output.is_integrator:
+            raise MbgenError(f"{method!r} is not an integrator; choose from 'dopri5', 'rk4', "
+                             f"'rosenbrock'")
+        self._require(output)
+        try:
+            t = np.array(t_eval, dtype=F64)
+        except (TypeError, ValueError):
+            raise ValueError(f"t_eval must be a 1-D array of increasing times; got {t_eval!r}") \
+                from None
+        if t.ndim != 1 or t.size < 1:
+            raise ValueError(f"t_eval must be a 1-D array of at least one time; got shape "
+                             f"{t.shape}")
+        if not np.all(np.isfinite(t)):
+            raise ValueError("t_eval must hold finite times")
+        if t.size > 2**31 - 1:
+            raise ValueError("t_eval has too many times for the C integrator (int n_out)")
+        if np.any(np.diff(t) <= 0):
+            i = int(np.argmax(np.diff(t) <= 0))
+            raise ValueError(f"t_eval must be strictly increasing; t_eval[{i + 1}] = {t[i + 1]!r} "
+                             f"follows t_eval[{i}] = {t[i]!r}")
+        xa = self._x(x0)
+        if not np.all(np.isfinite(xa)):
+            raise ValueError(f"initial state x0 must be finite; got {xa.tolist()}")
+        if output is Output.RK4:
+            if h is None:
+                raise ValueError("the rk4 integrator takes a fixed step: pass h > 0")
+        rtol, atol, h_max = float(rtol), float(atol), float(h_max)
+        h0 = 0.0 if h is None else float(h)
+        for name, value in (("rtol", rtol), ("atol", atol), ("h", h0)):
+            if not (np.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0; got {value!r}")
+        if h is not None and not h0 > 0:
+            raise ValueError(f"h must be > 0; got {h0!r}")
+        if not h_max >= 0:
+            raise ValueError(f"h_max must be >= 0 (0: unbounded); got {h_max!r}")
+        if int(max_steps) != max_steps or max_steps < 0:
+            raise ValueError(f"max_steps must be an integer >= 0 (0: default); got {max_steps!r}")
+
+        ffi, prefix = self.ffi, self.rendered.prefix
+        buf = ffi.from_buffer
+        opt = ffi.new(f"{prefix}_options *", {"rtol": rtol, "atol": atol, "h0": h0,
+                                              "h_max": h_max, "max_steps": int(max_steps)})
+        stats = ffi.new(f"{prefix}_stats *")
+        x_out = np.empty((t.size, self.n_x))
+        args = [buf("double[]", xa)]
+        if self.n_p:
+            args.append(buf("double[]", self._p(p)))
+        if self.n_r:
+            args.append(buf("double[]", self._r(r)))
+        cfunc = getattr(self.lib, f"{prefix}_{output.value}")
+        start = time.perf_counter()
+        status = cfunc(*args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats)
+        wall = time.perf_counter() - start
+        if status:
+            names = {v: (n, text) for n, v, text in STATUS_CODES + INTEGRATOR_STATUS_CODES}
+            code, text = names.get(status, ("UNKNOWN", "unknown error"))
+            raise IntegrationError(
+                f"{self.name}.integrate({output.value!r}) failed with status {status} "
+                f"({prefix.upper()}_{code}: {text}) at t_reached={stats.t_reached!r} after "
+                f"{stats.n_steps} steps ({stats.n_rejected} rejected, {stats.n_rhs} RHS calls)",
+                status, float(stats.t_reached))
+        return Integration(t, x_out, output.value, int(status), int(stats.n_steps),
+                           int(stats.n_rejected), int(stats.n_rhs), int(stats.n_jac),
+                           int(stats.n_lu), wall)
 
 
 class PythonModel(ModelBase):
