@@ -60,6 +60,7 @@ def cmd_scenes(args) -> int:
 
 
 def cmd_generate(args) -> int:
+    from .example import render_example
     from .fileio import write_files
     from .pipeline import run
 
@@ -67,8 +68,12 @@ def cmd_generate(args) -> int:
     outputs = args.outputs.split(",") if args.outputs else None
     result = run(scene, outputs, build=False, sliced=not args.no_slice)
     folder = Path(args.output or Path("generated") / scene.name)
-    changed = write_files(folder, result.rendered.files)
-    for name in sorted(result.rendered.files):
+    files = dict(result.rendered.files)
+    example = render_example(scene, result)
+    if example is not None:
+        files["example.c"] = example
+    changed = write_files(folder, files)
+    for name in sorted(files):
         state = "written" if folder / name in changed else "unchanged"
         print(f"{folder / name}  ({state})")
     k = result.kernel

@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
+from .example import render_example
 from .fileio import write_files
 from .pipeline import run
 from .scene import builtin_names, load_scene
@@ -19,9 +20,14 @@ GOLDEN_OPTIONS: dict[str, dict] = {"n_link_cart": {"n": 3}}
 
 
 def scene_files(name: str) -> dict[str, str]:
-    """``{file name: text}`` generated for built-in scene ``name``."""
+    """``{file name: text}`` generated for built-in scene ``name`` (with ``example.c``)."""
     scene = load_scene(name, **GOLDEN_OPTIONS.get(name, {}))
-    return dict(run(scene, build=False).rendered.files)
+    result = run(scene, build=False)
+    files = dict(result.rendered.files)
+    example = render_example(scene, result)
+    if example is not None:
+        files["example.c"] = example
+    return files
 
 
 def expected(names=None) -> dict[str, dict[str, str]]:

@@ -3,7 +3,7 @@
  * Model:      bead_wire
  * Source:     scene 'bead_wire' (mbgen/scenes/bead_wire.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 3 after CSE (3 before), excluding the Cholesky solve
+ * Operations: 3 after CSE (3 before), excluding the L D L^T solve
  *   bead_wire_rhs: 3 (3 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
@@ -12,12 +12,11 @@
  * State x[2] = [q, u]:
  *   x[0] = rho
  *   x[1] = u
- * Parameters p[2]:
+ * Parameters p[1]:
  *   p[0] = omega  (default 2.0)
- *   p[1] = m  (default 0.1)
  *
  * Functions (each returns BEAD_WIRE_OK or an error code; reentrant, no globals):
- *   bead_wire_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+ *   bead_wire_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
  *     dxdt[0] = rho'
  *     dxdt[1] = u'
  *
@@ -33,14 +32,40 @@ extern "C" {
 #define BEAD_WIRE_N_Q 1 /* number of generalized coordinates */
 #define BEAD_WIRE_N_U 1 /* number of generalized speeds */
 #define BEAD_WIRE_N_X 2 /* length of the state x = [q, u] */
-#define BEAD_WIRE_N_P 2 /* number of parameters */
+#define BEAD_WIRE_N_P 1 /* number of parameters */
 #define BEAD_WIRE_N_R 0 /* number of inputs */
 #define BEAD_WIRE_OK 0 /* success */
 #define BEAD_WIRE_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define BEAD_WIRE_NONFINITE 2 /* an output is NaN or infinite */
+#define BEAD_WIRE_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define BEAD_WIRE_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define BEAD_WIRE_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define BEAD_WIRE_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int bead_wire_rhs(double t, const double *x, const double *p, double *dxdt);
 void bead_wire_default_parameters(double *p);
+/* Integrators (dopri5): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else BEAD_WIRE_BAD_ARGUMENT);
+ * x_out is row-major n_out x 2 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} bead_wire_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} bead_wire_stats;
+int bead_wire_dopri5(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const bead_wire_options *opt, bead_wire_stats *stats);
 
 #ifdef __cplusplus
 }

@@ -7,7 +7,7 @@ Operations: 3 after CSE (3 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as bead_wire.h:
 state x = ['rho', 'u']
-parameters p = ['omega', 'm']
+parameters p = ['omega']
 inputs r = []
 
 Each function takes the arrays named in its signature and returns a new
@@ -23,9 +23,9 @@ N_Q = 1
 N_U = 1
 N_X = 2
 STATE_NAMES = ['rho', 'u']
-PARAMETER_NAMES = ['omega', 'm']
+PARAMETER_NAMES = ['omega']
 INPUT_NAMES = []
-DEFAULT_PARAMETERS = (2.0, 0.1)
+DEFAULT_PARAMETERS = (2.0,)
 
 
 class NotPositiveDefinite(ArithmeticError):
@@ -36,54 +36,33 @@ class NonFinite(ArithmeticError):
     """An output is NaN or infinite."""
 
 
-def _cholesky(n, A):
-    """Cholesky factor A = L L^T in place (row-major, lower triangle); the same algorithm as the C."""
-    for j in range(n):
-        d = A[j * n + j]
-        for k in range(j):
-            d -= A[j * n + k] * A[j * n + k]
-        if not d > 0.0:
-            raise NotPositiveDefinite("mass matrix is not positive definite (pivot %d = %r)" % (j, d))
-        d = math.sqrt(d)
-        A[j * n + j] = d
-        for i in range(j + 1, n):
-            s = A[i * n + j]
-            for k in range(j):
-                s -= A[i * n + k] * A[j * n + k]
-            A[i * n + j] = s / d
+def _ldl(M):
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
+    if not M[0] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
 
 
-def _cholesky_solve(n, L, b, offset=0):
-    """Solve L L^T y = b[offset:offset + n] in place."""
-    for i in range(n):
-        s = b[offset + i]
-        for k in range(i):
-            s -= L[i * n + k] * b[offset + k]
-        b[offset + i] = s / L[i * n + i]
-    for i in range(n - 1, -1, -1):
-        s = b[offset + i]
-        for k in range(i + 1, n):
-            s -= L[k * n + i] * b[offset + k]
-        b[offset + i] = s / L[i * n + i]
+def _ldl_solve(M, b, o=0):
+    """Solve L D L^T y = b[o:o + n_u] in place with the factor from _ldl."""
+    b[o + 0] = b[o + 0]/M[0]
 
 
 def rhs(t, x, p):
-    """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+    """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
     Returns a new array of shape 2; 3 operations (3 before CSE).
     """
     rho = x[0]
     u = x[1]
     omega = p[0]
-    m = p[1]
     dxdt = [0.0] * 2
     dxdt[0] = u
     M = [0.0] * 1
-    M[0] = m
+    M[0] = 0.1
     F = [0.0] * 1
-    F[0] = m*(omega*omega)*rho
-    _cholesky(1, M)
-    _cholesky_solve(1, M, F)
+    F[0] = 0.1*(omega*omega)*rho
+    _ldl(M)
+    _ldl_solve(M, F)
     dxdt[1:] = F
     result = np.array(dxdt, dtype=np.float64)
     if not np.isfinite(result).all():

@@ -3,7 +3,7 @@
  * Model:      bent_pipe
  * Source:     scene 'bent_pipe' (mbgen/scenes/bent_pipe.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 16 after CSE (23 before), excluding the Cholesky solve
+ * Operations: 16 after CSE (23 before), excluding the L D L^T solve
  *   bent_pipe_rhs: 16 (23 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
@@ -14,14 +14,13 @@
  *   x[1] = q2
  *   x[2] = u1
  *   x[3] = u2
- * Parameters p[4]:
+ * Parameters p[3]:
  *   p[0] = phi  (default 2.0943951023931953)
  *   p[1] = m  (default 0.2)
  *   p[2] = J  (default 0.05)
- *   p[3] = g  (default 9.81)
  *
  * Functions (each returns BENT_PIPE_OK or an error code; reentrant, no globals):
- *   bent_pipe_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+ *   bent_pipe_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
  *     dxdt[0] = q1'
  *     dxdt[1] = q2'
  *     dxdt[2] = u1'
@@ -39,14 +38,40 @@ extern "C" {
 #define BENT_PIPE_N_Q 2 /* number of generalized coordinates */
 #define BENT_PIPE_N_U 2 /* number of generalized speeds */
 #define BENT_PIPE_N_X 4 /* length of the state x = [q, u] */
-#define BENT_PIPE_N_P 4 /* number of parameters */
+#define BENT_PIPE_N_P 3 /* number of parameters */
 #define BENT_PIPE_N_R 0 /* number of inputs */
 #define BENT_PIPE_OK 0 /* success */
 #define BENT_PIPE_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define BENT_PIPE_NONFINITE 2 /* an output is NaN or infinite */
+#define BENT_PIPE_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define BENT_PIPE_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define BENT_PIPE_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define BENT_PIPE_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int bent_pipe_rhs(double t, const double *x, const double *p, double *dxdt);
 void bent_pipe_default_parameters(double *p);
+/* Integrators (dopri5): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else BENT_PIPE_BAD_ARGUMENT);
+ * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} bent_pipe_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} bent_pipe_stats;
+int bent_pipe_dopri5(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const bent_pipe_options *opt, bent_pipe_stats *stats);
 
 #ifdef __cplusplus
 }

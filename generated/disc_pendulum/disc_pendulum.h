@@ -3,7 +3,7 @@
  * Model:      disc_pendulum
  * Source:     scene 'disc_pendulum' (mbgen/scenes/disc_pendulum.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 29 after CSE (53 before), excluding the Cholesky solve
+ * Operations: 29 after CSE (53 before), excluding the L D L^T solve
  *   disc_pendulum_rhs: 29 (53 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
@@ -21,7 +21,7 @@
  *   p[3] = m  (default 1.0)
  *
  * Functions (each returns DISC_PENDULUM_OK or an error code; reentrant, no globals):
- *   disc_pendulum_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+ *   disc_pendulum_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
  *     dxdt[0] = q1'
  *     dxdt[1] = q2'
  *     dxdt[2] = u1'
@@ -44,9 +44,35 @@ extern "C" {
 #define DISC_PENDULUM_OK 0 /* success */
 #define DISC_PENDULUM_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define DISC_PENDULUM_NONFINITE 2 /* an output is NaN or infinite */
+#define DISC_PENDULUM_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define DISC_PENDULUM_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define DISC_PENDULUM_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define DISC_PENDULUM_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int disc_pendulum_rhs(double t, const double *x, const double *p, double *dxdt);
 void disc_pendulum_default_parameters(double *p);
+/* Integrators (dopri5): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else DISC_PENDULUM_BAD_ARGUMENT);
+ * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} disc_pendulum_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} disc_pendulum_stats;
+int disc_pendulum_dopri5(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const disc_pendulum_options *opt, disc_pendulum_stats *stats);
 
 #ifdef __cplusplus
 }

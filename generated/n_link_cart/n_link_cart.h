@@ -3,7 +3,7 @@
  * Model:      n_link_cart
  * Source:     scene 'n_link_cart' (mbgen/scenes/n_link_cart.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 90 after CSE (201 before), excluding the Cholesky solve
+ * Operations: 90 after CSE (201 before), excluding the L D L^T solve
  *   n_link_cart_rhs: 90 (201 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
@@ -31,7 +31,7 @@
  *   r[0] = F
  *
  * Functions (each returns N_LINK_CART_OK or an error code; reentrant, no globals):
- *   n_link_cart_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+ *   n_link_cart_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
  *     dxdt[0] = q0'
  *     dxdt[1] = q1'
  *     dxdt[2] = q2'
@@ -58,9 +58,35 @@ extern "C" {
 #define N_LINK_CART_OK 0 /* success */
 #define N_LINK_CART_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define N_LINK_CART_NONFINITE 2 /* an output is NaN or infinite */
+#define N_LINK_CART_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define N_LINK_CART_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define N_LINK_CART_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define N_LINK_CART_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int n_link_cart_rhs(double t, const double *x, const double *p, const double *r, double *dxdt);
 void n_link_cart_default_parameters(double *p);
+/* Integrators (dopri5): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else N_LINK_CART_BAD_ARGUMENT);
+ * x_out is row-major n_out x 8 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} n_link_cart_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} n_link_cart_stats;
+int n_link_cart_dopri5(const double *x0, const double *p, const double *r, int n_out, const double *t_out, double *x_out, const n_link_cart_options *opt, n_link_cart_stats *stats);
 
 #ifdef __cplusplus
 }

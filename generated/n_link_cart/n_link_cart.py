@@ -36,39 +36,49 @@ class NonFinite(ArithmeticError):
     """An output is NaN or infinite."""
 
 
-def _cholesky(n, A):
-    """Cholesky factor A = L L^T in place (row-major, lower triangle); the same algorithm as the C."""
-    for j in range(n):
-        d = A[j * n + j]
-        for k in range(j):
-            d -= A[j * n + k] * A[j * n + k]
-        if not d > 0.0:
-            raise NotPositiveDefinite("mass matrix is not positive definite (pivot %d = %r)" % (j, d))
-        d = math.sqrt(d)
-        A[j * n + j] = d
-        for i in range(j + 1, n):
-            s = A[i * n + j]
-            for k in range(j):
-                s -= A[i * n + k] * A[j * n + k]
-            A[i * n + j] = s / d
+def _ldl(M):
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
+    if not M[0] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    M[4] = M[4]/M[0]
+    M[8] = M[8]/M[0]
+    M[12] = M[12]/M[0]
+    w1_0 = M[4]*M[0]
+    M[5] = M[5] - M[4]*w1_0
+    if not M[5] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    M[9] = (M[9] - M[8]*w1_0)/M[5]
+    M[13] = (M[13] - M[12]*w1_0)/M[5]
+    w2_0 = M[8]*M[0]
+    w2_1 = M[9]*M[5]
+    M[10] = M[10] - M[8]*w2_0 - M[9]*w2_1
+    if not M[10] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    M[14] = (M[14] - M[12]*w2_0 - M[13]*w2_1)/M[10]
+    w3_0 = M[12]*M[0]
+    w3_1 = M[13]*M[5]
+    w3_2 = M[14]*M[10]
+    M[15] = M[15] - M[12]*w3_0 - M[13]*w3_1 - M[14]*w3_2
+    if not M[15] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
 
 
-def _cholesky_solve(n, L, b, offset=0):
-    """Solve L L^T y = b[offset:offset + n] in place."""
-    for i in range(n):
-        s = b[offset + i]
-        for k in range(i):
-            s -= L[i * n + k] * b[offset + k]
-        b[offset + i] = s / L[i * n + i]
-    for i in range(n - 1, -1, -1):
-        s = b[offset + i]
-        for k in range(i + 1, n):
-            s -= L[k * n + i] * b[offset + k]
-        b[offset + i] = s / L[i * n + i]
+def _ldl_solve(M, b, o=0):
+    """Solve L D L^T y = b[o:o + n_u] in place with the factor from _ldl."""
+    b[o + 1] = b[o + 1] - M[4]*b[o + 0]
+    b[o + 2] = b[o + 2] - M[8]*b[o + 0] - M[9]*b[o + 1]
+    b[o + 3] = b[o + 3] - M[12]*b[o + 0] - M[13]*b[o + 1] - M[14]*b[o + 2]
+    b[o + 0] = b[o + 0]/M[0]
+    b[o + 1] = b[o + 1]/M[5]
+    b[o + 2] = b[o + 2]/M[10]
+    b[o + 3] = b[o + 3]/M[15]
+    b[o + 2] = b[o + 2] - M[14]*b[o + 3]
+    b[o + 1] = b[o + 1] - M[9]*b[o + 2] - M[13]*b[o + 3]
+    b[o + 0] = b[o + 0] - M[4]*b[o + 1] - M[8]*b[o + 2] - M[12]*b[o + 3]
 
 
 def rhs(t, x, p, r):
-    """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+    """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
     Returns a new array of shape 8; 90 operations (201 before CSE).
     """
@@ -138,8 +148,8 @@ def rhs(t, x, p, r):
     F[1] = g*v22 - m3*(-v10*v25 + v26*v7) - v0*(-v10*v23 + v24*v7)
     F[2] = g*v20 - m3*(-v11*v25 + v26*v9) - v0*(-v11*v27 + v28*v9)
     F[3] = g*v18 - m3*(v15*v24 - v16*v23) - m3*(v15*v28 - v16*v27)
-    _cholesky(4, M)
-    _cholesky_solve(4, M, F)
+    _ldl(M)
+    _ldl_solve(M, F)
     dxdt[4:] = F
     result = np.array(dxdt, dtype=np.float64)
     if not np.isfinite(result).all():

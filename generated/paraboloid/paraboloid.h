@@ -3,8 +3,8 @@
  * Model:      paraboloid
  * Source:     scene 'paraboloid' (mbgen/scenes/paraboloid.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 21 after CSE (26 before), excluding the Cholesky solve
- *   paraboloid_rhs: 21 (26 before CSE)
+ * Operations: 21 after CSE (25 before), excluding the L D L^T solve
+ *   paraboloid_rhs: 21 (25 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -14,13 +14,12 @@
  *   x[1] = q2
  *   x[2] = u1
  *   x[3] = u2
- * Parameters p[3]:
+ * Parameters p[2]:
  *   p[0] = k  (default 0.5)
- *   p[1] = g  (default 9.81)
- *   p[2] = m  (default 1.0)
+ *   p[1] = m  (default 1.0)
  *
  * Functions (each returns PARABOLOID_OK or an error code; reentrant, no globals):
- *   paraboloid_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+ *   paraboloid_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
  *     dxdt[0] = q1'
  *     dxdt[1] = q2'
  *     dxdt[2] = u1'
@@ -38,14 +37,40 @@ extern "C" {
 #define PARABOLOID_N_Q 2 /* number of generalized coordinates */
 #define PARABOLOID_N_U 2 /* number of generalized speeds */
 #define PARABOLOID_N_X 4 /* length of the state x = [q, u] */
-#define PARABOLOID_N_P 3 /* number of parameters */
+#define PARABOLOID_N_P 2 /* number of parameters */
 #define PARABOLOID_N_R 0 /* number of inputs */
 #define PARABOLOID_OK 0 /* success */
 #define PARABOLOID_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define PARABOLOID_NONFINITE 2 /* an output is NaN or infinite */
+#define PARABOLOID_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define PARABOLOID_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define PARABOLOID_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define PARABOLOID_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int paraboloid_rhs(double t, const double *x, const double *p, double *dxdt);
 void paraboloid_default_parameters(double *p);
+/* Integrators (dopri5): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else PARABOLOID_BAD_ARGUMENT);
+ * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} paraboloid_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} paraboloid_stats;
+int paraboloid_dopri5(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const paraboloid_options *opt, paraboloid_stats *stats);
 
 #ifdef __cplusplus
 }

@@ -3,8 +3,8 @@
  * Model:      spherical_rod
  * Source:     scene 'spherical_rod' (mbgen/scenes/spherical_rod.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 20 after CSE (33 before), excluding the Cholesky solve
- *   spherical_rod_rhs: 20 (33 before CSE)
+ * Operations: 19 after CSE (32 before), excluding the L D L^T solve
+ *   spherical_rod_rhs: 19 (32 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -14,13 +14,12 @@
  *   x[1] = q2
  *   x[2] = u1
  *   x[3] = u2
- * Parameters p[3]:
+ * Parameters p[2]:
  *   p[0] = L  (default 1.0)
  *   p[1] = m  (default 1.0)
- *   p[2] = g  (default 9.81)
  *
  * Functions (each returns SPHERICAL_ROD_OK or an error code; reentrant, no globals):
- *   spherical_rod_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+ *   spherical_rod_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
  *     dxdt[0] = q1'
  *     dxdt[1] = q2'
  *     dxdt[2] = u1'
@@ -38,14 +37,40 @@ extern "C" {
 #define SPHERICAL_ROD_N_Q 2 /* number of generalized coordinates */
 #define SPHERICAL_ROD_N_U 2 /* number of generalized speeds */
 #define SPHERICAL_ROD_N_X 4 /* length of the state x = [q, u] */
-#define SPHERICAL_ROD_N_P 3 /* number of parameters */
+#define SPHERICAL_ROD_N_P 2 /* number of parameters */
 #define SPHERICAL_ROD_N_R 0 /* number of inputs */
 #define SPHERICAL_ROD_OK 0 /* success */
 #define SPHERICAL_ROD_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define SPHERICAL_ROD_NONFINITE 2 /* an output is NaN or infinite */
+#define SPHERICAL_ROD_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define SPHERICAL_ROD_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define SPHERICAL_ROD_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define SPHERICAL_ROD_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int spherical_rod_rhs(double t, const double *x, const double *p, double *dxdt);
 void spherical_rod_default_parameters(double *p);
+/* Integrators (dopri5): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else SPHERICAL_ROD_BAD_ARGUMENT);
+ * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} spherical_rod_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} spherical_rod_stats;
+int spherical_rod_dopri5(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const spherical_rod_options *opt, spherical_rod_stats *stats);
 
 #ifdef __cplusplus
 }

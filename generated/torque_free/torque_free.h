@@ -3,7 +3,7 @@
  * Model:      torque_free
  * Source:     scene 'torque_free' (mbgen/scenes/torque_free.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 40 after CSE (62 before), excluding the Cholesky solve
+ * Operations: 40 after CSE (62 before), excluding the L D L^T solve
  *   torque_free_rhs: 40 (62 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
@@ -25,7 +25,7 @@
  *   p[5] = I31  (default 0.25)
  *
  * Functions (each returns TORQUE_FREE_OK or an error code; reentrant, no globals):
- *   torque_free_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+ *   torque_free_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
  *     dxdt[0] = q1'
  *     dxdt[1] = q2'
  *     dxdt[2] = q3'
@@ -50,9 +50,35 @@ extern "C" {
 #define TORQUE_FREE_OK 0 /* success */
 #define TORQUE_FREE_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define TORQUE_FREE_NONFINITE 2 /* an output is NaN or infinite */
+#define TORQUE_FREE_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define TORQUE_FREE_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define TORQUE_FREE_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define TORQUE_FREE_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int torque_free_rhs(double t, const double *x, const double *p, double *dxdt);
 void torque_free_default_parameters(double *p);
+/* Integrators (dopri5): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else TORQUE_FREE_BAD_ARGUMENT);
+ * x_out is row-major n_out x 6 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} torque_free_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} torque_free_stats;
+int torque_free_dopri5(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const torque_free_options *opt, torque_free_stats *stats);
 
 #ifdef __cplusplus
 }

@@ -36,39 +36,37 @@ class NonFinite(ArithmeticError):
     """An output is NaN or infinite."""
 
 
-def _cholesky(n, A):
-    """Cholesky factor A = L L^T in place (row-major, lower triangle); the same algorithm as the C."""
-    for j in range(n):
-        d = A[j * n + j]
-        for k in range(j):
-            d -= A[j * n + k] * A[j * n + k]
-        if not d > 0.0:
-            raise NotPositiveDefinite("mass matrix is not positive definite (pivot %d = %r)" % (j, d))
-        d = math.sqrt(d)
-        A[j * n + j] = d
-        for i in range(j + 1, n):
-            s = A[i * n + j]
-            for k in range(j):
-                s -= A[i * n + k] * A[j * n + k]
-            A[i * n + j] = s / d
+def _ldl(M):
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
+    if not M[0] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    M[3] = M[3]/M[0]
+    M[6] = M[6]/M[0]
+    w1_0 = M[3]*M[0]
+    M[4] = M[4] - M[3]*w1_0
+    if not M[4] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    M[7] = (M[7] - M[6]*w1_0)/M[4]
+    w2_0 = M[6]*M[0]
+    w2_1 = M[7]*M[4]
+    M[8] = M[8] - M[6]*w2_0 - M[7]*w2_1
+    if not M[8] > 0.0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
 
 
-def _cholesky_solve(n, L, b, offset=0):
-    """Solve L L^T y = b[offset:offset + n] in place."""
-    for i in range(n):
-        s = b[offset + i]
-        for k in range(i):
-            s -= L[i * n + k] * b[offset + k]
-        b[offset + i] = s / L[i * n + i]
-    for i in range(n - 1, -1, -1):
-        s = b[offset + i]
-        for k in range(i + 1, n):
-            s -= L[k * n + i] * b[offset + k]
-        b[offset + i] = s / L[i * n + i]
+def _ldl_solve(M, b, o=0):
+    """Solve L D L^T y = b[o:o + n_u] in place with the factor from _ldl."""
+    b[o + 1] = b[o + 1] - M[3]*b[o + 0]
+    b[o + 2] = b[o + 2] - M[6]*b[o + 0] - M[7]*b[o + 1]
+    b[o + 0] = b[o + 0]/M[0]
+    b[o + 1] = b[o + 1]/M[4]
+    b[o + 2] = b[o + 2]/M[8]
+    b[o + 1] = b[o + 1] - M[7]*b[o + 2]
+    b[o + 0] = b[o + 0] - M[3]*b[o + 1] - M[6]*b[o + 2]
 
 
 def rhs(t, x, p):
-    """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by Cholesky.
+    """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
     Returns a new array of shape 6; 40 operations (62 before CSE).
     """
@@ -106,8 +104,8 @@ def rhs(t, x, p):
     F[0] = -u2*v5 + u3*v6
     F[1] = u1*v5 - u3*v7
     F[2] = -u1*v6 + u2*v7
-    _cholesky(3, M)
-    _cholesky_solve(3, M, F)
+    _ldl(M)
+    _ldl_solve(M, F)
     dxdt[3:] = F
     result = np.array(dxdt, dtype=np.float64)
     if not np.isfinite(result).all():

@@ -16,7 +16,7 @@ energy ``m (rho'^2 + omega^2 rho^2) / 2`` is not conserved.
 
 import numpy as np
 
-from mbgen import Model, Scene, t
+from mbgen import Model, Output, Scene, t
 
 
 def build_model() -> Model:
@@ -62,6 +62,7 @@ def scene() -> Scene:
     return Scene(
         name="bead_wire",
         model=build_model(),
+        outputs=(Output.RHS, Output.DOPRI5),
         parameters={"omega": 2.0},
         fixed={"m": 0.1},
         initial_state={"rho": 0.5, "u": -0.8},

@@ -28,7 +28,7 @@ import math
 
 import sympy as sm
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model() -> Model:
@@ -52,6 +52,7 @@ def scene() -> Scene:
     return Scene(
         name="bent_pipe",
         model=build_model(),
+        outputs=(Output.RHS, Output.DOPRI5),
         parameters={"phi": 2 * math.pi / 3, "h": 0.5, "m": 0.2, "J": 0.05},
         fixed={"g": 9.81},
         initial_state={"q1": 0.0, "q2": 0.5, "u1": 4.0, "u2": 0.0},

@@ -16,7 +16,7 @@ With s = 1, l = 4, g = 10: u1' = -8 cos(q2) u2 u1 / (1 + 4 sin q2),
 u2' = cos(q2) u1^2 / 4 + u1^2 sin(2 q2) / 2 - 5 sin(q2) / 2.
 """
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model() -> Model:
@@ -38,6 +38,7 @@ def scene() -> Scene:
     return Scene(
         name="disc_pendulum",
         model=build_model(),
+        outputs=(Output.RHS, Output.DOPRI5),
         parameters={"s": 1.0, "l": 4.0, "g": 10.0, "m": 1.0},
         initial_state={"q1": 0.0, "q2": 1.0, "u1": 0.5, "u2": 0.0},
         t_span=(0.0, 20.0),

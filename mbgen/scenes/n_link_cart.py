@@ -9,7 +9,7 @@ Symbols, order and conventions match
 ``cart_force=True``, so numbers compare directly.
 """
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model(n: int = 3) -> Model:
@@ -44,6 +44,7 @@ def scene(n: int = 3) -> Scene:
     return Scene(
         name="n_link_cart",
         model=build_model(n),
+        outputs=(Output.RHS, Output.DOPRI5),
         parameters=params,
         initial_state=x0,
         t_span=(0.0, 10.0),

@@ -20,7 +20,7 @@ the particle oscillates between two heights.  The mass matrix
 which the motion never reaches while ``q1^2 q2' != 0``.
 """
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model() -> Model:
@@ -42,6 +42,7 @@ def scene() -> Scene:
     return Scene(
         name="paraboloid",
         model=build_model(),
+        outputs=(Output.RHS, Output.DOPRI5),
         parameters={"k": 0.5, "m": 1.0},
         fixed={"g": 9.81},
         initial_state={"q1": 1.0, "q2": 0.0, "u1": 0.0, "u2": 2.5},

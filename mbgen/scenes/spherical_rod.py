@@ -22,7 +22,7 @@ start is a hanging rod swinging around the vertical (``q2 = 2.5``,
 ``q1' = 2``): the conserved ``J sin(q2)^2 q1'`` keeps it away from vertical.
 """
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model() -> Model:
@@ -44,6 +44,7 @@ def scene() -> Scene:
     return Scene(
         name="spherical_rod",
         model=build_model(),
+        outputs=(Output.RHS, Output.DOPRI5),
         parameters={"L": 1.0, "m": 1.0},
         fixed={"g": 9.81},
         initial_state={"q1": 0.0, "q2": 2.5, "u1": 2.0, "u2": 0.0},

@@ -21,7 +21,7 @@ The default body spins mainly about b3, near its axis of largest inertia, so
 the motion is a stable wobble and ``q2`` stays far from the gimbal lock.
 """
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model() -> Model:
@@ -42,6 +42,7 @@ def scene() -> Scene:
     return Scene(
         name="torque_free",
         model=build_model(),
+        outputs=(Output.RHS, Output.DOPRI5),
         parameters={"I11": 2.0, "I22": 3.0, "I33": 4.0, "I12": 0.3, "I23": -0.2, "I31": 0.25},
         initial_state={"q1": 0.3, "q2": -0.4, "q3": 0.5, "u1": 0.3, "u2": -0.2, "u3": 2.0},
         t_span=(0.0, 20.0),
