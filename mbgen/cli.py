@@ -1,4 +1,4 @@
-"""Command-line interface: ``mbgen scenes | generate | check | simulate | demo | bench | golden``.
+"""Command-line interface: ``mbgen scenes | generate | check | simulate | demo | bench | stress | golden``.
 
 Exit codes
 ----------
@@ -187,6 +187,14 @@ def cmd_bench(args) -> int:
     return EXIT_OK
 
 
+def cmd_stress(args) -> int:
+    from .stress import stress
+
+    report = stress(_scene(args), size="full" if args.full else "ci", progress=_progress)
+    print(report.format())
+    return EXIT_OK if report.ok else EXIT_CHECK
+
+
 def cmd_golden(args) -> int:
     from . import golden
 
@@ -263,6 +271,14 @@ def parser() -> argparse.ArgumentParser:
                    help="largest n run through sympy's KanesMethod (default 32)")
     p.add_argument("--repeats", type=int, default=5, help="repeats of timed calls (default 5)")
     p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("stress", help="stability suite: stiff, extreme, near-singular, long runs, "
+                                      "floating point vs 50-digit mpmath")
+    scene_args(p)
+    p.add_argument("--full", action="store_true",
+                   help="the whole grid (stiffness 1e4..1e8, ratios 1e-6..1e6, long runs); "
+                        "default: the CI size")
+    p.set_defaults(func=cmd_stress)
 
     p = sub.add_parser("golden", help="compare (or --update) generated/ with the generator")
     p.add_argument("--root", default="generated", help="folder (default generated)")

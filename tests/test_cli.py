@@ -11,7 +11,8 @@ from mbgen.cli import EXIT_CHECK, EXIT_MODEL, EXIT_OK, main, parser
 
 def test_help_everywhere(capsys):
     commands = [a.dest for a in parser()._subparsers._group_actions[0]._choices_actions]
-    assert {"scenes", "generate", "check", "simulate", "demo", "bench", "golden"} <= set(commands)
+    assert {"scenes", "generate", "check", "simulate", "demo", "bench", "stress",
+            "golden"} <= set(commands)
     for cmd in [[]] + [[c] for c in commands]:
         with pytest.raises(SystemExit) as info:
             main(cmd + ["--help"])
