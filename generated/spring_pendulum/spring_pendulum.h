@@ -3,8 +3,9 @@
  * Model:      spring_pendulum
  * Source:     scene 'spring_pendulum' (mbgen/scenes/spring_pendulum.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 37 after CSE (45 before), excluding the L D L^T solve
- *   spring_pendulum_rhs: 37 (45 before CSE)
+ * Operations: 93 after CSE (185 before), excluding the L D L^T solve
+ *   spring_pendulum_rhs: 33 (40 before CSE)
+ *   spring_pendulum_jacobian: 60 (145 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -14,12 +15,11 @@
  *   x[1] = s
  *   x[2] = u1
  *   x[3] = u2
- * Parameters p[5]:
+ * Parameters p[4]:
  *   p[0] = m  (default 1.0)
  *   p[1] = l  (default 1.0)
  *   p[2] = k  (default 1000000.0)
- *   p[3] = c  (default 0.0)
- *   p[4] = g  (default 9.81)
+ *   p[3] = g  (default 9.81)
  *
  * Functions (each returns SPRING_PENDULUM_OK or an error code; reentrant, no globals):
  *   spring_pendulum_rhs: First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
@@ -27,6 +27,23 @@
  *     dxdt[1] = s'
  *     dxdt[2] = u1'
  *     dxdt[3] = u2'
+ *   spring_pendulum_jacobian: Jacobian df/dx of the first-order right-hand side, row-major n_x x n_x.
+ *     J[0] = d(theta')/d(theta)
+ *     J[1] = d(theta')/d(s)
+ *     J[2] = d(theta')/d(u1)
+ *     J[3] = d(theta')/d(u2)
+ *     J[4] = d(s')/d(theta)
+ *     J[5] = d(s')/d(s)
+ *     J[6] = d(s')/d(u1)
+ *     J[7] = d(s')/d(u2)
+ *     J[8] = d(u1')/d(theta)
+ *     J[9] = d(u1')/d(s)
+ *     J[10] = d(u1')/d(u1)
+ *     J[11] = d(u1')/d(u2)
+ *     J[12] = d(u2')/d(theta)
+ *     J[13] = d(u2')/d(s)
+ *     J[14] = d(u2')/d(u1)
+ *     J[15] = d(u2')/d(u2)
  *
  * Build: cc -std=c99 -O2 -c spring_pendulum.c && link with -lm
  */
@@ -40,14 +57,41 @@ extern "C" {
 #define SPRING_PENDULUM_N_Q 2 /* number of generalized coordinates */
 #define SPRING_PENDULUM_N_U 2 /* number of generalized speeds */
 #define SPRING_PENDULUM_N_X 4 /* length of the state x = [q, u] */
-#define SPRING_PENDULUM_N_P 5 /* number of parameters */
+#define SPRING_PENDULUM_N_P 4 /* number of parameters */
 #define SPRING_PENDULUM_N_R 0 /* number of inputs */
 #define SPRING_PENDULUM_OK 0 /* success */
 #define SPRING_PENDULUM_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define SPRING_PENDULUM_NONFINITE 2 /* an output is NaN or infinite */
+#define SPRING_PENDULUM_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define SPRING_PENDULUM_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define SPRING_PENDULUM_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define SPRING_PENDULUM_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int spring_pendulum_rhs(double t, const double *x, const double *p, double *dxdt);
+int spring_pendulum_jacobian(double t, const double *x, const double *p, double *J);
 void spring_pendulum_default_parameters(double *p);
+/* Integrators (rosenbrock): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else SPRING_PENDULUM_BAD_ARGUMENT);
+ * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} spring_pendulum_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} spring_pendulum_stats;
+int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const spring_pendulum_options *opt, spring_pendulum_stats *stats);
 
 #ifdef __cplusplus
 }

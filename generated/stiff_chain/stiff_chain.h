@@ -3,8 +3,9 @@
  * Model:      stiff_chain
  * Source:     scene 'stiff_chain' (mbgen/scenes/stiff_chain.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 111 after CSE (273 before), excluding the L D L^T solve
- *   stiff_chain_rhs: 111 (273 before CSE)
+ * Operations: 430 after CSE (2415 before), excluding the L D L^T solve
+ *   stiff_chain_rhs: 112 (273 before CSE)
+ *   stiff_chain_jacobian: 318 (2142 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -43,6 +44,107 @@
  *     dxdt[7] = v3'
  *     dxdt[8] = v4'
  *     dxdt[9] = v5'
+ *   stiff_chain_jacobian: Jacobian df/dx of the first-order right-hand side, row-major n_x x n_x.
+ *     J[0] = d(x1')/d(x1)
+ *     J[1] = d(x1')/d(x2)
+ *     J[2] = d(x1')/d(x3)
+ *     J[3] = d(x1')/d(x4)
+ *     J[4] = d(x1')/d(x5)
+ *     J[5] = d(x1')/d(v1)
+ *     J[6] = d(x1')/d(v2)
+ *     J[7] = d(x1')/d(v3)
+ *     J[8] = d(x1')/d(v4)
+ *     J[9] = d(x1')/d(v5)
+ *     J[10] = d(x2')/d(x1)
+ *     J[11] = d(x2')/d(x2)
+ *     J[12] = d(x2')/d(x3)
+ *     J[13] = d(x2')/d(x4)
+ *     J[14] = d(x2')/d(x5)
+ *     J[15] = d(x2')/d(v1)
+ *     J[16] = d(x2')/d(v2)
+ *     J[17] = d(x2')/d(v3)
+ *     J[18] = d(x2')/d(v4)
+ *     J[19] = d(x2')/d(v5)
+ *     J[20] = d(x3')/d(x1)
+ *     J[21] = d(x3')/d(x2)
+ *     J[22] = d(x3')/d(x3)
+ *     J[23] = d(x3')/d(x4)
+ *     J[24] = d(x3')/d(x5)
+ *     J[25] = d(x3')/d(v1)
+ *     J[26] = d(x3')/d(v2)
+ *     J[27] = d(x3')/d(v3)
+ *     J[28] = d(x3')/d(v4)
+ *     J[29] = d(x3')/d(v5)
+ *     J[30] = d(x4')/d(x1)
+ *     J[31] = d(x4')/d(x2)
+ *     J[32] = d(x4')/d(x3)
+ *     J[33] = d(x4')/d(x4)
+ *     J[34] = d(x4')/d(x5)
+ *     J[35] = d(x4')/d(v1)
+ *     J[36] = d(x4')/d(v2)
+ *     J[37] = d(x4')/d(v3)
+ *     J[38] = d(x4')/d(v4)
+ *     J[39] = d(x4')/d(v5)
+ *     J[40] = d(x5')/d(x1)
+ *     J[41] = d(x5')/d(x2)
+ *     J[42] = d(x5')/d(x3)
+ *     J[43] = d(x5')/d(x4)
+ *     J[44] = d(x5')/d(x5)
+ *     J[45] = d(x5')/d(v1)
+ *     J[46] = d(x5')/d(v2)
+ *     J[47] = d(x5')/d(v3)
+ *     J[48] = d(x5')/d(v4)
+ *     J[49] = d(x5')/d(v5)
+ *     J[50] = d(v1')/d(x1)
+ *     J[51] = d(v1')/d(x2)
+ *     J[52] = d(v1')/d(x3)
+ *     J[53] = d(v1')/d(x4)
+ *     J[54] = d(v1')/d(x5)
+ *     J[55] = d(v1')/d(v1)
+ *     J[56] = d(v1')/d(v2)
+ *     J[57] = d(v1')/d(v3)
+ *     J[58] = d(v1')/d(v4)
+ *     J[59] = d(v1')/d(v5)
+ *     J[60] = d(v2')/d(x1)
+ *     J[61] = d(v2')/d(x2)
+ *     J[62] = d(v2')/d(x3)
+ *     J[63] = d(v2')/d(x4)
+ *     J[64] = d(v2')/d(x5)
+ *     J[65] = d(v2')/d(v1)
+ *     J[66] = d(v2')/d(v2)
+ *     J[67] = d(v2')/d(v3)
+ *     J[68] = d(v2')/d(v4)
+ *     J[69] = d(v2')/d(v5)
+ *     J[70] = d(v3')/d(x1)
+ *     J[71] = d(v3')/d(x2)
+ *     J[72] = d(v3')/d(x3)
+ *     J[73] = d(v3')/d(x4)
+ *     J[74] = d(v3')/d(x5)
+ *     J[75] = d(v3')/d(v1)
+ *     J[76] = d(v3')/d(v2)
+ *     J[77] = d(v3')/d(v3)
+ *     J[78] = d(v3')/d(v4)
+ *     J[79] = d(v3')/d(v5)
+ *     J[80] = d(v4')/d(x1)
+ *     J[81] = d(v4')/d(x2)
+ *     J[82] = d(v4')/d(x3)
+ *     J[83] = d(v4')/d(x4)
+ *     J[84] = d(v4')/d(x5)
+ *     J[85] = d(v4')/d(v1)
+ *     J[86] = d(v4')/d(v2)
+ *     J[87] = d(v4')/d(v3)
+ *     J[88] = d(v4')/d(v4)
+ *     J[89] = d(v4')/d(v5)
+ *     J[90] = d(v5')/d(x1)
+ *     J[91] = d(v5')/d(x2)
+ *     J[92] = d(v5')/d(x3)
+ *     J[93] = d(v5')/d(x4)
+ *     J[94] = d(v5')/d(x5)
+ *     J[95] = d(v5')/d(v1)
+ *     J[96] = d(v5')/d(v2)
+ *     J[97] = d(v5')/d(v3)
+ *     J[98] = d(v5')/d(v4)
+ *     J[99] = d(v5')/d(v5)
  *
  * Build: cc -std=c99 -O2 -c stiff_chain.c && link with -lm
  */
@@ -61,9 +163,36 @@ extern "C" {
 #define STIFF_CHAIN_OK 0 /* success */
 #define STIFF_CHAIN_NOT_POSITIVE_DEFINITE 1 /* the mass matrix is not positive definite */
 #define STIFF_CHAIN_NONFINITE 2 /* an output is NaN or infinite */
+#define STIFF_CHAIN_STEP_TOO_SMALL 3 /* the step size fell below the resolution of t */
+#define STIFF_CHAIN_MAX_STEPS 4 /* the step limit was reached before the last output time */
+#define STIFF_CHAIN_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
+#define STIFF_CHAIN_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
 int stiff_chain_rhs(double t, const double *x, const double *p, double *dxdt);
+int stiff_chain_jacobian(double t, const double *x, const double *p, double *J);
 void stiff_chain_default_parameters(double *p);
+/* Integrators (rosenbrock): a whole trajectory per call, no globals.
+ * t_out[0] is the initial time, t_out strictly increasing (else STIFF_CHAIN_BAD_ARGUMENT);
+ * x_out is row-major n_out x 10 with row 0 = x0; inputs r are held constant.
+ * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
+ * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
+ * steps, 0 = 1000000).  stats may be NULL. */
+typedef struct {
+    double rtol;
+    double atol;
+    double h0;
+    double h_max;
+    long max_steps;
+} stiff_chain_options;
+typedef struct {
+    long n_steps;
+    long n_rejected;
+    long n_rhs;
+    long n_jac;
+    long n_lu;
+    double t_reached;
+} stiff_chain_stats;
+int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const stiff_chain_options *opt, stiff_chain_stats *stats);
 
 #ifdef __cplusplus
 }

@@ -31,7 +31,7 @@ damping ``T + V`` is conserved; ``conserves_energy`` is ``damping == 0``.
 
 import math
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model() -> Model:
@@ -69,7 +69,9 @@ def scene(stiffness: float = 1e6, damping: float = 0.0) -> Scene:
     return Scene(
         name="spring_pendulum",
         model=build_model(),
+        outputs=(Output.RHS, Output.ROSENBROCK),
         parameters=parameters(stiffness, damping),
+        fixed={"c": float(damping)},  # baked: with the default c = 0 the damper vanishes
         initial_state=initial_state(stiffness),
         t_span=(0.0, 10.0),
         description=f"planar pendulum on a stiff spring (k = {stiffness:g}, c = {damping:g})",

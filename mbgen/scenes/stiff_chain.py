@@ -41,7 +41,7 @@ fast modes).  Dampers dissipate energy, so ``conserves_energy`` is False.
 
 import math
 
-from mbgen import Model, Scene
+from mbgen import Model, Output, Scene
 
 
 def build_model(n: int = 5) -> Model:
@@ -87,6 +87,7 @@ def scene(n: int = 5, stiffness: float = 1e4, damping: float = -1.0) -> Scene:
     return Scene(
         name="stiff_chain",
         model=build_model(n),
+        outputs=(Output.RHS, Output.ROSENBROCK),
         parameters=parameters(n, stiffness, damping),
         initial_state=initial_state(n),
         t_span=(0.0, 10.0),
