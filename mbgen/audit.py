@@ -119,8 +119,8 @@ def audit(scene: Scene) -> Audit:
                     f"operations", f"one {sliced.kernel.cse_backend.value} CSE pass over every "
                     f"emitted expression", sliced.kernel.ops_before, sliced.kernel.ops_after))
     has_math = "#include <math.h>" in sliced.rendered.source
-    cuts.append(Cut("7 includes", "nothing" if has_math else "<math.h>",
-                    "needed for " + _math_reason(sliced) if has_math else
+    cuts.append(Cut("7 includes", "nothing: <math.h> is kept" if has_math else "<math.h>",
+                    "it declares " + _math_reason(sliced) if has_math else
                     "no math function is called"))
     return Audit(scene.name, sliced.rendered.prefix, tuple(cuts), full.kernel.ops_after,
                  sliced.kernel.ops_after, _c_lines(full), _c_lines(sliced))

@@ -44,6 +44,13 @@ def cse(exprs: list, prefix: str, backend: CseBackend = CseBackend.SYMENGINE):
     return _hoist_power_bases(list(reps), list(reduced), symbols)
 
 
+def _repeats_base(exp) -> bool:
+    """True when a power with exponent ``exp`` prints its base more than once."""
+    if exp.is_Integer:
+        return 2 <= abs(int(exp)) <= MAX_UNROLLED_POWER
+    return bool(exp.is_Rational and exp.q == 2 and 3 <= abs(exp.p) <= 2 * MAX_UNROLLED_POWER + 1)
+
+
 def _hoist_power_bases(reps, reduced, symbols):
     """Give every compound base of a small integer power its own temporary.
 
@@ -54,8 +61,8 @@ def _hoist_power_bases(reps, reduced, symbols):
     bases = []
     seen = set()
     for node in walk_unique([e for _, e in reps] + list(reduced)):
-        if (isinstance(node, sm.Pow) and node.exp.is_Integer and node.base.args
-                and 2 <= abs(int(node.exp)) <= MAX_UNROLLED_POWER and node.base not in seen):
+        if (isinstance(node, sm.Pow) and node.base.args and node.base not in seen
+                and _repeats_base(node.exp)):
             seen.add(node.base)
             bases.append(node.base)
     if not bases:
@@ -63,8 +70,10 @@ def _hoist_power_bases(reps, reduced, symbols):
     bases.reverse()  # nested bases (descendants) before the bases that contain them
     position = {s: i for i, (s, _) in enumerate(reps)}
     new_of = {b: next(symbols) for b in bases}
-    sub = {sm.Pow(b, k): sm.Pow(new_of[b], k) for b in bases
-           for k in range(-MAX_UNROLLED_POWER, MAX_UNROLLED_POWER + 1) if abs(k) >= 2}
+    sub = {}
+    for node in walk_unique([e for _, e in reps] + list(reduced)):
+        if isinstance(node, sm.Pow) and node.base in new_of:
+            sub[node] = sm.Pow(new_of[node.base], node.exp)
     inserts: dict[int, list] = {}
     for base in bases:
         deps = [position[s] for s in base.free_symbols if s in position]

@@ -5,7 +5,8 @@ sympy way, by overriding single ``_print_X`` methods:
 
 * symbols print as the sanitised identifiers of the layout (or temporaries);
 * small integer powers become multiplications (``x*x*x`` rather than
-  ``pow(x, 3)``), ``x**-1`` a division, ``x**(1/2)`` ``sqrt(x)``;
+  ``pow(x, 3)``), ``x**-1`` a division, half-integer powers ``sqrt`` times
+  multiplications (``x**(-3/2)`` is ``1.0/(sqrt(x)*x)``);
 * floats keep 17 significant digits, so no value is rounded on the way.
 """
 
@@ -43,10 +44,13 @@ class _PowerMixin:
             k = abs(int(exp))
             prod = b if k == 1 else "(" + "*".join([b] * k) + ")"
             return prod if exp > 0 else f"({self._one}/{prod})"
-        if exp == sm.S.Half:
-            return f"{self._sqrt}({self._print(base)})"
-        if exp == -sm.S.Half:
-            return f"{self._one}/{self._sqrt}({self._print(base)})"
+        if exp.is_Rational and exp.q == 2 and abs(exp.p) <= 2 * MAX_UNROLLED_POWER + 1:
+            k = abs(int(exp.p)) // 2  # x**(n/2) = sqrt(x) * x**k
+            root = f"{self._sqrt}({self._print(base)})"
+            b = self.parenthesize(base, prec)
+            prod = "*".join([root] + [b] * k)
+            prod = prod if k == 0 else f"({prod})"
+            return prod if exp > 0 else f"({self._one}/{prod})"
         return self._print_general_pow(expr)
 
 
@@ -100,5 +104,7 @@ def math_functions(exprs) -> set[str]:
             out.add(type(node).__name__)
         elif isinstance(node, sm.Pow) and not (node.exp.is_Integer
                                                and abs(int(node.exp)) <= MAX_UNROLLED_POWER):
-            out.add("sqrt" if abs(node.exp) == sm.S.Half else "pow")
+            half = node.exp.is_Rational and node.exp.q == 2 and \
+                abs(node.exp.p) <= 2 * MAX_UNROLLED_POWER + 1
+            out.add("sqrt" if half else "pow")
     return out

@@ -155,7 +155,7 @@ int spring_pendulum_jacobian(double t, const double *x, const double *p, double 
     DT[0] = -v0*v16;
     DT[1] = v17;
     DT[2] = -F[0]*v2 - u2*v18 + v17;
-    DT[3] = -k_*v0*v13*(2.0*s_ + v6) - v12*v19*v8/pow(v9, 3.0/2.0) - v14 + v15 - v19/((v11*v11)*v8);
+    DT[3] = -k_*v0*v13*(2.0*s_ + v6) - v12*v19*v8/(sqrt(v9)*v9) - v14 + v15 - v19/((v11*v11)*v8);
     DT[4] = -v3;
     DT[5] = -v18*v8;
     DT[6] = -u1*v2;

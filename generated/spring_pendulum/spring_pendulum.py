@@ -154,7 +154,7 @@ def jacobian(t, x, p):
     DT[0] = -v0*v16
     DT[1] = v17
     DT[2] = -F[0]*v2 - u2*v18 + v17
-    DT[3] = -k_*v0*v13*(2*s_ + v6) - v12*v19*v8/math.pow(v9, 3.0/2.0) - v14 + v15 - v19/((v11*v11)*v8)
+    DT[3] = -k_*v0*v13*(2*s_ + v6) - v12*v19*v8/(math.sqrt(v9)*v9) - v14 + v15 - v19/((v11*v11)*v8)
     DT[4] = -v3
     DT[5] = -v18*v8
     DT[6] = -u1*v2

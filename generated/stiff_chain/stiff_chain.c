@@ -288,7 +288,7 @@ int stiff_chain_jacobian(double t, const double *x, const double *p, double *J)
     const double w67 = c/w60;
     const double w68 = w66*w67;
     const double w69 = -w65 - w68;
-    const double w70 = w13*w14*w18/pow(w15, 3.0/2.0);
+    const double w70 = w13*w14*w18/(sqrt(w15)*w15);
     const double w71 = (1.0/w14);
     const double w72 = w13*w71/(w17*w17);
     const double w73 = 2.0*x1;
@@ -300,7 +300,7 @@ int stiff_chain_jacobian(double t, const double *x, const double *p, double *J)
     const double w79 = -w22*(v1 + w78) - w70 - w72 - w75*(w73 + w74) - w77;
     const double w80 = w20 + w23;
     const double w81 = -w22*(-v1 + v2) + w70 + w72 - w75*(w12 - w73) + w77;
-    const double w82 = w28*w29*w33/pow(w30, 3.0/2.0);
+    const double w82 = w28*w29*w33/(sqrt(w30)*w30);
     const double w83 = 2.0*x3;
     const double w84 = -w83;
     const double w85 = k_*w34;
@@ -311,7 +311,7 @@ int stiff_chain_jacobian(double t, const double *x, const double *p, double *J)
     const double w90 = -w37*(v2 + w89) - w82 - w85*(w12 + w84) - w87 - w88;
     const double w91 = w35 + w38;
     const double w92 = -w37*(v3 + w78) + w82 - w85*(w74 + w83) + w87 + w88;
-    const double w93 = w44*w45*w49/pow(w46, 3.0/2.0);
+    const double w93 = w44*w45*w49/(sqrt(w46)*w46);
     const double w94 = -w42;
     const double w95 = k_*w50;
     const double w96 = (1.0/w45);
@@ -323,7 +323,7 @@ int stiff_chain_jacobian(double t, const double *x, const double *p, double *J)
     const double w102 = -w53*(v4 + w89) + w93 - w95*(w42 + w84) + w97 + w98;
     const double w103 = (1.0/w59);
     const double w104 = k_*w103*w58/(w62*w62);
-    const double w105 = w58*w59*w63/pow(w60, 3.0/2.0);
+    const double w105 = w58*w59*w63/(sqrt(w60)*w60);
     const double w106 = w66*w76/(w59*w59*w59);
     const double w107 = -w104 - w105 - w106 - w64*(w42 - w57) - w67*(v4 - v5);
     const double w108 = w65 + w68;
