@@ -21,7 +21,7 @@ from .runtime import CompiledModel, PythonModel
 from .scene import Scene, load_scene
 
 
-__all__ = ["Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
+__all__ = ["__version__", "Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "BuildError", "SingularMassMatrixError", "NonFiniteResultError",

@@ -18,7 +18,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 from ._version import __version__
 from .errors import (BuildError, CheckFailed, MbgenError, ModelError, NonFiniteResultError,
@@ -177,13 +176,31 @@ def cmd_demo(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    if args.what != "scaling":
-        raise SceneError(f"unknown benchmark {args.what!r}; available: scaling")
-    from .bench import format_scaling, scaling
+    if args.what == "scaling":
+        from .bench import format_scaling, scaling
 
-    ns = tuple(int(v) for v in args.ns.split(","))
-    rows = scaling(ns, sympy_max_n=args.sympy_max_n, repeats=args.repeats, progress=_progress)
-    print(format_scaling(rows))
+        ns = tuple(int(v) for v in args.ns.split(","))
+        rows = scaling(ns, sympy_max_n=args.sympy_max_n, repeats=args.repeats,
+                       progress=_progress)
+        print(format_scaling(rows))
+        return EXIT_OK
+    from .scene import load_scene
+    from .workprecision import DEFAULT_RTOLS, work_precision
+
+    scene = load_scene(args.what, **_options(args.option))
+    rtols = tuple(float(v) for v in args.rtols.split(",")) if args.rtols else DEFAULT_RTOLS
+    report = work_precision(
+        scene, rtols=rtols, repeats=args.repeats,
+        methods=args.methods.split(",") if args.methods else None,
+        backends=tuple(args.backends.split(",")), time_budget=args.time_budget, progress=True)
+    print(report.table())
+    print()
+    print(report.summary())
+    folder = Path(args.output or Path("bench") / scene.name)
+    folder.mkdir(parents=True, exist_ok=True)
+    csv_path = report.write_csv(folder / "work_precision.csv")
+    png_path = report.plot(folder / "work_precision.png")
+    print(f"\nwrote {csv_path} and {png_path}")
     return EXIT_OK
 
 
@@ -264,12 +281,28 @@ def parser() -> argparse.ArgumentParser:
                    help="folder for the generated code and trajectory (default mbgen-demo)")
     p.set_defaults(func=cmd_demo)
 
-    p = sub.add_parser("bench", help="benchmarks: 'scaling' (n-link pendulum vs sympy)")
-    p.add_argument("what", metavar="WHAT", help="'scaling'")
-    p.add_argument("--ns", default="2,4,8,16,32", help="link counts (default 2,4,8,16,32)")
+    p = sub.add_parser(
+        "bench", help="benchmarks: 'mbgen bench SCENE' (work-precision: error against run time "
+                      "of every integrator and back end) or 'mbgen bench scaling' (n-link "
+                      "pendulum, mbgen vs sympy)")
+    p.add_argument("what", metavar="SCENE|scaling",
+                   help="a scene (name or .py file) for the work-precision report, or 'scaling'")
+    p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
+                   help="scene option, e.g. -O stiffness=1e6 (repeatable)")
+    p.add_argument("-o", "--output", metavar="DIR",
+                   help="folder for work_precision.csv and .png (default bench/SCENE)")
+    p.add_argument("--rtols", metavar="LIST", help="relative tolerances (default 1e-3,...,1e-10)")
+    p.add_argument("--methods", metavar="LIST",
+                   help="RK45,DOP853,Radau,BDF,LSODA,dopri5,rosenbrock,rk4 (default all)")
+    p.add_argument("--backends", default="lambdify,python,c", metavar="LIST",
+                   help="RHS back ends for solve_ivp (default lambdify,python,c)")
+    p.add_argument("--time-budget", type=float, default=10.0,
+                   help="seconds one solve may take (default 10)")
+    p.add_argument("--repeats", type=int, default=3,
+                   help="timed repeats per point; medians are reported (default 3)")
+    p.add_argument("--ns", default="2,4,8,16,32", help="scaling: link counts (default 2,4,8,16,32)")
     p.add_argument("--sympy-max-n", type=int, default=32,
-                   help="largest n run through sympy's KanesMethod (default 32)")
-    p.add_argument("--repeats", type=int, default=5, help="repeats of timed calls (default 5)")
+                   help="scaling: largest n run through sympy's KanesMethod (default 32)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("stress", help="stability suite: stiff, extreme, near-singular, long runs, "

@@ -11,7 +11,6 @@ from sympy.physics import mechanics as me
 from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
-from mbgen import Output
 from mbgen.outputs import applicable
 from mbgen.scene import builtin_names
 from mbgen.scenes import bent_pipe, n_link_cart, torque_free

@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import sympy as sm
-from sympy.physics import vector as spv
 
 from ..errors import ModelError
 from ..layout import Layout

@@ -15,7 +15,7 @@ from mbgen import Model, Output, Scene
 def build_model(n: int = 3) -> Model:
     if n < 1:
         raise ValueError("the number of links n must be at least 1")
-    m = Model(f"n_link_cart")
+    m = Model("n_link_cart")
     q = m.coordinates(f"q:{n + 1}")
     m.speeds(f"u:{n + 1}")
     masses = m.constants(f"m:{n + 1}")
