@@ -96,15 +96,19 @@ def cmd_check(args) -> int:
 
 
 def cmd_simulate(args) -> int:
+    from .outputs import INTEGRATORS, Output
     from .pipeline import compile
-    from .simulate import simulate
+    from .simulate import simulate, simulate_in_c
 
     scene = _scene(args)
-    model = compile(scene)
+    in_c = args.method.lower() in {o.value for o in INTEGRATORS}
+    outputs = tuple(scene.outputs) + ((Output(args.method.lower()),) if in_c else ())
+    model = compile(scene, outputs)
     x0 = scene.x0(model.layout)
     t_end = args.t_end if args.t_end is not None else scene.t_span[1]
-    traj = simulate(model, x0, (scene.t_span[0], t_end), method=args.method, rtol=args.rtol,
-                    atol=args.atol, n_out=args.points)
+    run_ = simulate_in_c if in_c else simulate
+    traj = run_(model, x0, (scene.t_span[0], t_end), method=args.method.lower() if in_c else
+                args.method, rtol=args.rtol, atol=args.atol, n_out=args.points)
     path = traj.write_csv(args.csv or f"{scene.name}.csv")
     print(f"{scene.name}: {args.method} rtol={args.rtol:g} atol={args.atol:g}, "
           f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls, {traj.wall_time:.3f} s")
@@ -269,7 +273,10 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser("simulate", help="integrate with the compiled RHS and write a CSV")
     scene_args(p)
     p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
-    p.add_argument("--method", default="DOP853", help="solve_ivp method (default DOP853)")
+    p.add_argument("--method", default="DOP853",
+                   help="a solve_ivp method (RK45, DOP853, Radau, BDF, LSODA) or a generated C "
+                        "integrator (dopri5, rosenbrock, rk4: fixed step (t_end - t0)/10000); "
+                        "default DOP853")
     p.add_argument("--rtol", type=float, default=1e-9)
     p.add_argument("--atol", type=float, default=1e-12)
     p.add_argument("--points", type=int, default=201, help="output times (default 201)")

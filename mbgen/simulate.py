@@ -59,6 +59,17 @@ class Trajectory:
         return path
 
 
+def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = 1e-9,
+                  atol: float = 1e-12, n_out: int = 201, p=None, r=None,
+                  rk4_steps: int = 10000) -> Trajectory:
+    """Integrate with a generated C integrator (``model.integrate``); see :func:`simulate`."""
+    t = np.linspace(float(t_span[0]), float(t_span[1]), n_out)
+    h = (t[-1] - t[0]) / rk4_steps if method == "rk4" else None
+    result = model.integrate(method, t, x0, p, r, rtol=rtol, atol=atol, h=h)
+    return Trajectory(result.t, result.x, tuple(model.state_names), result.n_rhs,
+                      result.wall_time, f"C {method}")
+
+
 def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str = "DOP853",
              rtol: float = 1e-9, atol: float = 1e-12, n_out: int = 201,
              t_eval=None) -> Trajectory:

@@ -55,6 +55,16 @@ def test_simulate_writes_csv(tmp_path, capsys):
     assert "final state" in capsys.readouterr().out
 
 
+def test_simulate_with_a_c_integrator(tmp_path, capsys):
+    csv = tmp_path / "c.csv"
+    assert main(["simulate", "disc_pendulum", "--method", "dopri5", "--csv", str(csv),
+                 "--points", "5"]) == EXIT_OK
+    out = capsys.readouterr().out
+    final = {k: float(v) for k, v in re.findall(r"(\w+) = ([-\d.e+]+)", out.split("final state:")[1])}
+    assert final["q1"] == pytest.approx(26.5621957, abs=1e-6)  # the DOP853 result in the demo
+    assert len(csv.read_text().splitlines()) == 6
+
+
 def test_user_scene_file(tmp_path, capsys):
     scene = tmp_path / "my_scene.py"
     scene.write_text(
