@@ -176,12 +176,10 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
                cse_backend=cse_backend).compiled
 
 
-def python_model(rendered: Rendered, *_legacy) -> PythonModel:
+def python_model(rendered: Rendered) -> PythonModel:
     """Load the generated Python module of ``rendered`` (no files written).
 
-    The ABI layout, defaults and outputs come from ``rendered``; extra
-    positional arguments (the equations and outputs that older callers pass)
-    are ignored.
+    The ABI layout, parameter defaults and outputs come from ``rendered``.
     """
     name = f"mbgen_generated_{rendered.prefix}"
     module = types.ModuleType(name)
