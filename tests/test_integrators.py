@@ -16,6 +16,8 @@ from mbgen.integrators import ROSENBROCK, Dopri5, Rodas3, Rodas4
 from mbgen.scene import load_scene
 from mbgen.scenes import bead_wire
 
+from models import stiff_pair
+
 ALL = {"rhs", "dopri5", "rk4", "rosenbrock", "jacobian"}
 GCC = shutil.which("gcc")
 GXX = shutil.which("g++")
@@ -39,23 +41,6 @@ def shaken_pendulum():
     return mbgen.Scene("shaken_pendulum", m,
                        parameters={"l": 1.0, "g": 9.81, "a": 0.3, "w": 5.0, "m": 1.0},
                        initial_state={"q": 0.5, "u": 0.0}, t_span=(0.0, 2.0))
-
-
-def stiff_pair():
-    """Two masses joined by a stiff, overdamped spring (eigenvalues near -500 and -4000)."""
-    m = mbgen.Model("stiff_pair")
-    x1, x2 = m.coordinates("x1 x2")
-    m.speeds("v1 v2")
-    k, c, mass = m.constants("k c mass")
-    N = m.newtonian()
-    P1 = m.point("P1", m.origin, x1 * N.x)
-    P2 = m.point("P2", m.origin, x2 * N.x)
-    m.particle("b1", P1, mass)
-    m.particle("b2", P2, mass)
-    m.spring("s0", P1, m.origin, 1.0)
-    m.spring("s12", P2, P1, k, natural_length=1.0, damping=c)
-    return mbgen.Scene("stiff_pair", m, parameters={"k": 1e6, "c": 2e3, "mass": 1.0},
-                       initial_state={"x1": 1.0, "x2": 2.0, "v2": 0.1})
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,8 @@ from mbgen import Output
 from mbgen.check import check
 from mbgen.scene import builtin_names, load_scene
 
+from models import stiff_pair
+
 SENSITIVITIES = (Output.RHS, Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE)
 
 
@@ -64,26 +66,6 @@ def test_shapes_and_fresh_arrays(result):
     assert model.time_derivative(0.0, x).shape == (model.n_x,)
 
 
-def stiff_oscillator():
-    """Two masses joined by a stiff, overdamped spring (eigenvalues near -500 and -4000).
-
-    A soft spring ties the first mass to the origin (period 2 pi sqrt(2)); LSODA switches to BDF.
-    """
-    m = mbgen.Model("stiff_pair")
-    x1, x2 = m.coordinates("x1 x2")
-    m.speeds("v1 v2")
-    k, c, mass = m.constants("k c mass")
-    N = m.newtonian()
-    P1 = m.point("P1", m.origin, x1 * N.x)
-    P2 = m.point("P2", m.origin, x2 * N.x)
-    m.particle("b1", P1, mass)
-    m.particle("b2", P2, mass)
-    m.spring("s0", P1, m.origin, 1.0)
-    m.spring("s12", P2, P1, k, natural_length=1.0, damping=c)
-    return mbgen.Scene("stiff_pair", m, parameters={"k": 1e6, "c": 2e3, "mass": 1.0},
-                       initial_state={"x1": 1.0, "x2": 2.0, "v2": 0.1})
-
-
 class Counted:
     """Wrap a callable and count its calls."""
 
@@ -97,7 +79,7 @@ class Counted:
 
 @pytest.mark.parametrize("method", ["Radau", "BDF", "LSODA"])
 def test_jacobian_in_solve_ivp(method):
-    scene = stiff_oscillator()
+    scene = stiff_pair()
     model = mbgen.compile(scene, outputs={"rhs", "jacobian"})
     x0, span = scene.x0(model.layout), (0.0, 2.0)
     rhs, jac = Counted(model.rhs), Counted(model.jacobian)

@@ -1,0 +1,24 @@
+"""Small models shared by several test files."""
+
+import mbgen
+
+
+def stiff_pair() -> mbgen.Scene:
+    """Two masses joined by a stiff, overdamped spring (eigenvalues near -500 and -4000).
+
+    A soft spring ties the first mass to the origin (period 2 pi sqrt(2)); stiff enough
+    for LSODA to switch to BDF and for explicit methods to need many more steps.
+    """
+    m = mbgen.Model("stiff_pair")
+    x1, x2 = m.coordinates("x1 x2")
+    m.speeds("v1 v2")
+    k, c, mass = m.constants("k c mass")
+    N = m.newtonian()
+    P1 = m.point("P1", m.origin, x1 * N.x)
+    P2 = m.point("P2", m.origin, x2 * N.x)
+    m.particle("b1", P1, mass)
+    m.particle("b2", P2, mass)
+    m.spring("s0", P1, m.origin, 1.0)
+    m.spring("s12", P2, P1, k, natural_length=1.0, damping=c)
+    return mbgen.Scene("stiff_pair", m, parameters={"k": 1e6, "c": 2e3, "mass": 1.0},
+                       initial_state={"x1": 1.0, "x2": 2.0, "v2": 0.1})
