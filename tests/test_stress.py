@@ -9,7 +9,7 @@ import mbgen
 from mbgen import SingularMassMatrixError
 from mbgen.scene import load_scene
 from mbgen.stress import (SINGULAR_PATHS, HighPrecision, PointResult, Reference, StressReport,
-                          c_integrators_available, check_point, classify_parameters,
+                          check_point, classify_parameters,
                           judge_point, make_context, stress)
 
 CI_SCENES = ["stiff_chain", "spring_pendulum", "torque_free", "spherical_rod", "bead_wire"]
@@ -88,7 +88,6 @@ def test_implicit_methods_succeed_at_every_stiffness():
     assert {c.name.split()[0] for c in implicit} == {"k=1e4", "k=1e6", "k=1e8"}
 
 
-@pytest.mark.skipif(not c_integrators_available(), reason="C integrators not in this mbgen")
 def test_c_integrators_are_compared_too():
     report = ci_report("stiff_chain")
     dopri, = report.find("stiff", "k=1e6 C dopri5")
@@ -105,9 +104,8 @@ def test_a_zero_or_negative_mass_is_reported_as_not_positive_definite():
         assert case.ok and case.reason == "not positive definite: SingularMassMatrixError"
         assert case.data["positive_definite"] == 0.0
         assert not report.find("extreme", f"{name} sim")  # no simulation from there
-    if c_integrators_available():
-        c_case, = report.find("extreme", "m5 x0 C dopri5")
-        assert c_case.ok and "NOT_POSITIVE_DEFINITE" in c_case.figure
+    c_case, = report.find("extreme", "m5 x0 C dopri5")
+    assert c_case.ok and "NOT_POSITIVE_DEFINITE" in c_case.figure
 
 
 def test_compiled_model_raises_and_check_point_reports_singular_mass():

@@ -42,7 +42,7 @@ Parameters are classified by name (:func:`classify_parameters`):
 ``stiff``
     Scenes whose ``scene()`` has a ``stiffness`` option (``stiff_chain``,
     ``spring_pendulum``), at the stiffnesses of the size: scipy RK45 vs Radau
-    and BDF with the compiled Jacobian, and (when compiled in) C dopri5 vs C
+    and BDF with the compiled Jacobian, and C dopri5 vs C
     rosenbrock.
 ``long_run``
     ``conserves_energy`` scenes with energy expressions: drift of ``T + V``;
@@ -92,7 +92,7 @@ from typing import Callable
 
 from ..scene import Scene
 from .cases import case_specs
-from .context import SIZES, Context, Size, c_integrators_available, make_context
+from .context import SIZES, Context, Size, make_context
 from .extreme import classify_parameters
 from .precision import PointResult, check_point, evaluate_point, judge_point
 from .reference import HighPrecision, Reference
@@ -148,4 +148,4 @@ def stress(scene: Scene | str, *, size: str = "ci",
 
 __all__ = ["stress", "StressReport", "Case", "Context", "make_context", "Size", "SIZES",
            "classify_parameters", "HighPrecision", "Reference", "PointResult", "evaluate_point",
-           "judge_point", "check_point", "SINGULAR_PATHS", "c_integrators_available"]
+           "judge_point", "check_point", "SINGULAR_PATHS"]

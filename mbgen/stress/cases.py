@@ -57,14 +57,13 @@ def case_specs(ctx: Context) -> list[CaseSpec]:
     specs += [CaseSpec("singular", f"scan {n}", scan_case, (i,))
               for i, n in enumerate(ctx.model.state_names[:ctx.model.layout.n_q])]
     if ctx.source and "stiffness" in _options(ctx.source):
-        methods = ["Radau", "BDF", "RK45"] + (["C rosenbrock", "C dopri5"]
-                                              if ctx.c_integrators else [])
+        methods = ["Radau", "BDF", "RK45", "C rosenbrock", "C dopri5"]
         for k in sz.stiffness:
             specs.append(CaseSpec("fp", f"k={fmt_sci(k)} start", stiff_fp_case, (k,)))
             specs += [CaseSpec("stiff", f"k={fmt_sci(k)} {m}", stiff_case, (k, m)) for m in methods]
         specs += [CaseSpec("stiff", f"scaling {m}", stiff_scaling_case, (m,))
                   for m in methods if m in IMPLICIT]
-    integrators = ["DOP853"] + (["C dopri5"] if ctx.c_integrators else [])
+    integrators = ["DOP853", "C dopri5"]
     if ctx.scene.conserves_energy and Output.ENERGY not in ctx.model.outputs:
         ctx.notes.append("conserves_energy but the equations carry no energy: no drift case")
     if ctx.scene.conserves_energy and Output.ENERGY in ctx.model.outputs:

@@ -4,8 +4,8 @@ reference and its nominal point.
 
 The scene is compiled from its equations with every parameter free (a scene's
 ``fixed`` parameters and input selection are ignored, inputs are zero), with
-``rhs, mass_matrix, jacobian, parameter_jacobian, time_derivative, energy`` and,
-when this mbgen has them, the C integrators ``dopri5`` and ``rosenbrock``.
+``rhs, mass_matrix, jacobian, parameter_jacobian, time_derivative, energy`` and
+the C integrators ``dopri5`` and ``rosenbrock``.
 """
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import MbgenError
 from ..outputs import Output
 from ..scene import Scene, builtin_names, load_scene
 from .reference import HighPrecision
@@ -69,7 +68,6 @@ class Context:
     x0: np.ndarray
     t0: float
     span: tuple[float, float]
-    c_integrators: bool
     outputs: tuple
     cache: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
@@ -108,32 +106,11 @@ def _wanted_outputs(equations) -> list[Output]:
     return outs
 
 
-def c_integrators_available() -> bool:
-    """True when this mbgen has ``CompiledModel.integrate`` and the integrator templates."""
-    import importlib.util
-
-    from ..runtime import CompiledModel
-
-    return callable(getattr(CompiledModel, "integrate", None)) and \
-        importlib.util.find_spec("mbgen.integrators") is not None
-
-
-def _compile(equations, notes: list[str]):
-    """Compile with every output the cases use; add the C integrators when they build."""
+def _compile(equations):
+    """Compile with every output the cases use, the C integrators included."""
     from ..pipeline import run
 
-    base = _wanted_outputs(equations)
-    if c_integrators_available():
-        try:
-            res = run(equations, base + [Output.DOPRI5, Output.ROSENBROCK])
-            return res, True
-        except (MbgenError, ImportError, AttributeError) as exc:
-            notes.append(f"C integrators did not build ({type(exc).__name__}: {exc}); "
-                         f"C cases skipped")
-    else:
-        notes.append("C integrators (CompiledModel.integrate) not available in this mbgen; "
-                     "C dopri5/rosenbrock cases skipped")
-    return run(equations, base), False
+    return run(equations, _wanted_outputs(equations) + [Output.DOPRI5, Output.ROSENBROCK])
 
 
 def make_context(scene: Scene | str, size: str = "ci", notes: list[str] | None = None) -> Context:
@@ -146,9 +123,9 @@ def make_context(scene: Scene | str, size: str = "ci", notes: list[str] | None =
     given = scene if isinstance(scene, str) else None
     scn = load_scene(scene) if isinstance(scene, str) else scene
     equations = equations_of(scn)
-    result, has_c = _compile(equations, notes)
+    result = _compile(equations)
     model = result.compiled
-    reference_eq = getattr(result, "baked", None) or result.equations
+    reference_eq = result.baked
     values = {**{k: float(v) for k, v in scn.parameters.items()},
               **{k: float(v) for k, v in getattr(scn, "fixed", {}).items()}}
     x0 = scn.x0(model.layout)
@@ -156,5 +133,5 @@ def make_context(scene: Scene | str, size: str = "ci", notes: list[str] | None =
                    hp=HighPrecision(reference_eq), equations=reference_eq, size=SIZES[size],
                    size_name=size,
                    values=values, x0=x0, t0=float(scn.t_span[0]),
-                   span=(float(scn.t_span[0]), float(scn.t_span[1])), c_integrators=has_c,
+                   span=(float(scn.t_span[0]), float(scn.t_span[1])),
                    outputs=tuple(model.outputs), notes=notes)

@@ -155,7 +155,7 @@ def extreme_case(ctx: Context, v: Variation) -> list[Case]:
     case = check_point(ctx.model, ctx.hp, ctx.t0, v.x, ctx.p_of(v.values), v.values,
                        kind="extreme", name=v.name)
     cases = [case]
-    if ctx.c_integrators and case.data.get("positive_definite") == 0.0:
+    if case.data.get("positive_definite") == 0.0:
         cases.append(c_not_positive_definite(ctx, v))
     if case.ok and np.isfinite(case.data["rel_err"]) and not case.reason.startswith("numerically"):
         cases.append(_short_simulation(ctx, v))

@@ -1,7 +1,7 @@
 """Long runs: drift of the energy ``T + V`` (``conserves_energy`` scenes), drift of the
 Jacobi integral ``h = T2 - T0 + V`` (prescribed motion without explicit time,
 dampers or inputs, :func:`jacobi_applies`), and error against the scene's closed
-form, each with scipy DOP853 and (when compiled in) C dopri5.
+form, each with scipy DOP853 and C dopri5.
 
 Bounds
 ------

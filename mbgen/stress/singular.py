@@ -72,7 +72,7 @@ def singular_case(ctx: Context, path: SingularPath, delta: float) -> list[Case]:
     if np.isfinite(case.data["fnorm"]):  # how large q', u' grow near the singularity
         case = replace(case, figure=f"|f| {fmt_g(case.data['fnorm'])}; " + case.figure)
     cases = [case]
-    if ctx.c_integrators and case.data.get("positive_definite") == 0.0:
+    if case.data.get("positive_definite") == 0.0:
         cases.append(replace(c_not_positive_definite(ctx, v), kind="singular"))
     return cases
 
