@@ -104,10 +104,6 @@ class Layout:
         out.update({s: ("r", i) for i, s in enumerate(self.inputs)})
         return out
 
-    def with_parameters(self, parameters: tuple[sm.Symbol, ...]) -> "Layout":
-        """A copy with another parameter tuple (used when parameters are baked in)."""
-        return Layout(self.coordinates, self.speeds, tuple(parameters), self.inputs, self.time)
-
     def symbols(self) -> frozenset:
         """Every symbol the equations may contain."""
         return frozenset(self.states + self.parameters + self.inputs + (self.time,))

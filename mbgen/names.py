@@ -40,9 +40,6 @@ RESERVED = frozenset(
     """.split()
 )
 
-_IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
-
-
 def model_prefix(name: str) -> str:
     """Return the C prefix for a model called ``name``.
 
@@ -105,8 +102,3 @@ def unique_identifiers(names: list[str]) -> list[str]:
 def comment_safe(text: str) -> str:
     """Make ``text`` safe inside a C block comment and a Python comment."""
     return str(text).replace("*/", "* /").replace("/*", "/ *").replace("\n", " ")
-
-
-def is_identifier(name: str) -> bool:
-    """True when ``name`` is already a plain C identifier."""
-    return bool(_IDENT.match(name))

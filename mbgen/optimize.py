@@ -77,11 +77,6 @@ class Kernel:
     def ops_after(self) -> int:
         return sum(f.ops_after for f in self.functions)
 
-    def function(self, output: Output) -> KernelFunction:
-        for f in self.functions:
-            if f.output is output:
-                return f
-        raise KeyError(output)
 
 
 def _temp_prefix(equations: Equations) -> str:

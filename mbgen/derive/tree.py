@@ -174,7 +174,6 @@ class KinematicTree:
     atoms: list = field(default_factory=list)
 
     def __post_init__(self):
-        self._q = set(self.coordinates)
         self._u = list(self.speeds)
         self._uset = set(self.speeds)
         self._dt_cache: dict = {}
