@@ -18,7 +18,7 @@ from enum import Enum
 import sympy as sm
 
 from .printing import MAX_UNROLLED_POWER
-from .symbolic import to_sympy, to_symengine, walk_unique
+from .symbolic import symbols_back, to_sympy, to_symengine, walk_unique
 
 
 class CseBackend(str, Enum):
@@ -36,8 +36,9 @@ def cse(exprs: list, prefix: str, backend: CseBackend = CseBackend.SYMENGINE):
     if CseBackend(backend) is CseBackend.SYMENGINE:
         import symengine as se
 
-        reps, reduced = se.cse(to_symengine(exprs))
-        back: dict = {}   # one memo: converted nodes stay shared, temporaries renamed
+        forward: dict = {}
+        reps, reduced = se.cse(to_symengine(exprs, forward))
+        back = symbols_back(forward)   # one memo: nodes stay shared, temporaries renamed
         out_reps = []
         for old, expr in reps:
             new = next(symbols)

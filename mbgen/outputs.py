@@ -47,7 +47,7 @@ import sympy as sm
 
 from .equations import Equations
 from .errors import ModelError
-from .symbolic import to_symengine, to_sympy
+from .symbolic import symbols_back, to_symengine, to_sympy
 
 
 class Output(str, Enum):
@@ -254,8 +254,7 @@ def _derivatives(exprs, variables) -> list[list[sm.Expr]]:
     for se_e in se_exprs:
         free = se_e.free_symbols
         flat.extend(se_e.diff(v) if v in free else None for v in svars)
-    back: dict = {}
-    nonzero = to_sympy([d for d in flat if d is not None], back)
+    nonzero = to_sympy([d for d in flat if d is not None], symbols_back(memo))
     it = iter(nonzero)
     values = [sm.S.Zero if d is None else next(it) for d in flat]
     nv = len(svars)

@@ -215,6 +215,15 @@ def to_symengine(exprs: Iterable[sm.Basic], memo: dict | None = None) -> list:
     return [memo[e] for e in exprs]
 
 
+def symbols_back(forward_memo: dict) -> dict:
+    """``{symengine symbol: sympy symbol}`` for the symbols a :func:`to_symengine` memo converted.
+
+    Seed :func:`to_sympy`'s memo with it so that symbols come back as the very
+    sympy symbols that went in (with their assumptions), not as plain namesakes.
+    """
+    return {v: k for k, v in forward_memo.items() if isinstance(k, sm.Symbol)}
+
+
 def to_sympy(exprs: Iterable, memo: dict | None = None) -> list:
     """Convert symengine expressions to sympy, each distinct node once (see :func:`to_symengine`).
 
