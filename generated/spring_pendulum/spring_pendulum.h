@@ -67,6 +67,26 @@ extern "C" {
 #define SPRING_PENDULUM_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define SPRING_PENDULUM_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[SPRING_PENDULUM_X_<name>], ... */
+#define SPRING_PENDULUM_X_theta 0 /* theta */
+#define SPRING_PENDULUM_X_s 1 /* s */
+#define SPRING_PENDULUM_X_u1 2 /* u1 */
+#define SPRING_PENDULUM_X_u2 3 /* u2 */
+#define SPRING_PENDULUM_P_m 0 /* m */
+#define SPRING_PENDULUM_P_l 1 /* l */
+#define SPRING_PENDULUM_P_k 2 /* k */
+#define SPRING_PENDULUM_P_g 3 /* g */
+
+/* SHA-256 (16 hex digits) of spring_pendulum.h, .c and .py with this value blanked. */
+#define SPRING_PENDULUM_CONTENT_HASH "9c1ff221f9a35d7b"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define SPRING_PENDULUM_STACK_DEFAULT_PARAMETERS 256
+#define SPRING_PENDULUM_STACK_JACOBIAN 940
+#define SPRING_PENDULUM_STACK_RHS 848
+#define SPRING_PENDULUM_STACK_ROSENBROCK 2456
+
 int spring_pendulum_rhs(double t, const double *x, const double *p, double *dxdt);
 int spring_pendulum_jacobian(double t, const double *x, const double *p, double *J);
 void spring_pendulum_default_parameters(double *p);
