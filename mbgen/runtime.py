@@ -244,8 +244,9 @@ class CompiledModel(ModelBase):
         model = self
 
         def call(t, x, p, r):
-            if not (type(x) is np.ndarray and x.ndim == 1) or p is not None and np.ndim(p) == 2 \
-                    or r is not None and np.ndim(r) == 2:
+            if not (type(x) is np.ndarray and x.ndim == 1) \
+                    or p is not None and not (type(p) is np.ndarray and p.ndim == 1) \
+                    or r is not None and not (type(r) is np.ndarray and r.ndim == 1):
                 if is_batch(x, p, r):  # (k, n) arrays: one C loop over the k items
                     return evaluate(model, info, t, x, p, r)
             xa = check_x(x)

@@ -113,3 +113,12 @@ def test_glue_compiles_strictly_as_c_and_cxx(outputs, tmp_path):
                                "n_link_cart_fmu.c", "-o", "glue.o"], cwd=src,
                               capture_output=True, text=True)
         assert done.returncode == 0 and not done.stderr, done.stderr
+
+
+def test_fmu_command(tmp_path, capsys):
+    from mbgen.cli import main
+
+    assert main(["fmu", "paraboloid", "-o", str(tmp_path)]) == 0
+    assert "paraboloid.fmu" in capsys.readouterr().out
+    assert validate_fmu(str(tmp_path / "paraboloid.fmu")) == []
+    assert main(["fmu", "no_such_scene", "-o", str(tmp_path)]) == 3
