@@ -171,3 +171,19 @@ def test_stack_bounds_hold(name, opt, tmp_path):
         assert f"#define {macro} {bound}\n" in rendered.header
         graph_o2 = {f: {c for c in cs if c in usage} for f, cs in graph.items()}  # inlined: gone
         assert _deepest(fn, usage, graph_o2) <= bound, (fn, _deepest(fn, usage, graph_o2), bound)
+
+
+CXX = shutil.which("g++") or shutil.which("c++")
+
+
+@pytest.mark.parametrize("name", ["disc_pendulum", "stiff_chain", "n_link_cart"])
+def test_step_target_compiles_strictly_as_c_and_cxx(name, tmp_path):
+    rendered = run(load_scene(name), build=False, targets=Targets(step=True)).rendered
+    for fname, text in rendered.files.items():
+        (tmp_path / fname).write_text(text)
+    src = f"{rendered.prefix}.c"
+    for tool, flags in ((CC, ["-std=c99"]), (CXX, ["-x", "c++", "-std=c++11"])):
+        done = subprocess.run([tool, *flags, "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2",
+                               "-c", src, "-o", "m.o"], cwd=tmp_path, capture_output=True,
+                              text=True)
+        assert done.returncode == 0 and not done.stderr, done.stderr
