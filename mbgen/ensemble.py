@@ -20,8 +20,9 @@ and the exception's text.  Neither stops the ensemble.
 
 The result is one table, a NumPy structured array with one row per member
 (``member``, the varied names, ``status``, ``message``, ``t_reached``,
-``n_steps``, then ``final_<state>``, ``min_<state>``, ``max_<state>``, and
-with ``trajectories=True`` a field ``x`` of shape ``(n_t, n_x)``).  Chosen
+``n_steps``, then ``final_<state>``, ``min_<state>``, ``max_<state>``; with
+``trajectories=True`` a field ``x`` of shape ``(n_t, n_x)``, and a field per
+model output asked for with ``outputs=``, e.g. ``energy`` of shape ``(n_t, 2)``).  Chosen
 over pandas and xarray: no new dependency, exact float64 bits (the tests
 compare runs bit for bit), a fixed-shape field holds the trajectories, and
 ``to_pandas()`` converts when pandas is installed.
@@ -183,7 +184,29 @@ def run_chunk(sources: dict, spec: dict, x0: np.ndarray, p: np.ndarray) -> dict:
                worker=os.getpid(), compiled=compiled, seconds=res.wall_time)
     if spec["trajectories"]:
         out["x"] = x
+    for name, c_name, args, shape in spec["outputs"]:
+        out[name] = _output_at(raw, c_name, args, shape, t, res.x, p, ok)
     return out
+
+
+def _output_at(raw, c_name, args, shape, t, x, p, ok) -> np.ndarray:
+    """A model output at every member's output times, ``(k, n_t, *shape)`` (NaN where failed)."""
+    k, n_t, n_x = x.shape
+    size = int(np.prod(shape))
+    flat = np.ascontiguousarray(x.reshape(k * n_t, n_x))
+    tt = np.ascontiguousarray(np.tile(t, k))
+    values = np.empty((k * n_t, size))
+    status = np.zeros(k * n_t, dtype=np.intc)
+    buf = raw.ffi.from_buffer
+    call = [k * n_t, buf("double[]", tt), 1, buf("double[]", flat), n_x]
+    if "p" in args:
+        call += [buf("double[]", np.ascontiguousarray(np.repeat(p, n_t, axis=0))), raw.n_p]
+    if "r" in args:
+        call += [buf("double[]", np.zeros(max(raw.n_r, 1))), 0]
+    getattr(raw.lib, f"{c_name}_batch")(*call, buf("double[]", values), buf("int[]", status))
+    good = np.repeat(ok, n_t) & (status == 0)
+    values[~good] = np.nan
+    return values.reshape((k, n_t) + tuple(shape))
 
 
 # ------------------------------------------------------------------ result
@@ -250,13 +273,14 @@ class EnsembleResult:
         return "\n".join(lines)
 
 
-def _table(varied, values, state_names, n_t, chunks, k, trajectories) -> np.ndarray:
+def _table(varied, values, state_names, n_t, chunks, k, trajectories, extra) -> np.ndarray:
     fields = [("member", "i8")] + [(v, "f8") for v in varied] + [
         ("status", "i4"), ("message", "U120"), ("t_reached", "f8"), ("n_steps", "i8")]
     for what in ("final", "min", "max"):
         fields += [(f"{what}_{s}", "f8") for s in state_names]
     if trajectories:
         fields.append(("x", "f8", (n_t, len(state_names))))
+    fields += [(name, "f8", (n_t,) + tuple(shape)) for name, _, _, shape in extra]
     table = np.zeros(k, dtype=fields)
     table["member"] = np.arange(k)
     for j, v in enumerate(varied):
@@ -271,10 +295,12 @@ def _table(varied, values, state_names, n_t, chunks, k, trajectories) -> np.ndar
                 table[f"{what}_{s}"][lo:hi] = out[what][:, i]
         if trajectories:
             table["x"][lo:hi] = out["x"]
+        for name, _, _, _ in extra:
+            table[name][lo:hi] = out[name]
     return table
 
 
-def _failed_chunk(lo, hi, n_x, n_t, exc, trajectories) -> dict:
+def _failed_chunk(lo, hi, n_x, n_t, exc, trajectories, extra=()) -> dict:
     k = hi - lo
     nan = np.full((k, n_x), np.nan)
     out = dict(status=np.full(k, -1), messages=[f"task failed: {type(exc).__name__}: {exc}"] * k,
@@ -282,6 +308,8 @@ def _failed_chunk(lo, hi, n_x, n_t, exc, trajectories) -> dict:
                min=nan, max=nan, worker=None, compiled=False)
     if trajectories:
         out["x"] = np.full((k, n_t, n_x), np.nan)
+    for name, _, _, shape in extra:
+        out[name] = np.full((k, n_t) + tuple(shape), np.nan)
     return out
 
 
@@ -290,7 +318,7 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
              n: int | None = None, seed: int = 0, method: str | None = None,
              t_end: float | None = None, t_eval=None, n_out: int = 2, rtol: float = 1e-6,
              atol: float = 1e-9, h: float | None = None, max_steps: int = 0,
-             trajectories: bool = False, address: str | None = None, n_workers: int = 2,
+             trajectories: bool = False, outputs=(), address: str | None = None, n_workers: int = 2,
              client: Any = None, chunk: int | None = None, serial: bool = False,
              progress: bool = True) -> EnsembleResult:
     """Run a parameter study or Monte Carlo ensemble of ``scene``.
@@ -315,6 +343,9 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
         As :meth:`mbgen.runtime.CompiledModel.integrate` (``h``: the step of rk4).
     trajectories : bool
         Keep every member's states at the output times (field ``x``).
+    outputs : names of model outputs
+        Evaluated at every output time (e.g. ``("energy",)``: field ``energy`` of
+        shape ``(n_t, 2)``); added to the scene's outputs.
     address : str, optional
         A running Dask scheduler; default: a ``LocalCluster`` of ``n_workers``
         single-threaded worker processes, closed afterwards.
@@ -330,9 +361,12 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     from .outputs import Output
     from .pipeline import run
 
+    extra_outputs = Output.parse(outputs) if outputs else ()
+    if any(o.is_integrator for o in extra_outputs):
+        raise SceneError("outputs evaluated at the output times cannot be integrators; "
+                         "choose the integrator with method=")
     want = None if method is None else (Output(method.lower()),)
-    outputs = tuple(scene.outputs) + (want or ())
-    result = run(scene, outputs, build=serial)
+    result = run(scene, tuple(scene.outputs) + (want or ()) + extra_outputs, build=serial)
     L, rendered = result.layout, result.rendered
     integrators = [o.value for o in result.kernel.integrators]
     method = method.lower() if method else (integrators[0] if integrators else None)
@@ -348,7 +382,10 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     t = np.asarray(t_eval, dtype=float)
     varied, values, x0, p = members(scene, L, grid, samples, n, seed)
     k = len(x0)
-    spec = dict(method=method, t=t, rtol=float(rtol), atol=float(atol),
+    infos = {f.output: f for f in rendered.functions}
+    extra = [(o.value, infos[o.value].c_name, tuple(infos[o.value].args),
+              tuple(infos[o.value].out_shape)) for o in extra_outputs]
+    spec = dict(method=method, t=t, rtol=float(rtol), atol=float(atol), outputs=extra,
                 h0=0.0 if h is None else float(h), max_steps=int(max_steps),
                 n_x=L.n_x, n_p=L.n_p, n_r=L.n_r, trajectories=bool(trajectories))
     sources = rendered.sources()
@@ -365,14 +402,14 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
             try:
                 out = run_chunk(sources, spec, x0[lo:hi], p[lo:hi])
             except Exception as exc:  # recorded per member, never fatal
-                out = _failed_chunk(lo, hi, L.n_x, t.size, exc, trajectories)
+                out = _failed_chunk(lo, hi, L.n_x, t.size, exc, trajectories, extra)
             chunks.append(((lo, hi), out))
             bar.update(hi - lo)
         mode, n_workers_used = "serial", 1
     else:
         chunks, n_workers_used, startup = _on_dask(sources, spec, x0, p, bounds, address,
                                                    n_workers, client, bar, L.n_x, t.size,
-                                                   trajectories)
+                                                   trajectories, extra)
         mode = "dask"
     wall = time.perf_counter() - start
     if not serial:
@@ -383,13 +420,13 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
         if out["worker"] is not None:
             compiles[out["worker"]] = compiles.get(out["worker"], 0) + int(out["compiled"])
     table = _table(varied, values, L.state_names, t.size, sorted(chunks, key=lambda c: c[0]),
-                   k, trajectories)
+                   k, trajectories, extra)
     return EnsembleResult(table, t, tuple(L.state_names), tuple(varied), method, mode, wall,
                           n_workers_used, compiles, len(bounds), 0.0 if serial else startup)
 
 
 def _on_dask(sources, spec, x0, p, bounds, address, n_workers, client, bar, n_x, n_t,
-             trajectories):
+             trajectories, extra):
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError:
@@ -416,7 +453,7 @@ def _on_dask(sources, spec, x0, p, bounds, address, n_workers, client, bar, n_x,
             try:
                 out = future.result()
             except Exception as exc:  # a lost worker, a compiler error: recorded, not fatal
-                out = _failed_chunk(lo, hi, n_x, n_t, exc, trajectories)
+                out = _failed_chunk(lo, hi, n_x, n_t, exc, trajectories, extra)
             chunks.append(((lo, hi), out))
             bar.update(hi - lo)
         return chunks, n_used, startup

@@ -33,8 +33,9 @@ def study(**kw):
 
 def test_dask_gives_the_serial_results_bit_for_bit(client):
     scene = load_scene("disc_pendulum")
-    serial = ensemble(scene, serial=True, trajectories=True, **study())
-    dask = ensemble(scene, client=client, chunk=9, trajectories=True, **study())
+    serial = ensemble(scene, serial=True, trajectories=True, outputs=("energy",), **study())
+    dask = ensemble(scene, client=client, chunk=9, trajectories=True, outputs=("energy",),
+                    **study())
     assert dask.mode == "dask" and dask.tasks == 12 and len(dask.table) == 100
     for name in serial.table.dtype.names:
         a, b = serial.table[name], dask.table[name]
@@ -42,6 +43,16 @@ def test_dask_gives_the_serial_results_bit_for_bit(client):
     # every member is there once, in order, with what was varied
     assert serial.table["member"].tolist() == list(range(100))
     assert set(serial.table["l"]) == {2.0, 4.0}
+    # energy at the output times: (n_t, 2) per member, the compiled energy of each state
+    model = mbgen.compile(scene, ("rhs", "energy", "dopri5"))
+    row = serial.table[serial.table["status"] == 0][5]
+    p = model.default_parameters.copy()
+    for name in ("l", "m", "s"):
+        p[model.parameter_names.index(name)] = row[name]
+    assert row["energy"].shape == (7, 2)
+    assert np.array_equal(row["energy"], np.array([model.energy(ti, xi, p)
+                                                   for ti, xi in zip(serial.t, row["x"])]))
+    assert np.all(np.isnan(serial.table[serial.table["status"] != 0]["energy"]))
     # each worker process compiled the model at most once (the cache is by content hash)
     assert all(v <= 1 for v in dask.compiles.values()) and len(dask.compiles) <= 2
 
