@@ -354,7 +354,8 @@ def parser() -> argparse.ArgumentParser:
                    help="folder for SCENE.fmu (default: the current folder)")
     p.set_defaults(func=cmd_fmu)
 
-    p = sub.add_parser("sweep", help="parameter study / Monte Carlo ensemble on Dask")
+    p = sub.add_parser("sweep", help="parameter study / Monte Carlo ensemble on Dask (exit 5 "
+                                      "when a member failed; the table is written anyway)")
     scene_args(p)
     p.add_argument("--grid", action="append", metavar="NAME=V1,V2,...|NAME=LO:HI:N",
                    help="a parameter or initial state on a grid (repeatable; the grids' "

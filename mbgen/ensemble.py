@@ -149,20 +149,20 @@ class _Raw:
         self.input_names = [f"r{i}" for i in range(n_r)]
 
 
-_compiled_here: dict[str, bool] = {}
-
-
 def _module(sources: dict):
-    """Build (at most once per process, cached by content hash) and load the model."""
+    """Load the model, compiling it into this process's cache if it is not there yet.
+
+    Returns ``(module, compiled)``: ``compiled`` is True only for the call that ran the
+    compiler (so the compiles of a worker add up to what it really built).
+    """
     from .build import compiled_path, load
 
     src = _Sources(sources)
     if src.digest() != sources["digest"]:
         raise MbgenError("the rendered sources do not match their content hash; refusing to "
                          "compile them")
-    if sources["digest"] not in _compiled_here:
-        _compiled_here[sources["digest"]] = not compiled_path(src).exists()
-    return load(src), _compiled_here[sources["digest"]]
+    compiled = not compiled_path(src).exists()
+    return load(src), compiled
 
 
 def run_chunk(sources: dict, spec: dict, x0: np.ndarray, p: np.ndarray) -> dict:

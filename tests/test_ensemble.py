@@ -16,13 +16,41 @@ distributed = pytest.importorskip("dask.distributed",
 
 
 @pytest.fixture(scope="module")
-def client():
+def cluster():
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                        dashboard_address=None)
+    yield cluster
+    cluster.close()
+
+
+@pytest.fixture(scope="module")
+def client(cluster):
     c = distributed.Client(cluster)
     yield c
     c.close()
-    cluster.close()
+
+
+def _private_cache():
+    """Run on a worker: a cache folder of its own (no shared file system)."""
+    import os
+    import tempfile
+
+    os.environ["MBGEN_CACHE_DIR"] = tempfile.mkdtemp(prefix="mbgen-worker-cache-")
+    return os.environ["MBGEN_CACHE_DIR"]
+
+
+def test_each_worker_compiles_once_into_its_own_cache(cluster, client):
+    folders = client.run(_private_cache)
+    assert len(set(folders.values())) == 2
+    scene = load_scene("paraboloid")
+    first = ensemble(scene, samples={"k": ("uniform", 0.2, 0.8)}, n=40, chunk=5,
+                     client=client, progress=False)
+    assert first.tasks == 8 and first.n_failed == 0
+    assert set(first.compiles.values()) == {1}             # every worker that ran: once
+    again = ensemble(scene, samples={"k": ("uniform", 0.2, 0.8)}, n=40, chunk=5,
+                     address=cluster.scheduler_address, progress=False)  # by address
+    assert sum(again.compiles.values()) == 0
+    assert np.array_equal(first.table["final_q1"], again.table["final_q1"])
 
 
 def study(**kw):
