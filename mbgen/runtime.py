@@ -380,8 +380,10 @@ class CompiledModel(ModelBase):
         if self.n_r:
             args.append(buf("double[]", self._r(r)))
         cfunc = getattr(self.lib, f"{prefix}_{output.value}")
+        work = (ffi.new(f"{prefix}_rosenbrock_work *"),) if output is Output.ROSENBROCK else ()
         start = time.perf_counter()
-        status = cfunc(*args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats)
+        status = cfunc(*args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats,
+                       *work)
         wall = time.perf_counter() - start
         if status:
             names = {v: (n, text) for n, v, text in STATUS_CODES + INTEGRATOR_STATUS_CODES}

@@ -190,14 +190,14 @@ extern "C" {
 #define STIFF_CHAIN_P_a 8 /* a */
 
 /* SHA-256 (16 hex digits) of stiff_chain.h, .c and .py with this value blanked. */
-#define STIFF_CHAIN_CONTENT_HASH "d7b71aba8f4ce484"
+#define STIFF_CHAIN_CONTENT_HASH "265d5e7c04e24672"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
 #define STIFF_CHAIN_STACK_DEFAULT_PARAMETERS 256
 #define STIFF_CHAIN_STACK_JACOBIAN 2284
 #define STIFF_CHAIN_STACK_RHS 1552
-#define STIFF_CHAIN_STACK_ROSENBROCK 5508
+#define STIFF_CHAIN_STACK_ROSENBROCK 3868
 
 int stiff_chain_rhs(double t, const double *x, const double *p, double *dxdt);
 int stiff_chain_jacobian(double t, const double *x, const double *p, double *J);
@@ -207,7 +207,7 @@ void stiff_chain_default_parameters(double *p);
  * x_out is row-major n_out x 10 with row 0 = x0; inputs r are held constant.
  * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
  * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
- * steps, 0 = 1000000).  stats may be NULL. */
+ * steps, 0 = 1000000).  stats may be NULL; work (rosenbrock) may not. */
 typedef struct {
     double rtol;
     double atol;
@@ -223,7 +223,14 @@ typedef struct {
     long n_lu;
     double t_reached;
 } stiff_chain_stats;
-int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const stiff_chain_options *opt, stiff_chain_stats *stats);
+/* Caller-owned work space of stiff_chain_rosenbrock (the 10 x 10 Jacobian and
+ * iteration matrix): off the stack; one per concurrent call. */
+typedef struct {
+    double J[100];
+    double G[100];
+    int piv[10];
+} stiff_chain_rosenbrock_work;
+int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const stiff_chain_options *opt, stiff_chain_stats *stats, stiff_chain_rosenbrock_work *work);
 
 #ifdef __cplusplus
 }

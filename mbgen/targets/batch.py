@@ -16,7 +16,7 @@ Arrays and strides (in doubles; a stride of 0 broadcasts one row to all items)::
     status (k,)        int, per item (0 = OK)
 
 Integrators: ``x0 (k, n_x)``, ``x_out (k, n_out, n_x)``, one ``stats`` per item,
-shared output times and options.  Each item runs exactly the single call, so
+shared output times and options (and one Rosenbrock work space, reused item after item).  Each item runs exactly the single call, so
 results are bit for bit those of ``k`` single calls.
 """
 
@@ -46,7 +46,9 @@ def batch_source(kernel, views: list[dict], prefix: str) -> tuple[str, str]:
             f"long x_stride{params}, double *out, int *status);" for v in views]
     cdef += [f"int {prefix}_{m}_batch(long k, const double *x0, long x0_stride{params}, "
              f"int n_out, const double *t_out, double *x_out, const {prefix}_options *opt, "
-             f"{prefix}_stats *stats, int *status);" for m in integrators]
+             f"{prefix}_stats *stats, int *status"
+             + (f", {prefix}_rosenbrock_work *work);" if m == "rosenbrock" else ");")
+             for m in integrators]
     return source, "\n".join(cdef) + "\n"
 
 
@@ -162,9 +164,10 @@ def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
     if model.n_r:
         args += [buf("double[]", ra), rs]
     start = time.perf_counter()
+    work = (ffi.new(f"{prefix}_rosenbrock_work *"),) if output.value == "rosenbrock" else ()
     getattr(model.lib, f"{prefix}_{output.value}_batch")(
         *args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats,
-        buf("int[]", status))
+        buf("int[]", status), *work)
     wall = time.perf_counter() - start
     struct = f"{prefix}_stats"
     fields = ("n_steps", "n_rejected", "n_rhs", "n_jac", "n_lu", "t_reached")

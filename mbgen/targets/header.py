@@ -14,8 +14,9 @@ Stack bounds
     bytes a double or a long, 4 an int) plus :data:`FRAME_BYTES` per call level
     for the return address, saved registers, alignment and the compiler's own
     spills; ``tests/test_step.py`` checks it against ``gcc -fstack-usage``.
-    Work arrays that grow with ``n_x^2`` live in the step API's memory struct
-    (caller-owned), not on the stack.
+    Work arrays that grow with ``n_x^2`` (Rosenbrock's Jacobian and iteration
+    matrix) live in caller-owned structs: ``<prefix>_rosenbrock_work`` of the
+    whole-trajectory integrator and the step API's memory; never on the stack.
 """
 
 from __future__ import annotations
@@ -94,8 +95,8 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
     if "rosenbrock" in integ:
         from ..integrators import ROSENBROCK
 
-        own = D * ((8 + int(non_autonomous) + ROSENBROCK.n_stages()) * n + 2 * n * n + 18) \
-            + I * (n + 4) + stats
+        own = D * ((8 + int(non_autonomous) + ROSENBROCK.n_stages()) * n + 18) + I * 4 \
+            + stats                     # J, G and piv are in the caller's work struct
         calls = max(rhs, fn.get("jacobian", 0), fn.get("time_derivative", 0), lu, initial,
                     helper)
         bounds[f"{prefix}_rosenbrock"] = F + own + calls
