@@ -18,7 +18,42 @@ import sympy as sm
 
 from .errors import ModelError
 from .layout import Layout
+from .program import Program
 from .symbolic import applied_functions, free_symbols
+
+
+def acceleration_symbols(n: int) -> tuple[sm.Symbol, ...]:
+    """Placeholders for the accelerations ``u'`` (expressions that need them, e.g. joint
+    reactions, are evaluated after ``M u' = F`` is solved)."""
+    return tuple(sm.Symbol(f"mbgen:acc{i}") for i in range(n))
+
+
+@dataclass(frozen=True)
+class JointLoads:
+    r"""The force and moment that every joint's parent exerts on its child.
+
+    Row ``i`` of ``matrix`` (shape ``(n_joints, 6)``) is joint ``names[i]``:
+    force components, then moment components about the joint point
+    ``points[i]``, all in frame ``frames[i]``.  Entries may contain the
+    acceleration placeholders :func:`acceleration_symbols` (they hold for the
+    actual accelerations) and program symbols.  Joints are in order from the
+    root: every parent before its children.  ``parents[i]`` is ``None`` for a
+    joint to the ground.
+    """
+
+    names: tuple[str, ...]
+    children: tuple[str, ...]
+    parents: tuple
+    points: tuple[str, ...]
+    frames: tuple[str, ...]
+    matrix: sm.ImmutableMatrix
+
+    def labels(self) -> tuple[str, ...]:
+        """One label per entry, row-major: ``hitch.Fx [car]`` ... ``hitch.Mz [car]``."""
+        out = []
+        for name, frame in zip(self.names, self.frames):
+            out += [f"{name}.{c} [{frame}]" for c in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")]
+        return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -56,6 +91,15 @@ class Equations:
         Derivation method (``"kane"``, ``"sympy.KanesMethod"``, ...).
     defaults : mapping
         Default numeric values of parameters, by symbol name (may be partial).
+    program : Program
+        Named intermediate quantities (a recursive derivation's per-body
+        quantities); every other expression may use its symbols.  Empty for
+        Kane's method.
+    accelerations : ImmutableMatrix, shape (n_u, 1), or None
+        ``u'`` computed by a recursion (the articulated-body algorithm) in
+        program symbols: the alternative to solving ``M u' = F``.
+    reactions : JointLoads or None
+        Joint reaction forces and moments, when derived.
     """
 
     name: str
@@ -69,6 +113,9 @@ class Equations:
     source: str = ""
     method: str = ""
     defaults: Mapping[str, float] = field(default_factory=dict)
+    program: Program = field(default_factory=Program)
+    accelerations: sm.ImmutableMatrix | None = None
+    reactions: JointLoads | None = None
 
     def __post_init__(self):
         L = self.layout
@@ -80,9 +127,18 @@ class Equations:
         if self.kinematics.shape != (L.n_q, 1):
             raise ModelError(f"kinematics has shape {self.kinematics.shape}, "
                              f"expected ({L.n_q}, 1)")
-        known = L.symbols()
-        for what, exprs in (("mass matrix", self.mass_matrix), ("forcing", self.forcing),
-                            ("kinematics", self.kinematics)):
+        if self.accelerations is not None and self.accelerations.shape != (L.n_u, 1):
+            raise ModelError(f"accelerations have shape {self.accelerations.shape}, "
+                             f"expected ({L.n_u}, 1)")
+        known = L.symbols() | set(self.program.symbols)
+        checked = [("mass matrix", self.mass_matrix), ("forcing", self.forcing),
+                   ("kinematics", self.kinematics)]
+        if self.program:
+            checked.append(("program", [e for _, e in self.program.assignments]))
+            known = known | set(acceleration_symbols(L.n_u))
+        if self.accelerations is not None:
+            checked.append(("accelerations", self.accelerations))
+        for what, exprs in checked:
             unknown = free_symbols(exprs) - known
             if unknown:
                 names = ", ".join(sorted(map(str, unknown)))
@@ -94,6 +150,10 @@ class Equations:
                 raise ModelError(f"the {what} still contains function(s) of time "
                                  f"{sorted(map(str, funcs))}; declare them as coordinates, "
                                  f"speeds or inputs")
+
+    def uses(self, exprs) -> set:
+        """Layout symbols that ``exprs`` depend on, through the program's definitions."""
+        return self.program.closure(exprs) if self.program else free_symbols(exprs)
 
     @property
     def energy(self) -> sm.Expr | None:

@@ -143,6 +143,23 @@ class LineElement:
     natural_length: sm.Expr
 
 
+@dataclass(frozen=True)
+class Joint:
+    """How a body hangs from its parent, stated by the user (else inferred at derivation).
+
+    ``child`` and ``parent`` name particles or rigid bodies (``parent`` None:
+    inferred; the Newtonian frame: the ground).  ``point`` is the joint point,
+    fixed in the child; ``frame`` the frame in which the joint's reaction force
+    and moment are reported (default: the child's).
+    """
+
+    name: str
+    child: str
+    parent: object = None
+    point: spv.Point | None = None
+    frame: spv.ReferenceFrame | None = None
+
+
 _AXES = {1: 1, 2: 2, 3: 3, "x": 1, "y": 2, "z": 3, "X": 1, "Y": 2, "Z": 3}
 
 
@@ -190,6 +207,7 @@ class Model:
         self.loads: list[Force | Torque | Gravity | LineElement] = []
         self.kinematic_equations_: list[sm.Expr] = []
         self.prescribed_: dict[str, sm.Expr] = {}
+        self.joints_: list[Joint] = []
         self._names: set[str] = set()
         self.N: spv.ReferenceFrame | None = None
         self.origin: spv.Point | None = None
@@ -456,6 +474,58 @@ class Model:
         self._claim([name])
         self.loads.append(el)
         return el
+
+    # ------------------------------------------------------------------ joints
+    def joint(self, child, parent=None, point: spv.Point | None = None, *,
+              frame: spv.ReferenceFrame | None = None, name: str | None = None) -> Joint:
+        """State the joint of ``child`` (a particle or rigid body, or its name).
+
+        Joints are inferred from the frame and point tree (a body hangs from the
+        nearest body in which a point of its chain is fixed); state one where the
+        inference is ambiguous, to name it, or to report its reaction in another
+        frame.  The joint's free motion is whatever the rotations and offsets
+        between parent and child allow; nothing here constrains it.
+
+        Parameters
+        ----------
+        child : Particle, RigidBody or str
+        parent : Particle, RigidBody, str, the Newtonian frame, or None
+            The body the child hangs from; the Newtonian frame for the ground;
+            None to infer it.
+        point : Point, optional
+            The joint point, fixed in the child (default: inferred).
+        frame : ReferenceFrame, optional
+            Frame of the reaction components (default: the child's frame).
+        name : str, optional
+            Joint name (default: the child's name); names the rows of the
+            ``reactions`` output.
+        """
+        child_name = self._mass_name(child, "child")
+        if parent is not None and parent is not self.N:
+            parent = self._mass_name(parent, "parent")
+            if parent == child_name:
+                raise ModelError(f"joint of {child_name!r}: a body cannot hang from itself")
+        if point is not None:
+            self._check_point(point)
+        if frame is not None:
+            self._check_frame(frame)
+        if any(j.child == child_name for j in self.joints_):
+            raise ModelError(f"the joint of {child_name!r} is already stated")
+        name = child_name if name is None else name
+        if any(j.name == name for j in self.joints_):
+            raise ModelError(f"a joint named {name!r} already exists")
+        j = Joint(name, child_name, parent, point, frame)
+        self.joints_.append(j)
+        return j
+
+    def _mass_name(self, element, what: str) -> str:
+        names = [p.name for p in self.particles] + [b.name for b in self.bodies]
+        name = element if isinstance(element, str) else getattr(element, "name", None)
+        if name not in names or (not isinstance(element, str) and
+                                 element not in self.particles + self.bodies):
+            raise ModelError(f"joint {what} {element!r} is not a particle or rigid body of model "
+                             f"{self.name!r}; bodies: {', '.join(names) or 'none'}")
+        return name
 
     # -------------------------------------------------------------- kinematics
     def kinematics(self, mapping: Mapping) -> None:

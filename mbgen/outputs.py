@@ -32,6 +32,10 @@ Outputs
 ``POSITIONS``, ``VELOCITIES``
     Newtonian components of the named points' positions and velocities,
     shape ``(k, 3)`` (the points the equations were derived with).
+``REACTIONS``
+    For every joint (from the root), the force and moment the parent exerts
+    on the child at the joint point, in the joint's frame: shape
+    ``(n_joints, 6)``, ``[Fx, Fy, Fz, Mx, My, Mz]``.
 ``DOPRI5``, ``RK4``, ``ROSENBROCK``
     Integrators rendered into the C with the model (no expressions of their
     own); they pull in the outputs they call.
@@ -45,7 +49,8 @@ from typing import Iterable
 
 import sympy as sm
 
-from .equations import Equations
+from .equations import Equations, acceleration_symbols
+from .program import Program, derivatives
 from .errors import ModelError
 from .symbolic import symbols_back, to_symengine, to_sympy
 
@@ -62,6 +67,7 @@ class Output(str, Enum):
     TIME_DERIVATIVE = "time_derivative"
     POSITIONS = "positions"
     VELOCITIES = "velocities"
+    REACTIONS = "reactions"
     DOPRI5 = "dopri5"
     RK4 = "rk4"
     ROSENBROCK = "rosenbrock"
@@ -103,10 +109,27 @@ def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[
 
 
 def _time_symbols(equations: Equations) -> set:
-    from .symbolic import free_symbols
+    return equations.uses(_motion_exprs(equations))
 
-    return free_symbols(list(equations.mass_matrix) + list(equations.forcing)
-                        + list(equations.kinematics))
+
+def _motion_exprs(eq: Equations) -> list:
+    """Every expression the right-hand side may use (either form)."""
+    out = list(eq.mass_matrix) + list(eq.forcing) + list(eq.kinematics)
+    if eq.accelerations is not None:
+        out += list(eq.accelerations)
+    return out
+
+
+class Form(str, Enum):
+    """How the generated code gets the accelerations ``u'``.
+
+    ``SOLVE``: evaluate ``M`` and ``F`` and solve ``M u' = F`` by ``L D L^T``.
+    ``RECURSIVE``: the articulated-body recursion of Newton–Euler equations
+    (:attr:`Equations.accelerations`), linear in the number of bodies.
+    """
+
+    SOLVE = "solve"
+    RECURSIVE = "recursive"
 
 
 @dataclass(frozen=True)
@@ -133,6 +156,7 @@ class Spec:
     columns: int = 0
     doc: str = ""
     variables: tuple = ()   # symbols differentiated by (sensitivity outputs)
+    extra: Program = Program()   # assignments of this output only (derivatives through the program)
 
     @property
     def out_size(self) -> int:
@@ -142,11 +166,6 @@ class Spec:
         return size
 
 
-def acceleration_symbols(n: int) -> tuple[sm.Symbol, ...]:
-    """Placeholders for the solved accelerations (printed as ``F[i]``)."""
-    return tuple(sm.Symbol(f"mbgen:acc{i}") for i in range(n))
-
-
 def _mass_blocks(eq: Equations):
     n = eq.layout.n_u
     M = eq.mass_matrix
@@ -154,17 +173,32 @@ def _mass_blocks(eq: Equations):
     return (Block("M", n * n, lower), Block("F", n, tuple(enumerate(eq.forcing))))
 
 
-def spec(eq: Equations, output: Output) -> Spec:
-    """What ``output`` computes for ``eq`` (integrators have no spec: see :data:`INTEGRATORS`)."""
+def spec(eq: Equations, output: Output, form: Form = Form.SOLVE) -> Spec:
+    """What ``output`` computes for ``eq`` (integrators have no spec: see :data:`INTEGRATORS`).
+
+    ``form`` chooses how outputs that need the accelerations get them.
+    """
     L = eq.layout
     n = L.n_u
     names = L.state_names
+    form = Form(form)
+    if form is Form.RECURSIVE and eq.accelerations is None:
+        raise ModelError(f"the equations of {eq.name!r} have no recursive accelerations; "
+                         f"derive with Method.NEWTON_EULER (relative joints) or use Form.SOLVE")
     if output is Output.RHS:
+        if form is Form.RECURSIVE:
+            entries = tuple(enumerate(list(eq.kinematics) + list(eq.accelerations)))
+            return Spec(output, "dxdt", (L.n_x,), L.derivative_names,
+                        (Block("out", L.n_x, entries),),
+                        doc="First-order right-hand side dxdt = [G(q,u,t); u'] with u' from "
+                            "the articulated-body recursion.")
         g = Block("out", L.n_x, tuple(enumerate(eq.kinematics)))
         return Spec(output, "dxdt", (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
                     solve=True,
                     doc="First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by "
                         "L D L^T.")
+    if output is Output.REACTIONS:
+        return _reactions(eq, form)
     if output is Output.MASS_MATRIX:
         M = eq.mass_matrix
         lower = tuple((i * n + j, M[i, j]) for i in range(n) for j in range(i + 1))
@@ -202,7 +236,7 @@ def spec(eq: Equations, output: Output) -> Spec:
     if output is Output.JACOBIAN:
         return _sensitivity(eq, output, L.states, "J", names,
                             "Jacobian df/dx of the first-order right-hand side, row-major "
-                            "n_x x n_x.")
+                            "n_x x n_x.", form)
     if output is Output.PARAMETER_JACOBIAN:
         variables = dynamic_parameters(eq)
         if not variables:
@@ -210,18 +244,16 @@ def spec(eq: Equations, output: Output) -> Spec:
                              f"no parameter Jacobian")
         return _sensitivity(eq, output, variables, "Jp", tuple(map(str, variables)),
                             "Parameter Jacobian df/dp of the right-hand side, row-major "
-                            "n_x x n_p.")
+                            "n_x x n_p.", form)
     if output is Output.TIME_DERIVATIVE:
         return _sensitivity(eq, output, (L.time,), "dfdt", ("t",),
-                            "Partial time derivative df/dt of the right-hand side.")
+                            "Partial time derivative df/dt of the right-hand side.", form)
     raise ModelError(f"output {output.value!r} has no expressions of its own")
 
 
 def dynamic_parameters(eq: Equations) -> tuple:
-    """Parameters that appear in ``M``, ``F`` or ``G`` (the others have zero sensitivity)."""
-    from .symbolic import free_symbols
-
-    used = free_symbols(list(eq.mass_matrix) + list(eq.forcing) + list(eq.kinematics))
+    """Parameters that ``M``, ``F``, ``G`` (or the recursion) use: the others have zero sensitivity."""
+    used = eq.uses(_motion_exprs(eq))
     return tuple(p for p in eq.layout.parameters if p in used)
 
 
@@ -234,6 +266,8 @@ def applicable(eq: Equations) -> tuple[Output, ...]:
         skip.add(Output.PARAMETER_JACOBIAN)
     if not eq.points:
         skip |= {Output.POSITIONS, Output.VELOCITIES}
+    if eq.reactions is None or not eq.reactions.names:
+        skip.add(Output.REACTIONS)
     return tuple(o for o in EXPRESSION_OUTPUTS if o not in skip)
 
 
@@ -262,25 +296,62 @@ def _derivatives(exprs, variables) -> list[list[sm.Expr]]:
 
 
 def _sensitivity(eq: Equations, output: Output, variables, out_name: str, var_names,
-                 doc: str) -> Spec:
-    r"""``df/dv``: kinematic rows symbolic, dynamic rows from :math:`M^{-1}\,\partial R/\partial v`."""
+                 doc: str, form: Form = Form.SOLVE) -> Spec:
+    r"""``df/dv``: kinematic rows symbolic, dynamic rows from :math:`M^{-1}\,\partial R/\partial v`.
+
+    In the recursive form the accelerations themselves are differentiated
+    through the program (forward mode, :func:`mbgen.program.derivatives`).
+    """
     L = eq.layout
     nq, nu, nv = L.n_q, L.n_u, len(variables)
+    shape = (L.n_x,) if output is Output.TIME_DERIVATIVE else (L.n_x, nv)
+    labels = tuple(f"d({s}')/d({v})" for s in L.state_names for v in var_names)
+    tag = f"{out_name.lower()}_"
+    if form is Form.RECURSIVE:
+        extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
+                               variables, tag)
+        entries = tuple((i * nv + j, d[i][j]) for i in range(L.n_x) for j in range(nv))
+        return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, entries),),
+                    doc=doc, variables=tuple(variables), extra=extra)
     acc = acceleration_symbols(nu)
     M, F = eq.mass_matrix, eq.forcing
     rows = [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)]
-    dG = _derivatives(list(eq.kinematics), variables)
-    dR = _derivatives(rows, variables)
+    if eq.program:
+        extra, d = derivatives(eq.program, list(eq.kinematics) + rows, variables, tag)
+        dG, dR = d[:nq], d[nq:]
+    else:
+        extra = Program()
+        dG = _derivatives(list(eq.kinematics), variables)
+        dR = _derivatives(rows, variables)
     g_entries = tuple((i * nv + j, dG[i][j]) for i in range(nq) for j in range(nv))
     d_entries = tuple((j * nu + i, dR[i][j]) for j in range(nv) for i in range(nu))
-    shape = (L.n_x,) if output is Output.TIME_DERIVATIVE else (L.n_x, nv)
-    labels = tuple(f"d({s}')/d({v})" for s in L.state_names for v in var_names)
     if all(e == 0 for _, e in d_entries):  # u' does not depend on v: no solve needed
         rows = g_entries + tuple(((nq + i) * nv + j, sm.S.Zero)
                                  for i in range(nu) for j in range(nv))
         return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, rows),), doc=doc,
-                    variables=tuple(variables))
+                    variables=tuple(variables), extra=extra)
     return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, g_entries),
                                                   *_mass_blocks(eq)),
                 solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv, doc=doc,
-                variables=tuple(variables))
+                variables=tuple(variables), extra=extra)
+
+
+def _reactions(eq: Equations, form: Form) -> Spec:
+    """Joint reactions: after the solve (they hold for the actual accelerations)."""
+    J = eq.reactions
+    if J is None or not J.names:
+        raise ModelError(f"the equations of {eq.name!r} carry no joint reactions; derive with "
+                         f"reactions=True (Output.REACTIONS asks for it) from an mbgen.Model "
+                         f"with at least one body")
+    nj = len(J.names)
+    entries = tuple(enumerate(J.matrix))
+    doc = (f"Joint reactions, row-major {nj} x 6: for each joint, the force and the moment "
+           f"(about the joint point) that the parent exerts on the child, in the joint's "
+           f"frame: Fx, Fy, Fz, Mx, My, Mz.")
+    if form is Form.RECURSIVE:
+        acc = acceleration_symbols(eq.layout.n_u)
+        defs = Program(tuple(zip(acc, eq.accelerations)))
+        return Spec(Output.REACTIONS, "reactions", (nj, 6), J.labels(),
+                    (Block("out", 6 * nj, entries),), doc=doc, extra=defs)
+    return Spec(Output.REACTIONS, "reactions", (nj, 6), J.labels(), _mass_blocks(eq),
+                solve=True, post=(Block("out", 6 * nj, entries),), doc=doc)

@@ -15,13 +15,16 @@ Every expression is lambdified on first use.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import sympy as sm
 
-from .equations import Equations
+from .equations import Equations, acceleration_symbols
 from .errors import ModelError
 from .layout import Layout
 from .optimize import Output
+from .program import Program
 from .outputs import _derivatives, dynamic_parameters
 from .runtime import ModelBase
 from .symbolic import free_symbols, split_shared
@@ -49,9 +52,13 @@ class LambdifiedModel(ModelBase):
         outputs = tuple(o for o in Output.parse(outputs) if not o.is_integrator and (
             o is not Output.ENERGY or equations.kinetic_energy is not None) and (
             o is not Output.PARAMETER_JACOBIAN or L.n_p) and (
-            o not in (Output.POSITIONS, Output.VELOCITIES) or equations.points))
+            o not in (Output.POSITIONS, Output.VELOCITIES) or equations.points) and (
+            o is not Output.REACTIONS or equations.reactions is not None))
         super().__init__(equations.name, L, equations.defaults, outputs)
-        self.equations = equations
+        self.equations = _inlined(equations)
+        if equations.reactions is not None:
+            self.reaction_names = equations.reactions.names
+            self.reaction_frames = equations.reactions.frames
         self._n_u = L.n_u
         self._args = (L.time, list(L.states), list(L.parameters), list(L.inputs))
         self._known = L.symbols()
@@ -119,6 +126,11 @@ class LambdifiedModel(ModelBase):
             out = np.array(f(t, xa, pa, ra), dtype=float).reshape(len(eq.points), 3)
         elif output in _SENSITIVITY:
             out = self._sensitivity(output, t, xa, pa, ra)
+        elif output is Output.REACTIONS:
+            M, F = self._mf(t, xa, pa, ra)
+            acc = list(acceleration_symbols(self._n_u))
+            f = self._lambdify("reactions", lambda: eq.reactions.matrix, (acc,))
+            out = np.array(f(t, xa, pa, ra, np.linalg.solve(M, F)), dtype=float).reshape(-1, 6)
         else:
             M, F = self._mf(t, xa, pa, ra)
             G = np.array(self._lambdify("G", lambda: eq.kinematics)(t, xa, pa, ra),
@@ -131,3 +143,35 @@ class LambdifiedModel(ModelBase):
         if not np.all(np.isfinite(out)):
             self._fail(2, output.value, t, xa)
         return out
+
+
+def _inlined(eq: Equations) -> Equations:
+    """``eq`` with its program's symbols replaced by their definitions (left nested, unflattened).
+
+    The reference evaluates the unoptimised expressions themselves; a
+    recursion's accelerations are not used (``u'`` always comes from solving
+    ``M u' = F``), so compiled code that uses the recursion is checked against
+    a different algorithm.
+    """
+    P = eq.program
+    if not P:
+        return eq
+    matrices = [eq.mass_matrix, eq.forcing, eq.kinematics]
+    matrices += [m for pk in eq.points for m in (pk.position, pk.velocity)]
+    if eq.reactions is not None:
+        matrices.append(eq.reactions.matrix)
+    scalars = [e if e is not None else sm.S.Zero for e in (eq.kinetic_energy,
+                                                           eq.potential_energy)]
+    flat = P.inline([e for m in matrices for e in m] + scalars, evaluate=False)
+    it = iter(flat)
+    out = [sm.ImmutableMatrix(m.rows, m.cols, [next(it) for _ in range(len(m))])
+           for m in matrices]
+    T, V = next(it), next(it)
+    M, F, G, *rest = out
+    points = tuple(replace(pk, position=rest[2 * i], velocity=rest[2 * i + 1])
+                   for i, pk in enumerate(eq.points))
+    reactions = (replace(eq.reactions, matrix=rest[-1]) if eq.reactions is not None else None)
+    return replace(eq, mass_matrix=M, forcing=F, kinematics=G,
+                   kinetic_energy=None if eq.kinetic_energy is None else T,
+                   potential_energy=None if eq.potential_energy is None else V,
+                   points=points, program=Program(), accelerations=None, reactions=reactions)

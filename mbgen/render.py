@@ -22,7 +22,7 @@ from ._version import __version__
 from .layout import Layout
 from .names import comment_safe, model_prefix
 from .optimize import Kernel, KernelFunction
-from .outputs import Output, acceleration_symbols
+from .outputs import Form, Output, acceleration_symbols
 from .printing import CPrinter, PyPrinter, math_functions
 from .solver import UNROLL_MAX, c_lines, factor_program, py_lines, solve_program
 
@@ -65,6 +65,8 @@ class Rendered:
         Stack bound in bytes of every public C function, as stated in the header.
     step_methods : tuple of str
         The step API's methods (empty without the step target).
+    joints : tuple of (str, str)
+        Name and reaction frame of every joint, in the rows of the ``reactions`` output.
     """
 
     prefix: str
@@ -79,6 +81,7 @@ class Rendered:
     content_hash: str = ""
     stack_bounds: tuple = ()
     step_methods: tuple = ()
+    joints: tuple = ()
 
     @property
     def header(self) -> str:
@@ -153,7 +156,7 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
                      mirror=list(b.mirror)) for b in bs]
 
     def temps(ts):
-        return [(printer.doprint(sym), printer.doprint(e)) for sym, e in ts]
+        return [(printer.doprint(sym), printer.doprint(e), sym in fn.checks) for sym, e in ts]
 
     return dict(
         output=s.output.value,
@@ -172,7 +175,7 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
         temps=temps(fn.temporaries),
         pre=blocks(fn.pre),
         solve=s.solve,
-        rhs=s.output is Output.RHS,
+        rhs=s.output is Output.RHS and s.solve,
         post_temps=temps(fn.post_temporaries),
         post=blocks(fn.post),
         columns=s.columns,
@@ -277,6 +280,7 @@ def render(kernel: Kernel, targets=None) -> Rendered:
         any_columns=any(fn.spec.columns for fn in kernel.functions),
         args=list(args),
         integrators=[o.value for o in kernel.integrators],
+        recursive=kernel.form is Form.RECURSIVE,
     )
     env = environment()
     declarations = list(prototypes)
@@ -312,7 +316,14 @@ def render(kernel: Kernel, targets=None) -> Rendered:
                              f"{prefix}.py": python}, cdef, infos, L,
                     {str(sym): eq.defaults[str(sym)] for sym in L.parameters
                      if str(sym) in eq.defaults}, kernel.outputs, ext_source, ext_cdef, digest,
-                    tuple(sorted(bounds.items())), methods)
+                    tuple(sorted(bounds.items())), methods, _joints(kernel))
+
+
+def _joints(kernel: Kernel) -> tuple:
+    J = kernel.equations.reactions
+    if J is None or Output.REACTIONS not in kernel.outputs:
+        return ()
+    return tuple(zip(J.names, J.frames))
 
 
 __all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES",

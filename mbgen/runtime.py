@@ -57,6 +57,8 @@ class ModelBase:
         self.default_parameters = (np.array(values, dtype=float)
                                    if all(v is not None for v in values) else None)
         self.outputs = tuple(outputs)
+        self.reaction_names: tuple[str, ...] = ()
+        self.reaction_frames: tuple[str, ...] = ()
         self._zeros_r = np.zeros(self.n_r)
 
     # -------------------------------------------------------------- validation
@@ -153,6 +155,13 @@ class ModelBase:
         """Newtonian velocities of the reported points, shape ``(k, 3)``."""
         return self._evaluate(Output.VELOCITIES, t, x, p, r)
 
+    def reactions(self, t, x, p=None, r=None) -> np.ndarray:
+        """Joint reactions, shape ``(n_joints, 6)``: per joint (in :attr:`reaction_names`
+        order, from the root) the force ``Fx, Fy, Fz`` and the moment ``Mx, My, Mz`` about the
+        joint point that the parent exerts on the child, in the joint's frame
+        (:attr:`reaction_frames`)."""
+        return self._evaluate(Output.REACTIONS, t, x, p, r)
+
     def bind(self, p=None, r=None, output: Output = Output.RHS, *,
              vectorized: bool = False) -> Callable:
         """``f(t, x)`` with parameters and inputs fixed (for ``solve_ivp(f, ...)``).
@@ -227,6 +236,8 @@ class CompiledModel(ModelBase):
         super().__init__(rendered.prefix, layout, defaults, outputs)
         self.rendered = rendered
         self.module = module
+        self.reaction_names = tuple(n for n, _ in rendered.joints)
+        self.reaction_frames = tuple(f for _, f in rendered.joints)
         self.ffi, self.lib = module.ffi, module.lib
         self._calls = {Output(info.output): self._make_call(info) for info in rendered.functions}
 
@@ -407,6 +418,8 @@ class PythonModel(ModelBase):
         super().__init__(rendered.prefix, layout, defaults, outputs)
         self.rendered = rendered
         self.module = module
+        self.reaction_names = tuple(n for n, _ in rendered.joints)
+        self.reaction_frames = tuple(f for _, f in rendered.joints)
         self._args = {Output(info.output): info.args for info in rendered.functions}
 
     def _evaluate(self, output, t, x, p, r):
