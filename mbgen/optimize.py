@@ -19,8 +19,8 @@ from .cse import CseBackend, cse
 from .equations import Equations
 from .errors import ModelError
 from .layout import Layout
-from .outputs import (INTEGRATORS, Block, Form, Output, Spec, acceleration_symbols, spec,
-                      with_dependencies)
+from .outputs import (INTEGRATORS, Block, Form, Output, Spec, acceleration_symbols,
+                      lambda_symbols, spec, with_dependencies)
 from .solver import solve_ops
 from .symbolic import count_ops_dag, count_ops_tree, free_symbols, xreplace_dag
 
@@ -45,6 +45,8 @@ class KernelFunction:
     ops_before: int
     ops_after: int
     checks: frozenset = frozenset()   # temporaries that must be positive (recursion pivots)
+    velocity_temporaries: tuple = ()  # constrained: before the dependent speeds are solved
+    velocity: tuple = ()              # constrained: the blocks CA, CB (A and b of A u + b = 0)
 
     @property
     def output(self) -> Output:
@@ -140,7 +142,7 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
 
     # one CSE pass over every distinct expression of every output and assignment
     distinct: dict = {}
-    for e in [e for _, e in assignments] + [e for s in specs for b in s.pre + s.post
+    for e in [e for _, e in assignments] + [e for s in specs for b in s.velocity + s.pre + s.post
                                           for _, e in b.entries]:
         if e.args and e not in distinct:
             distinct[e] = len(distinct)
@@ -162,33 +164,42 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
                 reduced_of[sym] = renamed.get(target, target)
     rep_expr = dict(reps)
     order = {s: i for i, (s, _) in enumerate(reps)}
-    acc = set(acceleration_symbols(equations.layout.n_u)) - defined
-    after_solve = _depends_on(reps, acc)
+    L = equations.layout
+    solved = set(acceleration_symbols(L.n_u + L.n_d))
+    if equations.constraints is not None:
+        solved |= set(lambda_symbols(equations.constraints.m))
+    after_solve = _depends_on(reps, solved - defined)
     program_defs = dict(assignments)
 
     functions = []
     for s in specs:
+        vel = tuple(_reduce(b, reduced_of) for b in s.velocity)
         pre = tuple(_reduce(b, reduced_of) for b in s.pre)
         post = tuple(_reduce(b, reduced_of) for b in s.post)
+        vel_roots = [e for b in vel for _, e in b.entries]
         roots = [e for b in pre + post for _, e in b.entries]
-        needed = sorted(_closure(roots, rep_expr), key=order.__getitem__)
-        temps = tuple((t, rep_expr[t]) for t in needed if t not in after_solve)
+        first = set(_closure(vel_roots, rep_expr))
+        needed = sorted(_closure(roots, rep_expr) | first, key=order.__getitem__)
+        vel_temps = tuple((t, rep_expr[t]) for t in needed if t in first)
+        temps = tuple((t, rep_expr[t]) for t in needed if t not in after_solve and t not in first)
         post_temps = tuple((t, rep_expr[t]) for t in needed if t in after_solve)
-        used_syms, uses = _usage(equations, roots + [e for _, e in temps + post_temps])
-        raw = [e for b in s.pre + s.post for _, e in b.entries]
+        every = vel_temps + temps + post_temps
+        used_syms, uses = _usage(equations, vel_roots + roots + [e for _, e in every])
+        raw = [e for b in s.velocity + s.pre + s.post for _, e in b.entries]
         before = count_ops_tree(raw) + sum(count_ops_tree([program_defs[d]]) for d in
                                            _closure(raw, program_defs))
-        after = (count_ops_dag([e for _, e in temps + post_temps])
-                 + sum(count_ops_dag([e]) for e in roots))
+        after = (count_ops_dag([e for _, e in every])
+                 + sum(count_ops_dag([e]) for e in vel_roots + roots))
         functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,
-                                        before, after, frozenset(checks & set(needed))))
+                                        before, after, frozenset(checks & set(needed)),
+                                        vel_temps, vel))
     integrators = tuple(o for o in outputs if o in INTEGRATORS)
-    L = equations.layout
     used = {sym for f in functions for sym in f.symbols_used + f.spec.variables}
     abi = Layout(L.coordinates, L.speeds, tuple(p for p in L.parameters if p in used),
-                 tuple(r for r in L.inputs if r in used), L.time)
+                 tuple(r for r in L.inputs if r in used), L.time, L.dependent_speeds)
     M = equations.mass_matrix
-    pattern = frozenset((i, j) for i in range(L.n_u) for j in range(i) if M[i, j] != 0)
+    pattern = frozenset((i, j) for i in range(L.n_u) for j in range(i)
+                        if equations.constraints is not None or M[i, j] != 0)
     return Kernel(equations, tuple(functions), integrators, cse_backend, prefix, abi, pattern,
                   form)
 
@@ -251,7 +262,7 @@ def _reduce(block: Block, reduced_of: dict) -> Block:
 
 def _usage(equations: Equations, exprs) -> tuple[tuple, frozenset]:
     L = equations.layout
-    used = free_symbols(exprs) & L.symbols()
+    used = free_symbols(exprs) & (L.symbols() - set(L.dependent_speeds))
     ordered = tuple(s for s in L.states + L.parameters + L.inputs + (L.time,) if s in used)
     groups = (("t", {L.time}), ("x", set(L.states)), ("p", set(L.parameters)),
               ("r", set(L.inputs)))

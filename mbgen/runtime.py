@@ -22,10 +22,11 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .errors import IntegrationError, MbgenError, NonFiniteResultError, SingularMassMatrixError
+from .errors import (IntegrationError, MbgenError, NonFiniteResultError, SingularConstraintError,
+                     SingularMassMatrixError)
 from .layout import Layout
 from .optimize import Output
-from .render import INTEGRATOR_STATUS_CODES, STATUS_CODES
+from .render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
 
 F64 = np.dtype(np.float64)
 
@@ -59,6 +60,8 @@ class ModelBase:
         self.outputs = tuple(outputs)
         self.reaction_names: tuple[str, ...] = ()
         self.reaction_frames: tuple[str, ...] = ()
+        self.constraint_names: tuple[str, ...] = ()
+        self.dependent_coordinates: tuple[str, ...] = ()
         self._zeros_r = np.zeros(self.n_r)
 
     # -------------------------------------------------------------- validation
@@ -108,6 +111,11 @@ class ModelBase:
                 f"check parameters (masses, inertias > 0) and avoid singular configurations")
         if status == 2:
             raise NonFiniteResultError(f"{self.name}.{what}: result is NaN or infinite {where}")
+        if status == 7:
+            raise SingularConstraintError(
+                f"{self.name}.{what}: the constraint Jacobian of the dependent speeds is singular "
+                f"{where}: a locked or singular configuration (a four-bar at its dead point, ...); "
+                f"choose other dependent speeds or avoid the configuration")
         raise MbgenError(f"{self.name}.{what}: error status {status} {where}")  # pragma: no cover
 
     # ------------------------------------------------------------------ outputs
@@ -155,12 +163,78 @@ class ModelBase:
         """Newtonian velocities of the reported points, shape ``(k, 3)``."""
         return self._evaluate(Output.VELOCITIES, t, x, p, r)
 
+    def input_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
+        """``df/dr`` of the right-hand side, shape ``(n_x, n_r)`` (``B`` of a linearisation)."""
+        return self._evaluate(Output.INPUT_JACOBIAN, t, x, p, r)
+
+    def constraint_forces(self, t, x, p=None, r=None) -> np.ndarray:
+        """Constraint multipliers ``lambda`` of ``M u' = F + A^T lambda``, shape ``(m,)``.
+
+        For a point constraint (``no_slip``, ``coincident``) the force on the body at
+        the point along the frame axis; for a stated one the generalized force
+        conjugate to it.  Order: the model's constraints.
+        """
+        return self._evaluate(Output.CONSTRAINT_FORCES, t, x, p, r)
+
+    def holonomic(self, t, x, p=None, r=None) -> np.ndarray:
+        """Residual ``f_h(q, t)`` of the configuration constraints, shape ``(m_h,)``."""
+        return self._evaluate(Output.HOLONOMIC, t, x, p, r)
+
+    def holonomic_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
+        """``df_h/dq``, shape ``(m_h, n_q)``."""
+        return self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)
+
     def reactions(self, t, x, p=None, r=None) -> np.ndarray:
         """Joint reactions, shape ``(n_joints, 6)``: per joint (in :attr:`reaction_names`
         order, from the root) the force ``Fx, Fy, Fz`` and the moment ``Mx, My, Mz`` about the
         joint point that the parent exerts on the child, in the joint's frame
         (:attr:`reaction_frames`)."""
         return self._evaluate(Output.REACTIONS, t, x, p, r)
+
+    def consistent(self, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-12,
+                   max_iterations: int = 50) -> np.ndarray:
+        """Complete ``x`` to a consistent state: solve the configuration constraints for
+        the dependent coordinates (Newton), keeping every other entry of ``x``.
+
+        Speeds need nothing: only the independent speeds are states; the
+        dependent ones always come from the velocity constraints.
+
+        Raises
+        ------
+        ConstraintError
+            Newton did not converge (the message gives the residual), or the
+            constraint Jacobian of the dependent coordinates is singular.
+        """
+        from .errors import ConstraintError
+
+        x = self._x(x).copy()
+        if not self.dependent_coordinates:
+            return x
+        for o in (Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN):
+            self._require(o)
+        idx = [self.state_names.index(n) for n in self.dependent_coordinates]
+        res = np.inf
+        for _ in range(int(max_iterations)):
+            f = self._evaluate(Output.HOLONOMIC, t, x, p, r)
+            res = float(np.max(np.abs(f)))
+            if res <= tol * (1.0 + float(np.max(np.abs(x[idx])))):
+                return x
+            J = self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)[:, idx]
+            try:
+                x[idx] -= np.linalg.solve(J, f)
+            except np.linalg.LinAlgError:
+                raise ConstraintError(
+                    f"{self.name}: the configuration constraints cannot be solved for "
+                    f"{list(self.dependent_coordinates)} at {dict(zip(self.state_names, x))}: "
+                    f"their Jacobian is singular (a locked configuration); start elsewhere"
+                ) from None
+            if not np.all(np.isfinite(x)):
+                break
+        raise ConstraintError(
+            f"{self.name}: Newton on the configuration constraints did not converge for "
+            f"{list(self.dependent_coordinates)} (residual {res:.3g} after {max_iterations} "
+            f"iterations); give initial values of the dependent coordinates closer to a "
+            f"solution")
 
     def bind(self, p=None, r=None, output: Output = Output.RHS, *,
              vectorized: bool = False) -> Callable:
@@ -213,6 +287,10 @@ class Integration:
         Accepted and rejected steps, right-hand side and Jacobian calls, LU factorisations.
     wall_time : float
         Seconds spent in the C call (``time.perf_counter``).
+    max_residual : float
+        Constrained models: the largest configuration-constraint residual
+        ``max|f_h|`` met after a step, before projection (NaN without
+        configuration constraints).
     """
 
     t: np.ndarray
@@ -225,6 +303,7 @@ class Integration:
     n_jac: int
     n_lu: int
     wall_time: float
+    max_residual: float = float("nan")
 
 
 class CompiledModel(ModelBase):
@@ -238,6 +317,8 @@ class CompiledModel(ModelBase):
         self.module = module
         self.reaction_names = tuple(n for n, _ in rendered.joints)
         self.reaction_frames = tuple(f for _, f in rendered.joints)
+        self.constraint_names, self.dependent_coordinates = (rendered.constraints,
+                                                             rendered.dependent)
         self.ffi, self.lib = module.ffi, module.lib
         self._calls = {Output(info.output): self._make_call(info) for info in rendered.functions}
         self._rhs = self._calls.get(Output.RHS) or (
@@ -345,7 +426,7 @@ class CompiledModel(ModelBase):
 
     def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = 1e-6,
                   atol: float = 1e-9, h: float | None = None, h_max: float = 0.0,
-                  max_steps: int = 0, on_failure: str = "raise"):
+                  max_steps: int = 0, on_failure: str = "raise", project: bool = True):
         """Run a generated C integrator over ``t_eval`` (no Python per step).
 
         Parameters
@@ -373,6 +454,10 @@ class CompiledModel(ModelBase):
         on_failure : str
             Batches only: ``"raise"`` (the first failed member raises) or
             ``"record"`` (statuses and messages are returned per member).
+        project : bool
+            Models with configuration constraints: project the dependent
+            coordinates back onto the constraints after every step (``False``
+            only records the drift, ``Integration.max_residual``).
 
         Raises
         ------
@@ -433,8 +518,12 @@ class CompiledModel(ModelBase):
                                    h_max=h_max, max_steps=max_steps, on_failure=on_failure)
         ffi, prefix = self.ffi, self.rendered.prefix
         buf = ffi.from_buffer
-        opt = ffi.new(f"{prefix}_options *", {"rtol": rtol, "atol": atol, "h0": h0,
-                                              "h_max": h_max, "max_steps": int(max_steps)})
+        settings = {"rtol": rtol, "atol": atol, "h0": h0, "h_max": h_max,
+                    "max_steps": int(max_steps)}
+        projects = "no_projection" in dict(ffi.typeof(f"{prefix}_options").fields)
+        if projects:
+            settings["no_projection"] = 0 if project else 1
+        opt = ffi.new(f"{prefix}_options *", settings)
         stats = ffi.new(f"{prefix}_stats *")
         x_out = np.empty((t.size, self.n_x))
         args = [buf("double[]", xa)]
@@ -449,7 +538,8 @@ class CompiledModel(ModelBase):
                        *work)
         wall = time.perf_counter() - start
         if status:
-            names = {v: (n, text) for n, v, text in STATUS_CODES + INTEGRATOR_STATUS_CODES}
+            names = {v: (n, text) for n, v, text in
+                     STATUS_CODES + INTEGRATOR_STATUS_CODES + CONSTRAINT_STATUS_CODES}
             code, text = names.get(status, ("UNKNOWN", "unknown error"))
             raise IntegrationError(
                 f"{self.name}.integrate({output.value!r}) failed with status {status} "
@@ -458,7 +548,8 @@ class CompiledModel(ModelBase):
                 status, float(stats.t_reached))
         return Integration(t, x_out, output.value, int(status), int(stats.n_steps),
                            int(stats.n_rejected), int(stats.n_rhs), int(stats.n_jac),
-                           int(stats.n_lu), wall)
+                           int(stats.n_lu), wall,
+                           float(stats.max_residual) if projects else float("nan"))
 
 
 class PythonModel(ModelBase):
@@ -472,6 +563,8 @@ class PythonModel(ModelBase):
         self.module = module
         self.reaction_names = tuple(n for n, _ in rendered.joints)
         self.reaction_frames = tuple(f for _, f in rendered.joints)
+        self.constraint_names, self.dependent_coordinates = (rendered.constraints,
+                                                             rendered.dependent)
         self._args = {Output(info.output): info.args for info in rendered.functions}
 
     def _evaluate(self, output, t, x, p, r):
@@ -489,3 +582,5 @@ class PythonModel(ModelBase):
             self._fail(1, output.value, t, xa)
         except self.module.NonFinite:
             self._fail(2, output.value, t, xa)
+        except getattr(self.module, "ConstraintSingular", ()):
+            self._fail(7, output.value, t, xa)

@@ -7,8 +7,10 @@ from enum import Enum
 from ..equations import Equations
 from ..errors import ModelError
 from ..model import Model
+from .constraints import constrain
 from .kane import kane
 from .newton_euler import newton_euler
+from .prepare import prepare
 
 
 class Method(str, Enum):
@@ -50,11 +52,13 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
     except ValueError:
         raise ModelError(f"unknown derivation method {method!r}; choose from "
                          f"{', '.join(m.value for m in Method)}") from None
+    prep = prepare(model)
     if method is Method.KANE:
-        return kane(model, energy, tuple(points), reactions)
-    if method is Method.NEWTON_EULER:
-        return newton_euler(model, energy, tuple(points), reactions)
-    raise ModelError(f"unknown derivation method {method!r}")  # pragma: no cover
+        eq = kane(model, energy, tuple(points), reactions, prep=prep)
+    else:
+        eq = newton_euler(model, energy, tuple(points), reactions,
+                          articulated=not model.constraints_, prep=prep)
+    return constrain(eq, prep)
 
 
 __all__ = ["Method", "derive"]

@@ -44,7 +44,8 @@ NEG = sm.S.NegativeOne
 HALF = sm.Rational(1, 2)
 
 
-def kane(model: Model, energy: bool = True, points=(), reactions: bool = False) -> Equations:
+def kane(model: Model, energy: bool = True, points=(), reactions: bool = False,
+         prep=None) -> Equations:
     """Derive ``M u' = F``, ``q' = G`` for ``model`` with Kane's method.
 
     With ``energy`` the kinetic energy and the potential of gravity and springs
@@ -54,7 +55,7 @@ def kane(model: Model, energy: bool = True, points=(), reactions: bool = False) 
     derived by the Newton–Euler inward pass
     (:func:`mbgen.derive.newton_euler.reactions_for`).
     """
-    prep = prepare(model)
+    prep = prep or prepare(model)
     tree, layout = prep.tree, prep.layout
     nu = layout.n_u
     grp = Grouping(prep)

@@ -553,14 +553,14 @@ def vneg6(a) -> tuple:
 
 
 def newton_euler(model: Model, energy: bool = True, points=(), reactions: bool = True,
-                 articulated: bool = True) -> Equations:
+                 articulated: bool = True, prep=None) -> Equations:
     """Derive ``M u' = F``, ``q' = G`` by Newton–Euler over the body tree.
 
     With ``reactions`` the joint reactions are derived too; with
     ``articulated`` the articulated-body recursion for ``u'`` when every speed
     belongs to exactly one joint.
     """
-    prep = prepare(model)
+    prep = prep or prepare(model)
     ne = NewtonEuler(prep)
     layout = prep.layout
     F = ne.forcing()
