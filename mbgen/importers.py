@@ -25,84 +25,141 @@ remaining plain symbols                    parameters, natural name order (``m2 
 
 A :class:`~sympy.physics.mechanics.System` is converted through its
 ``eom_method``; ``form_eoms`` is not called here, because it would change the
-caller's System and choose the method for them.  Dependent coordinates or
-speeds, auxiliary speeds, Lagrange multipliers and derivatives of inputs are
-refused with a :class:`~mbgen.errors.ModelError`.  Every function of time that
-is not a coordinate or speed becomes an input, as in sympy's own ``specified``.
-No expression is simplified: the conversion only renames atoms.
+caller's System and choose the method for them.  A PyDy ``System``
+(``pydy.system.System``) is converted through its ``eom_method`` too, and its
+numeric ``constants`` become the parameters' defaults.  Every function of time
+that is not a coordinate or speed becomes an input, as in sympy's own
+``specified``; derivatives of inputs are refused with a
+:class:`~mbgen.errors.ModelError`.  No expression is simplified: the conversion
+only renames atoms (one DAG pass).
+
+Constraints
+-----------
+A KanesMethod with dependent coordinates and speeds (``q_dependent``,
+``configuration_constraints``, ``u_dependent``, ``velocity_constraints``) and a
+LagrangesMethod with ``hol_coneqs`` / ``nonhol_coneqs`` give constrained
+``Equations`` (:mod:`mbgen.sympy_constraints` builds the constraint data).
+mbgen wants ``M`` and ``F`` of the *unconstrained* system over every speed;
+a constrained KanesMethod keeps only the reduced ``Fr + Fr* = 0``, so the
+unconstrained ones are re-formed: a second KanesMethod over the same frame,
+coordinates, kinematic equations, bodies and loads, with every speed
+independent, through sympy's public ``kanes_equations``.  That doubles sympy's
+own derivation time but depends on no sympy internals beyond the stated
+constraints; sympy discards its full-size matrices after reducing them, so
+reading them back would mean copying its private ``_form_frstar``.  A
+LagrangesMethod keeps its unconstrained ``M`` (the first ``n`` columns of
+``mass_matrix``) and ``forcing``.
+
+Auxiliary speeds (``u_auxiliary``) are zero in the motion: they and their
+derivatives are set to zero everywhere, as sympy does in ``M`` and ``F``.
+The noncontributing forces they bring into evidence are the multipliers
+``constraint_forces`` where the velocity constraints state that the contact
+point has zero velocity (the rolling disc of sympy's ``test_aux_dep``: the
+contact force ``Fx, Fy, Fz`` in frame ``A``); sympy's ``auxiliary_eqs``
+themselves are not converted.
 """
 
 from __future__ import annotations
 
 import re
 from collections import Counter
+from dataclasses import replace
 from typing import NamedTuple, Sequence
 
+import numpy as np
 import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics.mechanics import KanesMethod, LagrangesMethod, System, dynamicsymbols
 
+from . import sympy_constraints
 from .equations import Equations
 from .errors import ModelError
 from .layout import Layout
 from .names import model_prefix
-from .symbolic import walk_unique
+from .symbolic import walk_unique, xreplace_dag
+from .sympy_constraints import Stated
 
 SUPPORTED = ("a KanesMethod after kanes_equations(), a LagrangesMethod after "
-             "form_lagranges_equations(), or a System after form_eoms()")
+             "form_lagranges_equations(), a System after form_eoms(), or a PyDy System")
 
 
 class _Formed(NamedTuple):
     """What a formed sympy method holds, still in functions of time."""
 
     coordinates: list        # q_i(t)
-    speeds: list             # u_i(t), or q_i'(t) for LagrangesMethod
+    speeds: list             # u_i(t) (independent, then dependent), or q_i'(t) for LagrangesMethod
     speed_names: list[str]
-    mass_matrix: sm.Matrix
+    mass_matrix: sm.Matrix   # unconstrained, over every speed
     forcing: sm.Matrix
     kinematics: list         # G_i with q_i' = G_i
+    vanishing: tuple = ()    # zero in the motion: auxiliary speeds and their derivatives
+    constraints: Stated | None = None
 
 
 def from_sympy(obj: KanesMethod | LagrangesMethod | System, *, name: str | None = None,
-               parameters: Sequence[str | sm.Symbol] | None = None) -> Equations:
+               parameters: Sequence[str | sm.Symbol] | None = None,
+               dependent: Sequence | None = None) -> Equations:
     """Convert equations of motion formed by ``sympy.physics.mechanics``.
 
     Parameters
     ----------
-    obj : KanesMethod, LagrangesMethod or System
+    obj : KanesMethod, LagrangesMethod, System or pydy.system.System
         With its equations formed: ``kanes_equations(...)``,
         ``form_lagranges_equations()`` or ``System.form_eoms(...)`` called.
+        Constraints and auxiliary speeds are converted (see the module notes).
     name : str, optional
         Model name, the C prefix of the generated code (default ``"sympy_model"``).
     parameters : sequence of str or Symbol, optional
         Order of the parameter vector ``p``: every remaining symbol of the
         equations, once.  Default: natural order of the names.
+    dependent : sequence, optional
+        LagrangesMethod only: the coordinates whose speeds ``q'`` the
+        constraints determine, one per constraint (``q3`` as ``q3(t)``, its
+        derivative or the name ``"q3"``); the configuration constraints'
+        dependent coordinates are the first of them, in this order, that they
+        determine.  Default: a sympy System's ``q_dep`` and ``u_dep``, else chosen
+        from the constraint Jacobian, from the last coordinate backwards
+        (``Equations.layout.dependent_speeds`` tells which).  A KanesMethod names
+        its own (``q_dependent``, ``u_dependent``).
 
     Returns
     -------
     Equations
-        ``M(q, t) u' = F(q, u, r, t)``, ``q' = G(q, u, t)`` in plain symbols.
+        ``M(q, t) u' = F(q, u, r, t)``, ``q' = G(q, u, t)`` in plain symbols, with
+        ``constraints`` for a constrained method (``M``, ``F`` then unconstrained,
+        over every speed).
 
     Raises
     ------
     ModelError
-        For an unsupported object, equations not formed yet, constraints,
-        auxiliary speeds, derivatives of inputs or a wrong ``parameters`` list.
+        For an unsupported object, equations not formed yet, constraints that
+        are redundant, not linear in the speeds or do not determine the
+        dependent speeds, derivatives of inputs or a wrong ``parameters`` or
+        ``dependent`` list.
     """
     name = "sympy_model" if name is None else name
     model_prefix(name)  # refuse a name that cannot prefix C symbols before any work
     system_speeds: set[str] = set()
-    source = "sympy {}"
+    source, defaults = "sympy {}", {}
+    if _is_pydy_system(obj):
+        defaults = {str(k): float(v) for k, v in obj.constants.items()
+                    if isinstance(v, (int, float, np.number))}
+        source, obj = "PyDy System ({})", obj.eom_method
     if isinstance(obj, System):
         if obj.eom_method is None:
             raise ModelError("the System has no equations of motion yet (or it changed since "
                              "they were formed); call system.form_eoms() first")
         system_speeds = {str(u.func) for u in obj.u if isinstance(u, AppliedUndef)}
+        if dependent is None and isinstance(obj.eom_method, LagrangesMethod):
+            dependent = _system_dependent(obj)
         source, obj = "sympy System ({})", obj.eom_method
+    if dependent is not None and not isinstance(obj, LagrangesMethod):
+        raise ModelError("dependent= is for a LagrangesMethod; a KanesMethod names its "
+                         "dependent coordinates and speeds itself (q_dependent=, u_dependent=)")
     if isinstance(obj, KanesMethod):
         method, formed = "KanesMethod", _kane(obj)
     elif isinstance(obj, LagrangesMethod):
-        method, formed = "LagrangesMethod", _lagrange(obj)
+        method, formed = "LagrangesMethod", _lagrange(obj, dependent)
     else:
         raise ModelError(f"from_sympy() cannot convert a {type(obj).__name__}; pass {SUPPORTED}")
     eq = _convert(name, formed, parameters, source=source.format(method),
@@ -112,43 +169,108 @@ def from_sympy(obj: KanesMethod | LagrangesMethod | System, *, name: str | None 
         raise ModelError(f"the {method} equations contain the System speeds {leaked}, which it "
                          f"does not know; for LagrangesMethod give the joints the coordinates' "
                          f"derivatives as speeds (e.g. PinJoint(..., speeds=q.diff(t)))")
+    if defaults:
+        known = set(eq.layout.parameter_names)
+        eq = replace(eq, defaults={k: v for k, v in defaults.items() if k in known})
     return eq
 
 
-def _kane(km: KanesMethod) -> _Formed:
-    """The equations of a KanesMethod; refuses constrained and auxiliary speeds.
+def _is_pydy_system(obj) -> bool:
+    """A ``pydy.system.System`` (not imported: PyDy is optional)."""
+    return (type(obj).__module__.split(".")[0] == "pydy" and type(obj).__name__ == "System"
+            and hasattr(obj, "eom_method"))
 
-    ``_uaux``, ``_qdep`` and ``_udep`` are private to sympy (checked with 1.14):
-    KanesMethod has no public accessor for them.
+
+def _system_dependent(system: System) -> list | None:
+    """A sympy System's ``q_dep`` then the coordinates of ``u_dep`` (for a LagrangesMethod)."""
+    t = dynamicsymbols._t
+    out = list(system.q_dep)
+    for u in system.u_dep:
+        if not (isinstance(u, sm.Derivative) and u.args[1:] == ((t, 1),)):
+            raise ModelError(f"the System's dependent speed {u} is not the derivative of a "
+                             f"coordinate, as a LagrangesMethod needs; set system.u_dep to "
+                             f"coordinates' derivatives or pass dependent=[...] to from_sympy")
+        if u.expr not in out:
+            out.append(u.expr)
+    return out or None
+
+
+def _kane(km: KanesMethod) -> _Formed:
+    """The equations of a KanesMethod, its constraints and auxiliary speeds.
+
+    ``_qdep``, ``_udep``, ``_uaux``, ``_f_h``, ``_k_nh``, ``_f_nh`` and
+    ``_inertial`` are private to sympy (checked with 1.14): KanesMethod has no
+    public accessor for the dependent and auxiliary speeds, the stated
+    constraints or its frame.
     """
     try:
         M, F = km.mass_matrix, km.forcing
     except ValueError:
         raise ModelError("the KanesMethod has no equations yet; call "
                          "kane.kanes_equations(bodies, loads) first") from None
-    if km._uaux:
-        raise ModelError(f"auxiliary speeds {list(km._uaux)} are not supported; form the "
-                         f"KanesMethod without u_auxiliary")
-    if km._qdep or km._udep:
-        raise ModelError("dependent coordinates or speeds (configuration or velocity "
-                         "constraints) are not supported yet; use a minimal set of "
-                         "independent coordinates and speeds")
+    t = dynamicsymbols._t
     qdot = km.kindiffdict()
-    q, u = list(km.q), list(km.u)
-    G = [qdot[qi.diff(dynamicsymbols._t)] for qi in q]
-    return _Formed(q, u, [str(ui.func) for ui in u], M, F, G)
+    q, u, aux = list(km.q), list(km.u), list(km._uaux)
+    G = [qdot[qi.diff(t)] for qi in q]
+    vanishing = tuple(aux + [a.diff(t) for a in aux])
+    stated = None
+    if km._udep or km._qdep:
+        M, F = _unconstrained(km, q, u, aux, G)
+        rows = list(km._k_nh * sm.Matrix(u) + km._f_nh) if km._udep else []
+        stated = Stated("kane", list(km._f_h), rows, [], list(km._qdep), len(km._udep))
+    return _Formed(q, u, [str(ui.func) for ui in u], M, F, G, vanishing, stated)
 
 
-def _lagrange(lm: LagrangesMethod) -> _Formed:
-    """The equations of a LagrangesMethod, with speeds ``u = q'``; refuses multipliers."""
+def _unconstrained(km: KanesMethod, q, u, aux, G) -> tuple[sm.Matrix, sm.Matrix]:
+    """``M`` and ``F`` over every speed: Kane's equations re-formed with no dependent speed."""
+    t = dynamicsymbols._t
+    full = KanesMethod(km._inertial, q, u, kd_eqs=[qi.diff(t) - g for qi, g in zip(q, G)],
+                       u_auxiliary=aux or None)
+    try:
+        full.kanes_equations(km.bodies, km.loads)
+    except (ValueError, TypeError, AttributeError) as e:
+        raise ModelError(f"re-forming the KanesMethod's equations without its constraints "
+                         f"failed ({e}); pass bodies and loads to kanes_equations()") from None
+    return full.mass_matrix, full.forcing
+
+
+def _lagrange(lm: LagrangesMethod, dependent) -> _Formed:
+    """The equations of a LagrangesMethod with speeds ``u = q'``, and its constraints.
+
+    ``lm._hol_coneqs`` is private to sympy (checked with 1.14): the holonomic
+    constraints themselves, before differentiation.
+    """
     if lm.eom is None:
         raise ModelError("the LagrangesMethod has no equations yet; call "
                          "lagrange.form_lagranges_equations() first")
-    if lm.coneqs:
-        raise ModelError("constraint equations (Lagrange multipliers) are not supported yet; "
-                         "use a minimal set of independent coordinates")
     q, qd = list(lm.q), list(lm.u)
-    return _Formed(q, qd, [f"{qi.func}_dot" for qi in q], lm.mass_matrix, lm.forcing, qd)
+    n = len(q)
+    M, stated = lm.mass_matrix, None
+    if lm.coneqs:
+        M = M[:, :n]
+        requested = None if dependent is None else _positions(dependent, q, qd)
+        stated = Stated("lagrange", list(lm._hol_coneqs), list(lm.coneqs),
+                        [str(lam.func) for lam in lm.lam_vec], [], requested=requested)
+    return _Formed(q, qd, [f"{qi.func}_dot" for qi in q], M, lm.forcing, qd, (), stated)
+
+
+def _positions(dependent, q, qd) -> list[int]:
+    """Positions of the coordinates named by ``dependent`` (functions, derivatives or names)."""
+    names = [str(qi.func) for qi in q]
+    out = []
+    for d in ([dependent] if isinstance(dependent, (str, sm.Basic)) else list(dependent)):
+        key = d if isinstance(d, str) else None
+        if isinstance(d, sm.Basic):
+            key = (str(d.func) if d in q else str(q[qd.index(d)].func) if d in qd
+                   else str(d))
+        key = key[:-4] if key.endswith("_dot") and key[:-4] in names else key
+        if key not in names:
+            raise ModelError(f"dependent= names {d}, which is not a coordinate of the "
+                             f"LagrangesMethod {names}")
+        if names.index(key) in out:
+            raise ModelError(f"dependent= names {key} twice")
+        out.append(names.index(key))
+    return out
 
 
 def _natural(name: str) -> tuple[tuple, str]:
@@ -159,17 +281,21 @@ def _natural(name: str) -> tuple[tuple, str]:
 
 def _convert(name: str, formed: _Formed, parameters: Sequence[str | sm.Symbol] | None, *,
              source: str, method: str) -> Equations:
-    """Replace functions of time by plain symbols and collect inputs and parameters."""
+    """Replace functions of time by plain symbols, collect inputs and parameters, and
+    build the constraints (one DAG pass over every expression)."""
     t = dynamicsymbols._t
     coords = tuple(sm.Symbol(str(qi.func)) for qi in formed.coordinates)
     speeds = tuple(sm.Symbol(s) for s in formed.speed_names)
     known = dict(zip(formed.coordinates, coords)) | dict(zip(formed.speeds, speeds))
-    M, F, G = formed.mass_matrix, formed.forcing, formed.kinematics
+    known |= {v: sm.S.Zero for v in formed.vanishing}
+    stated = formed.constraints
+    exprs = [*formed.mass_matrix, *formed.forcing, *formed.kinematics]
+    exprs += stated.expressions() if stated is not None else []
 
     symbols: set[sm.Symbol] = set()
     inputs: dict[AppliedUndef, sm.Symbol] = {}
     stray = []
-    for node in walk_unique([*M, *F, *G]):
+    for node in walk_unique(exprs):
         if isinstance(node, sm.Symbol):
             symbols.add(node)
         elif isinstance(node, (AppliedUndef, sm.Derivative)) and node not in known:
@@ -190,11 +316,29 @@ def _convert(name: str, formed: _Formed, parameters: Sequence[str | sm.Symbol] |
                          f"named like a coordinate, speed or input, or symbols with different "
                          f"assumptions); rename one of them")
 
-    known |= inputs
-    M, F, G = (sm.ImmutableMatrix(e).xreplace(known) for e in (M, F, G))
-    layout = Layout(coords, speeds, _order(params, parameters), tuple(inputs.values()), t)
-    return Equations(name=name, layout=layout, mass_matrix=M, forcing=F, kinematics=G,
-                     source=source, method=method)
+    plain = iter(xreplace_dag(exprs, known | inputs))
+    n, nq = len(speeds), len(coords)
+    M = sm.ImmutableMatrix(n, n, [next(plain) for _ in range(n * n)])
+    F = sm.ImmutableMatrix(n, 1, [next(plain) for _ in range(n)])
+    G = sm.ImmutableMatrix(nq, 1, [next(plain) for _ in range(nq)])
+    params, inputs = _order(params, parameters), tuple(inputs.values())
+    if stated is None:
+        layout = Layout(coords, speeds, params, inputs, t)
+        return Equations(name=name, layout=layout, mass_matrix=M, forcing=F, kinematics=G,
+                         source=source, method=method)
+    holonomic = [next(plain) for _ in stated.holonomic]
+    stated = stated._replace(holonomic=holonomic, velocity=list(plain),
+                             dependent_coordinates=[known[q] for q in
+                                                    stated.dependent_coordinates])
+    build = sympy_constraints.kane if stated.kind == "kane" else sympy_constraints.lagrange
+    order, n_dep, cons = build(stated, list(coords), list(speeds), list(G), t)
+    ordered = [speeds[j] for j in order]
+    layout = Layout(coords, tuple(ordered[:n - n_dep]), params, inputs, t,
+                    tuple(ordered[n - n_dep:]))
+    return Equations(name=name, layout=layout,
+                     mass_matrix=sm.ImmutableMatrix(n, n, [M[i, j] for i in order for j in order]),
+                     forcing=sm.ImmutableMatrix(n, 1, [F[i] for i in order]), kinematics=G,
+                     source=source, method=method, constraints=cons)
 
 
 def _order(params: set[sm.Symbol],

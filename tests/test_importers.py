@@ -185,29 +185,6 @@ def test_refuses_input_derivatives():
         from_sympy(km)
 
 
-def test_refuses_dependent_speeds():
-    """A rolling disc kept upright: x' = r u with a dependent speed, as in sympy's docs."""
-    x, th, ux, uth = me.dynamicsymbols("x theta u_x u_theta")
-    m, r = sm.symbols("m r")
-    N = me.ReferenceFrame("N")
-    B = N.orientnew("B", "Axis", [th, N.z])
-    B.set_ang_vel(N, uth * N.z)
-    P = me.Point("P")
-    P.set_vel(N, ux * N.x)
-    km = me.KanesMethod(N, [x, th], [uth], kd_eqs=[x.diff() - ux, th.diff() - uth],
-                        u_dependent=[ux], velocity_constraints=[ux + r * uth])
-    km.kanes_equations([me.Particle("Pa", P, m)], [(P, -m * N.y)])
-    with pytest.raises(ModelError, match=r"dependent coordinates or speeds"):
-        from_sympy(km)
-
-
-def test_refuses_auxiliary_speeds():
-    km, bodies, loads = simple_kane(u_auxiliary=[me.dynamicsymbols("ua")])
-    km.kanes_equations(bodies, loads)
-    with pytest.raises(ModelError, match=r"auxiliary speeds"):
-        from_sympy(km)
-
-
 def test_refuses_lagrange_with_joint_speeds():
     system = cart_pendulum()
     system.form_eoms(me.LagrangesMethod)
