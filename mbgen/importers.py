@@ -9,11 +9,20 @@ What is mapped to what
 =========================================  =============================================
 sympy                                      mbgen
 =========================================  =============================================
-``KanesMethod.mass_matrix``                ``M`` (``M u' = F``, kinematics substituted)
+``KanesMethod.mass_matrix``                ``M`` (``M u' = F``, kinematics substituted;
+                                           re-formed unconstrained, see below)
 ``KanesMethod.forcing``                    ``F``
 ``kindiffdict()[q_i']``                    ``G_i`` (``q' = G``)
-``LagrangesMethod.mass_matrix``            ``M`` with the speeds ``u = q'``
+``q_dependent``, ``u_dependent``           ``constraints.dependent_coordinates``,
+                                           ``layout.dependent_speeds``
+``configuration_constraints``              ``constraints.holonomic`` (``f_h = 0``)
+``velocity_constraints``                   ``A u + b = 0``, rows named ``configuration_<i>``
+                                           and ``velocity_<k>``
+``u_auxiliary``                            zero (with their derivatives)
+``LagrangesMethod.mass_matrix``            ``M`` (its first ``n`` columns) with ``u = q'``
 ``LagrangesMethod.forcing``                ``F``
+``hol_coneqs``; ``coneqs``; ``lam_vec``    ``constraints.holonomic``; ``A u + b = 0``;
+                                           the rows' names ``lam1 ...`` (multipliers)
 ``q_i(t)``, ``u_i(t)``                     ``Symbol("q_i")``, ``Symbol("u_i")``, in
                                            sympy's order
 ``q_i'(t)`` (LagrangesMethod speeds)       ``Symbol("q_i_dot")``
@@ -44,11 +53,14 @@ a constrained KanesMethod keeps only the reduced ``Fr + Fr* = 0``, so the
 unconstrained ones are re-formed: a second KanesMethod over the same frame,
 coordinates, kinematic equations, bodies and loads, with every speed
 independent, through sympy's public ``kanes_equations``.  That doubles sympy's
-own derivation time but depends on no sympy internals beyond the stated
-constraints; sympy discards its full-size matrices after reducing them, so
-reading them back would mean copying its private ``_form_frstar``.  A
-LagrangesMethod keeps its unconstrained ``M`` (the first ``n`` columns of
-``mass_matrix``) and ``forcing``.
+own derivation time (0.15 s on the rolling disc) but reads nothing of sympy's
+beyond the stated constraints and the frame; sympy discards its full-size
+matrices after reducing them with ``Ars = -B_dep^-1 B_ind`` (a symbolic
+inverse), so reading them back would mean copying its private
+``_form_frstar``.  A LagrangesMethod keeps its unconstrained ``M`` (the first
+``n`` columns of ``mass_matrix``) and ``forcing``.  How the constraint rows,
+their names and the dependent speeds of a LagrangesMethod are chosen:
+:mod:`mbgen.sympy_constraints`.
 
 Auxiliary speeds (``u_auxiliary``) are zero in the motion: they and their
 derivatives are set to zero everywhere, as sympy does in ``M`` and ``F``.

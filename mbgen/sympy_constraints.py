@@ -52,6 +52,7 @@ import sympy as sm
 
 from .equations import Constraints
 from .errors import ModelError
+from .outputs import _derivatives
 from .symbolic import free_symbols, xreplace_dag
 
 _TRIES = 3  # random states per rank test
@@ -130,9 +131,14 @@ def _rank(a: np.ndarray) -> int:
 
 
 # --------------------------------------------------------------------------- forms
+def _jacobian(exprs: list, variables: Sequence[sm.Symbol]) -> list[list]:
+    """``[[d e/d v for v in variables] for e in exprs]`` (symengine, one memo: linear in the graph)."""
+    return _derivatives(list(exprs), list(variables)) if exprs else []
+
+
 def _affine(rows: list, speeds: Sequence[sm.Symbol], what: list[str]) -> tuple[list, list]:
     """``(A, b)`` with ``rows = A u + b``; refuses rows that are not linear in ``speeds``."""
-    A = [[r.diff(u) for u in speeds] for r in rows]
+    A = _jacobian(rows, speeds)
     moving = set(speeds)
     bad = [w for w, a in zip(what, A) if free_symbols(a) & moving]
     if bad:
@@ -144,12 +150,8 @@ def _affine(rows: list, speeds: Sequence[sm.Symbol], what: list[str]) -> tuple[l
 
 def _time_derivative(exprs: list, coordinates, kinematics, time) -> list:
     """``sum_j d e/dq_j G_j + d e/dt`` for each expression (``q' = G``, speeds held fixed)."""
-    out = []
-    for e in exprs:
-        present = free_symbols([e])
-        out.append(sm.Add(*(e.diff(q) * g for q, g in zip(coordinates, kinematics)
-                            if q in present), e.diff(time)))
-    return out
+    J = _jacobian(exprs, [*coordinates, time])
+    return [sm.Add(*(d * g for d, g in zip(row, kinematics) if d != 0), row[-1]) for row in J]
 
 
 def _build(names, holonomic, dependent_coordinates, A, b, speeds, coordinates, kinematics,
@@ -163,7 +165,8 @@ def _build(names, holonomic, dependent_coordinates, A, b, speeds, coordinates, k
         holonomic=sm.ImmutableMatrix(mh, 1, list(holonomic)),
         dependent_coordinates=tuple(dependent_coordinates),
         holonomic_jacobian=sm.ImmutableMatrix(mh, len(coordinates),
-                                              [f.diff(q) for f in holonomic for q in coordinates]),
+                                              [e for r in _jacobian(holonomic, coordinates)
+                                               for e in r]),
         velocity_matrix=sm.ImmutableMatrix(m, len(speeds), [e for r in A for e in r]),
         velocity_bias=sm.ImmutableMatrix(m, 1, b),
         acceleration_bias=sm.ImmutableMatrix(m, 1, beta))
@@ -233,8 +236,7 @@ def kane(stated: Stated, coordinates, speeds, kinematics, time) -> Reduced:
                          f"coefficient block is singular at random states); drop a redundant "
                          f"constraint or choose other u_dependent")
     if mh:
-        H = [[f.diff(q) for q in stated.dependent_coordinates] for f in stated.holonomic]
-        if not _nonsingular(H, sampler):
+        if not _nonsingular(_jacobian(stated.holonomic, stated.dependent_coordinates), sampler):
             raise ModelError(f"the configuration constraints of the KanesMethod are redundant "
                              f"or do not determine q_dependent "
                              f"{list(stated.dependent_coordinates)}; choose other dependent "
@@ -256,7 +258,7 @@ def lagrange(stated: Stated, coordinates, speeds, kinematics, time) -> Reduced:
     _check_counts(m, mh, n, len(coordinates), "the LagrangesMethod")
     A, b = _affine(list(stated.velocity), speeds, list(stated.names))
     sampler = _Sampler([*coordinates, *speeds])
-    H = [[f.diff(q) for q in coordinates] for f in stated.holonomic]
+    H = _jacobian(stated.holonomic, coordinates)
     dep_q, dep_u = choose_dependent(A, H, coordinates, stated.requested, sampler)
     independent = [j for j in range(n) if j not in dep_u]
     order = independent + dep_u
