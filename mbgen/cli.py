@@ -91,6 +91,54 @@ def cmd_generate(args) -> int:
     return EXIT_OK
 
 
+def cmd_linearize(args) -> int:
+    import numpy as np
+
+    from .fileio import write_atomic
+    from .linearize import linearize
+    from .outputs import Output
+    from .pipeline import compile
+
+    scene = _scene(args)
+    outputs = [Output.RHS, Output.JACOBIAN]
+    model_eq = scene.model
+    constrained = bool(getattr(model_eq, "constraints_", None) or
+                       getattr(model_eq, "constraints", None))
+    if constrained:
+        outputs += [Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN]
+    model = compile(scene, outputs + ([Output.INPUT_JACOBIAN] if _has_inputs(scene) else []))
+    x = scene.x0(model.layout)
+    for pair in args.state or ():
+        name, _, value = pair.partition("=")
+        if name.strip() not in model.state_names:
+            raise SceneError(f"-x {pair!r}: {name!r} is not a state of {scene.name!r}; states: "
+                             f"{list(model.state_names)}")
+        x[model.state_names.index(name.strip())] = float(value)
+    if model.dependent_coordinates:
+        x = model.consistent(x)
+    lin = linearize(model, x, scene.p(model.layout))
+    print(f"{scene.name}: operating point " + ", ".join(
+        f"{n} = {v:.6g}" for n, v in zip(model.state_names, x)))
+    print(lin.format())
+    if args.output:
+        folder = Path(args.output)
+        for name, matrix, cols in (("A", lin.A, lin.states), ("B", lin.B, lin.inputs)):
+            text = ",".join(cols) + "\n" + "".join(
+                ",".join(repr(float(v)) for v in row) + "\n" for row in np.atleast_2d(matrix))
+            write_atomic(folder / f"{name}.csv", text)
+        print(f"wrote {folder / 'A.csv'} and {folder / 'B.csv'} (rows and columns: "
+              f"{', '.join(lin.states)})")
+    return EXIT_OK
+
+
+def _has_inputs(scene) -> bool:
+    model = scene.model
+    inputs = getattr(model, "inputs_", None)
+    if inputs is None:
+        inputs = model.layout.inputs
+    return bool(inputs) and scene.inputs != ()
+
+
 def cmd_check(args) -> int:
     from .check import check
 
@@ -297,6 +345,14 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--no-slice", action="store_true",
                    help="ignore the scene's fixed parameters and input selection")
     p.set_defaults(func=cmd_generate)
+
+    p = sub.add_parser("linearize", help="A, B and eigenvalues at the scene's initial state")
+    scene_args(p, method_flag=True)
+    p.add_argument("-x", "--state", action="append", metavar="NAME=VALUE",
+                   help="operating point: a state's value (repeatable; default the scene's "
+                        "initial state, made consistent with its constraints)")
+    p.add_argument("-o", "--output", metavar="DIR", help="write A.csv and B.csv into DIR")
+    p.set_defaults(func=cmd_linearize)
 
     p = sub.add_parser("check", help="compare compiled C, generated Python and lambdify")
     scene_args(p, method_flag=True)
