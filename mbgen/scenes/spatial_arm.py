@@ -30,7 +30,9 @@ rod-like inertias with small products.  All of them are baked into the code as
 the last link's mass ``m{n}`` (a payload) stay free at run time.  The start is
 a bent pose at rest, ``q{i} = 0.3 (-1)^i``, ``u = 0``.
 
-Option: ``n`` (number of links, default 6).
+Option: ``n`` (number of links, default 4: with every output, Jacobians
+included, the test suite's pipeline runs take ~10 s at ``n = 4`` and ~100 s at
+``n = 6`` on today's symbolic core; ``mbgen bench arm`` goes further).
 """
 
 from __future__ import annotations
@@ -67,7 +69,7 @@ def link_parameters(n: int) -> dict[str, float]:
     return values
 
 
-def build_model(n: int = 6) -> Model:
+def build_model(n: int = 4) -> Model:
     """The arm of ``n`` links; constants ``a_i, b_i, m_i, I.._i`` per link (link order), then ``g``.
 
     The offset ``a{n}`` of the last link leads to no further joint and is not
@@ -95,7 +97,7 @@ def build_model(n: int = 6) -> Model:
     return m
 
 
-def scene(n: int = 6) -> Scene:
+def scene(n: int = 4) -> Scene:
     """The ``n``-link arm, released at rest from a bent pose (see the module docstring)."""
     values = link_parameters(n)
     values.pop(f"a{n}")
