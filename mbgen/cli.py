@@ -187,6 +187,14 @@ def cmd_demo(args) -> int:
 def cmd_bench(args) -> int:
     if args.what == "arm":
         return _bench_arm(args)
+    if args.stages:
+        from .stagetimes import format_stages, stage_times
+
+        outputs = tuple(args.outputs.split(",")) if args.outputs else ()
+        rows = stage_times(args.what, _options(args.option), outputs, budget_s=args.budget,
+                           memory_gb=args.memory_gb, progress=_progress)
+        print(format_stages(args.what, rows))
+        return EXIT_OK
     if args.repeats is None:
         args.repeats = 3
     if args.what == "scaling":
@@ -338,12 +346,19 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--ns", default="2,4,8,16,32", help="scaling: link counts (default 2,4,8,16,32)")
     p.add_argument("--sympy-max-n", type=int, default=32,
                    help="scaling: largest n run through sympy's KanesMethod (default 32)")
+    p.add_argument("--stages", action="store_true",
+                   help="time every pipeline stage of SCENE (derive, bake, CSE per output, "
+                        "render, compile), each under --budget, instead of the work-precision "
+                        "report")
+    p.add_argument("--outputs", metavar="LIST", help="--stages: outputs (default: the scene's)")
     p.add_argument("--budget", type=float, default=300.0,
-                   help="arm: seconds mbgen may take for one n (default 300; stops larger n)")
+                   help="arm: seconds mbgen may take for one n (default 300; stops larger n); "
+                        "--stages: seconds one stage may take")
     p.add_argument("--sympy-budget", type=float, default=120.0,
                    help="arm: seconds sympy's KanesMethod may take for one n (default 120; 0: skip)")
     p.add_argument("--memory-gb", type=float, default=12.0,
-                   help="arm: address-space cap of each timed child process (default 12)")
+                   help="arm, --stages: address-space cap of each timed child process "
+                        "(default 12)")
     p.add_argument("--no-pinocchio", action="store_true", help="arm: leave Pinocchio out")
     p.add_argument("--no-cxx", action="store_true",
                    help="arm: time Pinocchio from Python only (no C++ loop)")
