@@ -166,13 +166,13 @@ def pinocchio_aba(n: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def _cmeel_prefix() -> Path:
-    import cmeel  # noqa: F401  (installed with pin; gives the prefix of its wheels)
-
-    prefix = Path(sys.prefix) / "lib" / f"python{sys.version_info.major}.{sys.version_info.minor}" \
-        / "site-packages" / "cmeel.prefix"
-    if not (prefix / "include" / "pinocchio").is_dir():
-        raise BenchmarkError(f"no Pinocchio headers under {prefix}; the C++ loop needs the 'pin' "
-                             f"wheel's include and lib folders")
+    """The folder the ``pin`` wheel installed into (it holds ``include/`` and ``lib/``)."""
+    pin = _pinocchio()
+    prefix = next((p for p in Path(pin.__file__).resolve().parents
+                   if (p / "include" / "pinocchio").is_dir()), None)
+    if prefix is None:
+        raise BenchmarkError(f"no Pinocchio headers above {pin.__file__}; the C++ loop needs the "
+                             f"'pin' wheel's include and lib folders")
     if not (prefix / "include" / "eigen3").is_dir():
         raise BenchmarkError("no Eigen headers for the C++ loop: pip install -e '.[bench]' "
                              "(PyPI 'cmeel-eigen')")
@@ -427,6 +427,11 @@ def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
     method : str
         mbgen's derivation method (``mbgen.Method`` value).
     """
+    from .derive import Method
+
+    if method not in {m.value for m in Method}:
+        raise BenchmarkError(f"unknown derivation method {method!r}; methods: "
+                             f"{', '.join(m.value for m in Method)}")
     say = progress or (lambda message: None)
     rows = []
     with tempfile.TemporaryDirectory(prefix="mbgen-arm-aba-") as tmp:

@@ -226,13 +226,17 @@ def cmd_bench(args) -> int:
 
 
 def _bench_arm(args) -> int:
-    from .armbench import arm_scaling, format_arm, plot, write_csv
+    from .armbench import BenchmarkError, arm_scaling, format_arm, plot, write_csv
 
     ns = tuple(int(v) for v in args.ns.split(","))
-    rows = arm_scaling(ns, repeats=args.repeats or 7, budget_s=args.budget,
-                       sympy_budget_s=args.sympy_budget, memory_gb=args.memory_gb,
-                       pinocchio=not args.no_pinocchio, cxx=not args.no_cxx,
-                       method=args.derivation, progress=_progress)
+    try:
+        rows = arm_scaling(ns, repeats=args.repeats or 7, budget_s=args.budget,
+                           sympy_budget_s=args.sympy_budget, memory_gb=args.memory_gb,
+                           pinocchio=not args.no_pinocchio, cxx=not args.no_cxx,
+                           method=args.derivation, progress=_progress)
+    except BenchmarkError as exc:  # a missing optional dependency or a driver that failed
+        print(f"mbgen: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     print(format_arm(rows))
     folder = Path(args.output or Path("bench") / "arm")
     folder.mkdir(parents=True, exist_ok=True)
@@ -253,14 +257,16 @@ def cmd_stress(args) -> int:
 def cmd_golden(args) -> int:
     from . import golden
 
+    names = args.scenes.split(",") if args.scenes else None
+
     root = Path(args.root)
     if args.update:
-        changed = golden.update(root)
+        changed = golden.update(root, names)
         print(f"{len(changed)} file(s) rewritten under {root}")
         for p in changed:
             print(f"  {p}")
         return EXIT_OK
-    diffs = golden.differences(root)
+    diffs = golden.differences(root, names)
     for d in diffs:
         print(d)
     print(f"{root}: {'up to date' if not diffs else f'{len(diffs)} difference(s); run mbgen golden --update'}")
@@ -377,6 +383,8 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser("golden", help="compare (or --update) generated/ with the generator")
     p.add_argument("--root", default="generated", help="folder (default generated)")
     p.add_argument("--update", action="store_true", help="rewrite the files")
+    p.add_argument("--scenes", metavar="LIST",
+                   help="only these scenes, e.g. --scenes bicycle,spatial_arm (default: all)")
     p.set_defaults(func=cmd_golden)
     return top
 
