@@ -19,10 +19,13 @@ from .pipeline import compile, equations_of, python_model, run
 from .reference import LambdifiedModel
 from .runtime import CompiledModel, PythonModel
 from .scene import Scene, load_scene
+from .targets import Targets
+from .targets.fmu import export_fmu
+from .ensemble import ensemble
 
 
 __all__ = ["__version__", "Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "BuildError", "SingularMassMatrixError", "NonFiniteResultError",
-           "CheckFailed", "IntegrationError"]
+           "CheckFailed", "IntegrationError", "Targets", "export_fmu", "ensemble"]

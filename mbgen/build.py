@@ -114,11 +114,11 @@ def build(rendered: Rendered, *, force: bool = False) -> Path:
         write_files(tmpdir, rendered.files)
         ffi = cffi.FFI()
         try:
-            ffi.cdef(rendered.cdef)
+            ffi.cdef(rendered.cdef + rendered.extension_cdef)
         except Exception as exc:  # cffi.CDefError and friends
             raise BuildError(f"cffi could not parse the declarations of {rendered.prefix}: "
                              f"{exc}") from exc
-        ffi.set_source(name, f'#include "{rendered.prefix}.h"',
+        ffi.set_source(name, f'#include "{rendered.prefix}.h"\n' + rendered.extension,
                        sources=[str(tmpdir / f"{rendered.prefix}.c")],
                        include_dirs=[str(tmpdir)], extra_compile_args=list(CFLAGS),
                        libraries=["m"])

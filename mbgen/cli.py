@@ -273,6 +273,29 @@ def cmd_golden(args) -> int:
     return EXIT_OK if not diffs else EXIT_CHECK
 
 
+def cmd_fmu(args) -> int:
+    from .targets.fmu import export_fmu
+
+    path = export_fmu(_scene(args), args.output)
+    print(f"{path}  (FMI 2.0, model exchange and co-simulation)")
+    return EXIT_OK
+
+
+def cmd_sweep(args) -> int:
+    from .ensemble import ensemble, parse_grid, parse_samples
+
+    scene = _scene(args)
+    result = ensemble(scene, grid=parse_grid(args.grid), samples=parse_samples(args.samples),
+                      n=args.n, seed=args.seed, method=args.method, t_end=args.t_end,
+                      n_out=args.points, rtol=args.rtol, atol=args.atol, address=args.address,
+                      n_workers=args.workers, chunk=args.chunk,
+                      serial=args.serial, progress=not args.quiet)
+    path = result.write_csv(args.csv or f"{scene.name}_sweep.csv")
+    print(result.summary())
+    print(f"table: {path} ({len(result.table)} members)")
+    return EXIT_OK if result.n_failed == 0 else EXIT_NUMERIC
+
+
 # ------------------------------------------------------------------- parser
 def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(
@@ -379,6 +402,37 @@ def parser() -> argparse.ArgumentParser:
                    help="the whole grid (stiffness 1e4..1e8, ratios 1e-6..1e6, long runs); "
                         "default: the CI size")
     p.set_defaults(func=cmd_stress)
+
+    p = sub.add_parser("fmu", help="write an FMI 2.0 FMU (model exchange and co-simulation)")
+    scene_args(p)
+    p.add_argument("-o", "--output", default=".", metavar="DIR",
+                   help="folder for SCENE.fmu (default: the current folder)")
+    p.set_defaults(func=cmd_fmu)
+
+    p = sub.add_parser("sweep", help="parameter study / Monte Carlo ensemble on Dask (exit 5 "
+                                      "when a member failed; the table is written anyway)")
+    scene_args(p)
+    p.add_argument("--grid", action="append", metavar="NAME=V1,V2,...|NAME=LO:HI:N",
+                   help="a parameter or initial state on a grid (repeatable; the grids' "
+                        "product is swept)")
+    p.add_argument("--samples", action="append", metavar="NAME=uniform:LO:HI|normal:MU:SIGMA",
+                   help="a parameter or initial state drawn at random (repeatable)")
+    p.add_argument("-n", type=int, default=None,
+                   help="members drawn per grid point (default 1; 100 without --grid)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--method", help="dopri5, rosenbrock or rk4 (default: the scene's)")
+    p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
+    p.add_argument("--points", type=int, default=2,
+                   help="output times, t0..t_end (default 2: initial and final state)")
+    p.add_argument("--rtol", type=float, default=1e-6)
+    p.add_argument("--atol", type=float, default=1e-9)
+    p.add_argument("--address", help="a running Dask scheduler (default: a LocalCluster)")
+    p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes")
+    p.add_argument("--chunk", type=int, default=None, help="members per task (default: auto)")
+    p.add_argument("--serial", action="store_true", help="no Dask: run in this process")
+    p.add_argument("--csv", metavar="PATH", help="result table (default SCENE_sweep.csv)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("golden", help="compare (or --update) generated/ with the generator")
     p.add_argument("--root", default="generated", help="folder (default generated)")

@@ -397,7 +397,9 @@ def integrator_context(kernel) -> dict:
                          if (a == "p" and L.n_p) or (a == "r" and L.n_r))
     tail = (f"int n_out, const double *t_out, double *x_out, const {prefix}_options *opt, "
             f"{prefix}_stats *stats")
-    prototypes = [(o.value, f"int {prefix}_{o.value}(const double *x0{extra_params}, {tail})")
+    prototypes = [(o.value, f"int {prefix}_{o.value}(const double *x0{extra_params}, {tail}"
+                            + (f", {prefix}_rosenbrock_work *work)" if o is Output.ROSENBROCK
+                               else ")"))
                   for o in (Output.DOPRI5, Output.RK4, Output.ROSENBROCK) if o.value in wanted]
     non_autonomous = Output.ROSENBROCK.value in wanted and _explicit_time(kernel)
     if non_autonomous and not any(f.output is Output.TIME_DERIVATIVE for f in kernel.functions):

@@ -91,7 +91,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         build: bool = True, parameters: Mapping[str, float] | None = None,
         fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
         name: str | None = None, sliced: bool = True,
-        cse_backend: CseBackend = CseBackend.SYMENGINE) -> PipelineResult:
+        cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None) -> PipelineResult:
     """Run every stage and time it: derive, bake, optimize, render, and (optionally) compile.
 
     Parameters
@@ -109,6 +109,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         Model name, i.e. the C prefix (default: the model's or the scene's prefix).
     sliced : bool
         ``False`` ignores the scene's fixed parameters and input selection.
+    targets : mbgen.targets.Targets, optional
+        What to render besides the outputs (the step API).
     """
     outs = _outputs(source, outputs)
     scene = source if isinstance(source, Scene) else None
@@ -136,7 +138,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         inputs = scene.inputs
     baked = timed("bake", bake, equations, fixed, inputs)
     kernel = timed("cse", optimize, baked, outs, cse_backend)
-    rendered = timed("render", render, kernel)
+    rendered = timed("render", render, kernel, targets)
     compiled, cached = None, False
     if build:
         cached = compiled_path(rendered).exists()
@@ -150,7 +152,7 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
             parameters: Mapping[str, float] | None = None,
             fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
             name: str | None = None,
-            cse_backend: CseBackend = CseBackend.SYMENGINE) -> CompiledModel:
+            cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None) -> CompiledModel:
     """Generate, compile (cached by content hash) and load ``source``.
 
     Parameters
@@ -166,6 +168,8 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         Inputs given at run time; the others are zero (default: the scene's, else all).
     name : str, optional
         C prefix, so that two slices of one model can live in one C program.
+    targets : mbgen.targets.Targets, optional
+        What to render besides the outputs, e.g. ``Targets(step=True)`` for the step API.
 
     Returns
     -------
@@ -173,7 +177,7 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         ``model.rhs(t, x, p=None, r=None)`` and the other requested outputs.
     """
     return run(source, outputs, parameters=parameters, fixed=fixed, inputs=inputs, name=name,
-               cse_backend=cse_backend).compiled
+               cse_backend=cse_backend, targets=targets).compiled
 
 
 def python_model(rendered: Rendered) -> PythonModel:

@@ -1,12 +1,14 @@
 r"""The reference: a ``sympy.lambdify`` of the *unoptimised* equations.
 
-No CSE, no printer of ours: expressions go straight from the derivation into
-NumPy code, and ``M u' = F`` is solved with :func:`numpy.linalg.cholesky` and
-:func:`numpy.linalg.solve`.  This is what the compiled C and the generated
-Python are checked against.
+No optimising CSE, no printer of ours: expressions go straight from the
+derivation into NumPy code through sympy's own printer, and ``M u' = F`` is
+solved with :func:`numpy.linalg.cholesky` and :func:`numpy.linalg.solve`.  This
+is what the compiled C and the generated Python are checked against.  Nodes the
+derived graph shares are named once (:func:`mbgen.symbolic.split_shared`), so
+the printed code is as large as the graph, not as its expanded tree.
 
-Jacobians are sympy's ``Matrix.jacobian`` of ``G`` and of ``R = F - M a`` (the
-accelerations ``a`` held fixed), lambdified, with
+Jacobians are derivatives of ``G`` and of ``R = F - M a`` (the accelerations
+``a`` held fixed), lambdified, with
 :math:`\partial u'/\partial v = M^{-1} \partial R/\partial v` solved numerically.
 Every expression is lambdified on first use.
 """
@@ -20,9 +22,9 @@ from .equations import Equations
 from .errors import ModelError
 from .layout import Layout
 from .optimize import Output
-from .outputs import dynamic_parameters
+from .outputs import _derivatives, dynamic_parameters
 from .runtime import ModelBase
-from .symbolic import free_symbols
+from .symbolic import free_symbols, split_shared
 
 _SENSITIVITY = (Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE)
 
@@ -64,7 +66,10 @@ class LambdifiedModel(ModelBase):
             if unknown:
                 raise ModelError(f"{self.name}: {key} needs {sorted(map(str, unknown))}, "
                                  f"which the layout does not provide")
-            hit = sm.lambdify(self._args + tuple(extra_args), expr, modules="numpy", cse=False)
+            # Split before lambdify sees the expression: it walks its argument as a tree.
+            reps, reduced = split_shared(sm.ImmutableMatrix(expr))
+            hit = sm.lambdify(self._args + tuple(extra_args), reduced, modules="numpy",
+                              cse=lambda e: (reps, e))
             self._cache[key] = hit
         return hit
 
@@ -82,9 +87,10 @@ class LambdifiedModel(ModelBase):
             variables = tuple(v for v in variables if v in dynamic_parameters(eq))
         acc = list(sm.symbols(f"acc0:{L.n_u}"))
         dG = self._lambdify(("dG", output),
-                            lambda: sm.Matrix(eq.kinematics).jacobian(variables), (acc,))
-        dR = self._lambdify(("dR", output), lambda: (
-            sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)).jacobian(variables),
+                            lambda: sm.Matrix(_derivatives(list(eq.kinematics), variables)),
+                            (acc,))
+        dR = self._lambdify(("dR", output), lambda: sm.Matrix(_derivatives(list(
+            sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)), variables)),
                             (acc,))
         M, F = self._mf(t, x, p, r)
         a = np.linalg.solve(M, F)

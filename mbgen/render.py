@@ -56,6 +56,15 @@ class Rendered:
         Default values of the ABI's parameters (by name) where known.
     outputs : tuple of Output
         Every output generated, integrators included.
+    extension, extension_cdef : str
+        C source (and its declarations) compiled into the Python extension
+        only: the batch loops of :mod:`mbgen.targets.batch`.
+    content_hash : str
+        ``<PREFIX>_CONTENT_HASH`` of the header (:mod:`mbgen.targets.header`).
+    stack_bounds : tuple of (str, int)
+        Stack bound in bytes of every public C function, as stated in the header.
+    step_methods : tuple of str
+        The step API's methods (empty without the step target).
     """
 
     prefix: str
@@ -65,6 +74,11 @@ class Rendered:
     layout: Layout
     defaults: dict
     outputs: tuple
+    extension: str = ""
+    extension_cdef: str = ""
+    content_hash: str = ""
+    stack_bounds: tuple = ()
+    step_methods: tuple = ()
 
     @property
     def header(self) -> str:
@@ -84,7 +98,14 @@ class Rendered:
         for name in sorted(self.files):
             h.update(name.encode() + b"\0" + self.files[name].encode() + b"\0")
         h.update(self.cdef.encode())
+        h.update(b"\0" + self.extension.encode() + b"\0" + self.extension_cdef.encode())
         return h.hexdigest()
+
+    def sources(self) -> dict:
+        """Plain strings a process needs to build this model (no sympy, no compiled objects)."""
+        return dict(prefix=self.prefix, files=dict(self.files), cdef=self.cdef,
+                    extension=self.extension, extension_cdef=self.extension_cdef,
+                    digest=self.digest())
 
 
 @dataclass(frozen=True)
@@ -168,8 +189,11 @@ def _c_prototype(fn_view: dict, args) -> str:
     return f"int {fn_view['name']}({', '.join(params)})"
 
 
-def render(kernel: Kernel) -> Rendered:
+def render(kernel: Kernel, targets=None) -> Rendered:
     """Render the C header, C source and Python module of ``kernel``.
+
+    ``targets`` (:class:`mbgen.targets.Targets`) adds what is rendered besides
+    the outputs (the step API).
 
     Returns
     -------
@@ -200,7 +224,11 @@ def render(kernel: Kernel) -> Rendered:
                (f"{upper}_N_X", L.n_x, "length of the state x = [q, u]"),
                (f"{upper}_N_P", L.n_p, "number of parameters"),
                (f"{upper}_N_R", L.n_r, "number of inputs")]
-    codes = STATUS_CODES + (INTEGRATOR_STATUS_CODES if kernel.integrators else ())
+    from .targets import Targets
+
+    targets = targets or Targets()
+    codes = STATUS_CODES + (INTEGRATOR_STATUS_CODES if kernel.integrators or targets.step
+                            else ())
     defines += [(f"{upper}_{code}", value, text) for code, value, text in codes]
     prototypes = [v["prototype"] + ";" for v in c_views]
     if has_defaults:
@@ -257,17 +285,34 @@ def render(kernel: Kernel) -> Rendered:
 
         ctx.update(integrator_context(kernel))
         declarations.append(env.get_template("integrators.h.j2").render(ctx).strip())
+    from .targets import batch, header as head, step
+
+    methods = ()
+    if targets.step:
+        ctx.update(step.step_context(kernel, prefix))
+        methods = tuple(ctx["step"]["methods"])
+        declarations.append(env.get_template("step.h.j2").render(ctx).strip())
+    bounds = head.stack_bounds(kernel, c_views, prefix, methods,
+                               ctx.get("integ", ctx.get("step", {})).get("non_autonomous",
+                                                                          False))
+    ctx.update(index_defines=head.index_defines(upper, L), content_hash=head.HASH_PLACEHOLDER,
+               stack_bounds=sorted(bounds.items()), step_target=bool(methods))
     ctx["declarations"] = declarations
     header = env.get_template("model.h.j2").render(ctx)
     source = env.get_template("model.c.j2").render(ctx)
     python = env.get_template("model.py.j2").render(dict(ctx, functions=py_views))
+    digest = head.content_hash({f"{prefix}.h": header, f"{prefix}.c": source,
+                                f"{prefix}.py": python})
+    header = header.replace(f'_CONTENT_HASH "{head.HASH_PLACEHOLDER}"', f'_CONTENT_HASH "{digest}"')
+    ext_source, ext_cdef = batch.batch_source(kernel, c_views, prefix)
     cdef = "\n".join([f"#define {n} {v}" for n, v, _ in defines] + declarations) + "\n"
     infos = tuple(FunctionInfo(v["output"], v["name"], tuple(args), v["out_size"],
                                tuple(v["out_shape"]), tuple(v["out_labels"])) for v in c_views)
     return Rendered(prefix, {f"{prefix}.h": header, f"{prefix}.c": source,
                              f"{prefix}.py": python}, cdef, infos, L,
                     {str(sym): eq.defaults[str(sym)] for sym in L.parameters
-                     if str(sym) in eq.defaults}, kernel.outputs)
+                     if str(sym) in eq.defaults}, kernel.outputs, ext_source, ext_cdef, digest,
+                    tuple(sorted(bounds.items())), methods)
 
 
 __all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES",

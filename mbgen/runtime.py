@@ -153,11 +153,28 @@ class ModelBase:
         """Newtonian velocities of the reported points, shape ``(k, 3)``."""
         return self._evaluate(Output.VELOCITIES, t, x, p, r)
 
-    def bind(self, p=None, r=None, output: Output = Output.RHS) -> Callable:
-        """``f(t, x)`` with parameters and inputs fixed (for ``solve_ivp(f, ...)``)."""
+    def bind(self, p=None, r=None, output: Output = Output.RHS, *,
+             vectorized: bool = False) -> Callable:
+        """``f(t, x)`` with parameters and inputs fixed (for ``solve_ivp(f, ...)``).
+
+        ``vectorized=True``: ``f(t, y)`` takes and returns solve_ivp's ``(n_x, k)``
+        columns (``solve_ivp(f, ..., vectorized=True)``), evaluated by the batch
+        loop in C (compiled models) as ``rhs(t, y.T).T``.
+        """
         output = Output(output)
         self._require(output)
         p_arr, r_arr = self._p(p).copy(), self._r(r).copy()
+
+        if vectorized:
+            def f(t, y):
+                y = np.asarray(y)
+                if y.ndim == 1:
+                    return self._evaluate(output, t, y, p_arr, r_arr)
+                if self.backend != "c":  # no batch loop: one call per column
+                    return np.stack([self._evaluate(output, t, col, p_arr, r_arr)
+                                     for col in y.T], axis=-1)
+                return self._evaluate(output, t, y.T, p_arr, r_arr).T
+            return f
 
         def f(t, x):
             return self._evaluate(output, t, x, p_arr, r_arr)
@@ -222,7 +239,16 @@ class CompiledModel(ModelBase):
         what = info.output
         check_x, check_p, check_r, as_t, fail = self._x, self._p, self._r, self._t, self._fail
 
+        from .targets.batch import evaluate, is_batch
+
+        model = self
+
         def call(t, x, p, r):
+            if not (type(x) is np.ndarray and x.ndim == 1) \
+                    or p is not None and not (type(p) is np.ndarray and p.ndim == 1) \
+                    or r is not None and not (type(r) is np.ndarray and r.ndim == 1):
+                if is_batch(x, p, r):  # (k, n) arrays: one C loop over the k items
+                    return evaluate(model, info, t, x, p, r)
             xa = check_x(x)
             out = np.empty(size)
             if has_p and has_r:
@@ -256,7 +282,7 @@ class CompiledModel(ModelBase):
 
     def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = 1e-6,
                   atol: float = 1e-9, h: float | None = None, h_max: float = 0.0,
-                  max_steps: int = 0) -> Integration:
+                  max_steps: int = 0, on_failure: str = "raise"):
         """Run a generated C integrator over ``t_eval`` (no Python per step).
 
         Parameters
@@ -270,6 +296,9 @@ class CompiledModel(ModelBase):
             Output times, strictly increasing; ``t_eval[0]`` is the initial time.
         x0, p, r
             Initial state, parameters (default: the model's) and inputs (held constant).
+            A 2-D ``x0`` ``(k, n_x)``, ``p`` ``(k, n_p)`` or ``r`` ``(k, n_r)`` is a
+            batch (1-D ones are shared by every member): ``k`` trajectories in one C
+            loop, returned as a :class:`~mbgen.targets.batch.BatchIntegration`.
         rtol, atol : float
             Error tolerances of the adaptive methods (as solve_ivp).
         h : float, optional
@@ -278,6 +307,9 @@ class CompiledModel(ModelBase):
             Largest step (0: unbounded).
         max_steps : int
             Limit on attempted steps (0: 1000000).
+        on_failure : str
+            Batches only: ``"raise"`` (the first failed member raises) or
+            ``"record"`` (statuses and messages are returned per member).
 
         Raises
         ------
@@ -313,8 +345,10 @@ class CompiledModel(ModelBase):
             i = int(np.argmax(np.diff(t) <= 0))
             raise ValueError(f"t_eval must be strictly increasing; t_eval[{i + 1}] = {t[i + 1]!r} "
                              f"follows t_eval[{i}] = {t[i]!r}")
-        xa = self._x(x0)
-        if not np.all(np.isfinite(xa)):
+        from .targets import batch
+
+        xa = None if batch.is_batch(x0, p, r) else self._x(x0)
+        if xa is not None and not np.all(np.isfinite(xa)):
             raise ValueError(f"initial state x0 must be finite; got {xa.tolist()}")
         if output is Output.RK4:
             if h is None:
@@ -331,6 +365,9 @@ class CompiledModel(ModelBase):
         if int(max_steps) != max_steps or max_steps < 0:
             raise ValueError(f"max_steps must be an integer >= 0 (0: default); got {max_steps!r}")
 
+        if xa is None:
+            return batch.integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
+                                   h_max=h_max, max_steps=max_steps, on_failure=on_failure)
         ffi, prefix = self.ffi, self.rendered.prefix
         buf = ffi.from_buffer
         opt = ffi.new(f"{prefix}_options *", {"rtol": rtol, "atol": atol, "h0": h0,
@@ -343,8 +380,10 @@ class CompiledModel(ModelBase):
         if self.n_r:
             args.append(buf("double[]", self._r(r)))
         cfunc = getattr(self.lib, f"{prefix}_{output.value}")
+        work = (ffi.new(f"{prefix}_rosenbrock_work *"),) if output is Output.ROSENBROCK else ()
         start = time.perf_counter()
-        status = cfunc(*args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats)
+        status = cfunc(*args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats,
+                       *work)
         wall = time.perf_counter() - start
         if status:
             names = {v: (n, text) for n, v, text in STATUS_CODES + INTEGRATOR_STATUS_CODES}

@@ -19,6 +19,7 @@ import sympy as sm
 from .equations import Equations, PointKinematics
 from .errors import ModelError
 from .layout import Layout
+from .symbolic import xreplace_dag
 
 
 def number(value: float) -> sm.Expr:
@@ -63,8 +64,16 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
     if not sub:
         return equations
 
+    memo: dict = {}   # one memo for every field: shared subexpressions are replaced once
+
+    def bake_all(exprs):
+        return xreplace_dag(exprs, sub, memo)
+
+    def bake_matrix(m):
+        return sm.ImmutableMatrix(m.rows, m.cols, bake_all(list(m)))
+
     def bake_expr(e):
-        return None if e is None else sm.sympify(e).xreplace(sub)
+        return None if e is None else bake_all([e])[0]
 
     layout = Layout(L.coordinates, L.speeds,
                     tuple(s for s in L.parameters if s not in sub),
@@ -72,12 +81,12 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
     return replace(
         equations,
         layout=layout,
-        mass_matrix=equations.mass_matrix.xreplace(sub),
-        forcing=equations.forcing.xreplace(sub),
-        kinematics=equations.kinematics.xreplace(sub),
+        mass_matrix=bake_matrix(equations.mass_matrix),
+        forcing=bake_matrix(equations.forcing),
+        kinematics=bake_matrix(equations.kinematics),
         kinetic_energy=bake_expr(equations.kinetic_energy),
         potential_energy=bake_expr(equations.potential_energy),
-        points=tuple(PointKinematics(pk.name, pk.position.xreplace(sub),
-                                     pk.velocity.xreplace(sub)) for pk in equations.points),
+        points=tuple(PointKinematics(pk.name, bake_matrix(pk.position), bake_matrix(pk.velocity))
+                     for pk in equations.points),
         defaults={k: v for k, v in equations.defaults.items() if k not in fixed},
     )

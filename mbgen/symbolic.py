@@ -89,3 +89,225 @@ def count_ops_tree(exprs: Iterable[sm.Basic]) -> int:
 def count_ops_dag(exprs: Iterable[sm.Basic]) -> int:
     """Arithmetic operations when every distinct subexpression is computed once."""
     return sum(node_ops(node) for node in walk_unique(exprs))
+
+
+# --------------------------------------------------------------------------- graph passes
+def postorder_unique(exprs: Iterable) -> list:
+    """Distinct nodes of ``exprs`` (sympy or symengine), children before parents, iteratively.
+
+    Each distinct node appears once, so a pass that processes this list and
+    memoises by node costs what the expression *graph* costs.
+    """
+    order: list = []
+    seen: set = set()
+    for root in exprs:
+        if root in seen:
+            continue
+        stack = [(root, False)]
+        while stack:
+            node, expanded = stack.pop()
+            if expanded:
+                order.append(node)
+                continue
+            if node in seen:
+                continue
+            seen.add(node)
+            stack.append((node, True))
+            for a in reversed(node.args):
+                if a not in seen:
+                    stack.append((a, False))
+    return order
+
+
+def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = None) -> list:
+    """``[e.xreplace(mapping) for e in exprs]``, visiting each distinct node once.
+
+    sympy's own ``xreplace`` recurses through the tree, so it costs the
+    expanded tree of a shared expression; this pass is linear in the graph.
+    Nodes are rebuilt (and re-evaluated, as ``xreplace`` does) only where a
+    descendant changed.  ``memo`` may be shared between calls with the same
+    ``mapping`` so that repeated subexpressions are replaced once.
+    """
+    exprs = [sm.sympify(e) for e in exprs]
+    memo = {} if memo is None else memo
+    for node in postorder_unique(exprs):
+        if node in memo:
+            continue
+        hit = mapping.get(node)
+        if hit is not None:
+            memo[node] = hit
+        elif not node.args:
+            memo[node] = node
+        else:
+            args = [memo[a] for a in node.args]
+            changed = any(n is not o for n, o in zip(args, node.args))
+            memo[node] = node.func(*args) if changed else node
+    return [memo[e] for e in exprs]
+
+
+def _se():
+    import symengine
+
+    return symengine
+
+
+def _function_table():
+    se = _se()
+    names = ("sin cos tan cot sec csc asin acos atan acot asec acsc sinh cosh tanh coth "
+             "asinh acosh atanh log Abs sign floor ceiling atan2 gamma erf erfc Max Min").split()
+    out = {}
+    for n in names:
+        f_sm = getattr(sm, n, None)
+        f_se = getattr(se, n, None)
+        if f_sm is not None and f_se is not None:
+            out[f_sm] = f_se
+    return out
+
+
+_SM_TO_SE: dict | None = None
+_SE_TO_SM: dict | None = None
+
+
+def to_symengine(exprs: Iterable[sm.Basic], memo: dict | None = None) -> list:
+    """Convert sympy expressions to symengine, each distinct node once.
+
+    ``symengine.sympify`` converts a sympy expression as a tree (its cost
+    doubles with every level of a shared graph); this pass builds each
+    distinct node once, bottom-up.  Pass one ``memo`` to several calls to keep
+    the results sharing nodes.
+    """
+    global _SM_TO_SE
+    se = _se()
+    if _SM_TO_SE is None:
+        _SM_TO_SE = _function_table()
+    table = _SM_TO_SE
+    exprs = [sm.sympify(e) for e in exprs]
+    memo = {} if memo is None else memo
+    for node in postorder_unique(exprs):
+        if node in memo:
+            continue
+        if not node.args:
+            if isinstance(node, sm.Symbol):
+                out = se.Symbol(node.name)
+            elif isinstance(node, sm.Integer):
+                out = se.Integer(int(node))
+            elif isinstance(node, sm.Rational):
+                out = se.Rational(int(node.p), int(node.q))
+            elif isinstance(node, sm.Float):
+                out = se.RealDouble(float(node))
+            else:
+                out = se.sympify(node)   # pi, E, I, oo, nan: leaves
+        else:
+            args = [memo[a] for a in node.args]
+            if isinstance(node, sm.Add):
+                out = se.Add(*args)
+            elif isinstance(node, sm.Mul):
+                out = se.Mul(*args)
+            elif isinstance(node, sm.Pow):
+                out = se.Pow(*args)
+            elif isinstance(node, sm.exp):
+                out = se.exp(*args)
+            elif node.func in table:
+                out = table[node.func](*args)
+            else:
+                out = se.sympify(node)   # rare kinds (Piecewise, ...): converted as a whole
+        memo[node] = out
+    return [memo[e] for e in exprs]
+
+
+def symbols_back(forward_memo: dict) -> dict:
+    """``{symengine symbol: sympy symbol}`` for the symbols a :func:`to_symengine` memo converted.
+
+    Seed :func:`to_sympy`'s memo with it so that symbols come back as the very
+    sympy symbols that went in (with their assumptions), not as plain namesakes.
+    """
+    return {v: k for k, v in forward_memo.items() if isinstance(k, sm.Symbol)}
+
+
+def to_sympy(exprs: Iterable, memo: dict | None = None) -> list:
+    """Convert symengine expressions to sympy, each distinct node once (see :func:`to_symengine`).
+
+    ``memo`` may be pre-seeded (``{symengine symbol: sympy symbol}``) to rename
+    symbols on the way, and shared between calls to keep results sharing nodes.
+    """
+    global _SE_TO_SM
+    se = _se()
+    if _SE_TO_SM is None:
+        _SE_TO_SM = {type(f_se(se.Symbol("a"), se.Symbol("b")) if f_sm in (sm.atan2, sm.Max, sm.Min)
+                          else f_se(se.Symbol("a"))): f_sm
+                     for f_sm, f_se in _function_table().items()}
+    table = _SE_TO_SM
+    memo = {} if memo is None else memo
+    exprs = list(exprs)
+    for node in postorder_unique(exprs):
+        if node in memo:
+            continue
+        args = node.args
+        if not args:
+            if isinstance(node, se.Symbol):
+                out = sm.Symbol(node.name)
+            elif isinstance(node, se.Integer):
+                out = sm.Integer(int(node))
+            elif isinstance(node, se.Rational):
+                p, q = node.get_num_den()
+                out = sm.Rational(int(p), int(q))
+            elif isinstance(node, se.RealDouble):
+                out = sm.Float(float(node), 17)
+            else:
+                out = node._sympy_()
+        else:
+            sargs = [memo[a] for a in args]
+            if isinstance(node, se.Add):
+                out = sm.Add(*sargs)
+            elif isinstance(node, se.Mul):
+                out = sm.Mul(*sargs)
+            elif isinstance(node, se.Pow):
+                out = sm.Pow(*sargs)
+            elif type(node) in table:
+                out = table[type(node)](*sargs)
+            else:
+                out = node._sympy_()
+        memo[node] = out
+    return [memo[e] for e in exprs]
+
+
+def split_shared(exprs, prefix: str = "_s"):
+    """``(replacements, reduced)``: every node with more than one parent becomes a temporary.
+
+    Not an optimising CSE: it only names what the graph already shares, so
+    printing the result costs what the graph costs.  Takes an expression, a
+    list or a matrix and returns ``reduced`` in the same form (as
+    ``sympy.cse(..., list=False)`` does).
+    """
+    if isinstance(exprs, sm.MatrixBase):
+        reps, flat = split_shared(list(exprs), prefix)
+        return reps, sm.ImmutableMatrix(exprs.rows, exprs.cols, flat)
+    if isinstance(exprs, (list, tuple)):
+        roots = [sm.sympify(e) for e in exprs]
+        single = False
+    else:
+        roots = [sm.sympify(exprs)]
+        single = True
+    order = postorder_unique(roots)
+    parents: dict = {}
+    for node in order:
+        for a in set(node.args):
+            parents[a] = parents.get(a, 0) + 1
+    for r in roots:
+        parents[r] = parents.get(r, 0) + 1
+    memo: dict = {}
+    reps = []
+    for node in order:
+        if not node.args:
+            memo[node] = node
+            continue
+        args = [memo[a] for a in node.args]
+        rebuilt = node.func(*args) if any(n is not o for n, o in zip(args, node.args)) else node
+        if parents.get(node, 0) > 1:
+            sym = sm.Symbol(f"{prefix}{len(reps)}")
+            reps.append((sym, rebuilt))
+            memo[node] = sym
+        else:
+            memo[node] = rebuilt
+    reduced = [memo[r] for r in roots]
+    return reps, (reduced[0] if single else reduced)

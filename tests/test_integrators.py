@@ -342,13 +342,17 @@ def test_c_level_bad_arguments(disc):
     x_out = np.zeros((3, 4))
     stats = ffi.new(f"{pre}_stats *")
 
-    def call(name, t, **opt):
+    def call(name, t, work=True, **opt):
         o = ffi.new(f"{pre}_options *", dict(dict(rtol=1e-6, atol=1e-9), **opt))
         t = np.ascontiguousarray(t, dtype=float)
+        extra = ()
+        if name == "rosenbrock":  # its n_x x n_x matrices live in caller-owned work space
+            extra = (ffi.new(f"{pre}_rosenbrock_work *") if work else ffi.NULL,)
         return getattr(lib, f"{pre}_{name}")(ffi.from_buffer("double[]", x0),
                                              ffi.from_buffer("double[]", p), len(t),
                                              ffi.from_buffer("double[]", t),
-                                             ffi.from_buffer("double[]", x_out), o, stats)
+                                             ffi.from_buffer("double[]", x_out), o, stats,
+                                             *extra)
 
     bad = lib.DISC_PENDULUM_BAD_ARGUMENT
     assert bad == 6 and lib.DISC_PENDULUM_MAX_STEPS == 4
@@ -358,6 +362,7 @@ def test_c_level_bad_arguments(disc):
         assert call(name, [0.0, 0.5, 1.0], h0=0.1) == lib.DISC_PENDULUM_OK
         assert stats.t_reached == 1.0
     assert call("rk4", [0.0, 0.5, 1.0]) == bad  # rk4 needs h0 > 0
+    assert call("rosenbrock", [0.0, 0.5, 1.0], work=False, h0=0.1) == bad  # no work space
     assert lib.disc_pendulum_dopri5(ffi.from_buffer("double[]", x0), ffi.from_buffer("double[]", p),
                                     3, ffi.from_buffer("double[]", np.array([0.0, 0.5, 1.0])),
                                     ffi.from_buffer("double[]", x_out),

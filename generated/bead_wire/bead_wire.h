@@ -42,6 +42,20 @@ extern "C" {
 #define BEAD_WIRE_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define BEAD_WIRE_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[BEAD_WIRE_X_<name>], ... */
+#define BEAD_WIRE_X_rho 0 /* rho */
+#define BEAD_WIRE_X_u 1 /* u */
+#define BEAD_WIRE_P_omega 0 /* omega */
+
+/* SHA-256 (16 hex digits) of bead_wire.h, .c and .py with this value blanked. */
+#define BEAD_WIRE_CONTENT_HASH "b47b2f99d6ff4b15"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define BEAD_WIRE_STACK_DEFAULT_PARAMETERS 256
+#define BEAD_WIRE_STACK_DOPRI5 1696
+#define BEAD_WIRE_STACK_RHS 640
+
 int bead_wire_rhs(double t, const double *x, const double *p, double *dxdt);
 void bead_wire_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

@@ -48,6 +48,24 @@ extern "C" {
 #define BENT_PIPE_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define BENT_PIPE_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[BENT_PIPE_X_<name>], ... */
+#define BENT_PIPE_X_q1 0 /* q1 */
+#define BENT_PIPE_X_q2 1 /* q2 */
+#define BENT_PIPE_X_u1 2 /* u1 */
+#define BENT_PIPE_X_u2 3 /* u2 */
+#define BENT_PIPE_P_phi 0 /* phi */
+#define BENT_PIPE_P_m 1 /* m */
+#define BENT_PIPE_P_J 2 /* J */
+
+/* SHA-256 (16 hex digits) of bent_pipe.h, .c and .py with this value blanked. */
+#define BENT_PIPE_CONTENT_HASH "a549067d232f43c3"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define BENT_PIPE_STACK_DEFAULT_PARAMETERS 256
+#define BENT_PIPE_STACK_DOPRI5 2016
+#define BENT_PIPE_STACK_RHS 720
+
 int bent_pipe_rhs(double t, const double *x, const double *p, double *dxdt);
 void bent_pipe_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

@@ -49,6 +49,25 @@ extern "C" {
 #define DISC_PENDULUM_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define DISC_PENDULUM_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[DISC_PENDULUM_X_<name>], ... */
+#define DISC_PENDULUM_X_q1 0 /* q1 */
+#define DISC_PENDULUM_X_q2 1 /* q2 */
+#define DISC_PENDULUM_X_u1 2 /* u1 */
+#define DISC_PENDULUM_X_u2 3 /* u2 */
+#define DISC_PENDULUM_P_s 0 /* s */
+#define DISC_PENDULUM_P_l 1 /* l */
+#define DISC_PENDULUM_P_g 2 /* g */
+#define DISC_PENDULUM_P_m 3 /* m */
+
+/* SHA-256 (16 hex digits) of disc_pendulum.h, .c and .py with this value blanked. */
+#define DISC_PENDULUM_CONTENT_HASH "e2ccd1d8f550ba77"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define DISC_PENDULUM_STACK_DEFAULT_PARAMETERS 256
+#define DISC_PENDULUM_STACK_DOPRI5 2072
+#define DISC_PENDULUM_STACK_RHS 776
+
 int disc_pendulum_rhs(double t, const double *x, const double *p, double *dxdt);
 void disc_pendulum_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

@@ -63,6 +63,34 @@ extern "C" {
 #define N_LINK_CART_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define N_LINK_CART_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[N_LINK_CART_X_<name>], ... */
+#define N_LINK_CART_X_q0 0 /* q0 */
+#define N_LINK_CART_X_q1 1 /* q1 */
+#define N_LINK_CART_X_q2 2 /* q2 */
+#define N_LINK_CART_X_q3 3 /* q3 */
+#define N_LINK_CART_X_u0 4 /* u0 */
+#define N_LINK_CART_X_u1 5 /* u1 */
+#define N_LINK_CART_X_u2 6 /* u2 */
+#define N_LINK_CART_X_u3 7 /* u3 */
+#define N_LINK_CART_P_m0 0 /* m0 */
+#define N_LINK_CART_P_m1 1 /* m1 */
+#define N_LINK_CART_P_m2 2 /* m2 */
+#define N_LINK_CART_P_m3 3 /* m3 */
+#define N_LINK_CART_P_l0 4 /* l0 */
+#define N_LINK_CART_P_l1 5 /* l1 */
+#define N_LINK_CART_P_l2 6 /* l2 */
+#define N_LINK_CART_P_g 7 /* g */
+#define N_LINK_CART_R_F 0 /* F */
+
+/* SHA-256 (16 hex digits) of n_link_cart.h, .c and .py with this value blanked. */
+#define N_LINK_CART_CONTENT_HASH "e84c649c653f8d6e"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define N_LINK_CART_STACK_DEFAULT_PARAMETERS 256
+#define N_LINK_CART_STACK_DOPRI5 2896
+#define N_LINK_CART_STACK_RHS 1120
+
 int n_link_cart_rhs(double t, const double *x, const double *p, const double *r, double *dxdt);
 void n_link_cart_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

@@ -47,6 +47,23 @@ extern "C" {
 #define PARABOLOID_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define PARABOLOID_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[PARABOLOID_X_<name>], ... */
+#define PARABOLOID_X_q1 0 /* q1 */
+#define PARABOLOID_X_q2 1 /* q2 */
+#define PARABOLOID_X_u1 2 /* u1 */
+#define PARABOLOID_X_u2 3 /* u2 */
+#define PARABOLOID_P_k 0 /* k */
+#define PARABOLOID_P_m 1 /* m */
+
+/* SHA-256 (16 hex digits) of paraboloid.h, .c and .py with this value blanked. */
+#define PARABOLOID_CONTENT_HASH "695a41f2a4651577"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define PARABOLOID_STACK_DEFAULT_PARAMETERS 256
+#define PARABOLOID_STACK_DOPRI5 2008
+#define PARABOLOID_STACK_RHS 712
+
 int paraboloid_rhs(double t, const double *x, const double *p, double *dxdt);
 void paraboloid_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

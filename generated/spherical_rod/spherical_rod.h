@@ -47,6 +47,23 @@ extern "C" {
 #define SPHERICAL_ROD_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define SPHERICAL_ROD_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[SPHERICAL_ROD_X_<name>], ... */
+#define SPHERICAL_ROD_X_q1 0 /* q1 */
+#define SPHERICAL_ROD_X_q2 1 /* q2 */
+#define SPHERICAL_ROD_X_u1 2 /* u1 */
+#define SPHERICAL_ROD_X_u2 3 /* u2 */
+#define SPHERICAL_ROD_P_L 0 /* L */
+#define SPHERICAL_ROD_P_m 1 /* m */
+
+/* SHA-256 (16 hex digits) of spherical_rod.h, .c and .py with this value blanked. */
+#define SPHERICAL_ROD_CONTENT_HASH "161d1b1cb3631f9c"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define SPHERICAL_ROD_STACK_DEFAULT_PARAMETERS 256
+#define SPHERICAL_ROD_STACK_DOPRI5 2016
+#define SPHERICAL_ROD_STACK_RHS 720
+
 int spherical_rod_rhs(double t, const double *x, const double *p, double *dxdt);
 void spherical_rod_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

@@ -67,6 +67,26 @@ extern "C" {
 #define SPRING_PENDULUM_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define SPRING_PENDULUM_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[SPRING_PENDULUM_X_<name>], ... */
+#define SPRING_PENDULUM_X_theta 0 /* theta */
+#define SPRING_PENDULUM_X_s 1 /* s */
+#define SPRING_PENDULUM_X_u1 2 /* u1 */
+#define SPRING_PENDULUM_X_u2 3 /* u2 */
+#define SPRING_PENDULUM_P_m 0 /* m */
+#define SPRING_PENDULUM_P_l 1 /* l */
+#define SPRING_PENDULUM_P_k 2 /* k */
+#define SPRING_PENDULUM_P_g 3 /* g */
+
+/* SHA-256 (16 hex digits) of spring_pendulum.h, .c and .py with this value blanked. */
+#define SPRING_PENDULUM_CONTENT_HASH "14e9163f095d6707"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define SPRING_PENDULUM_STACK_DEFAULT_PARAMETERS 256
+#define SPRING_PENDULUM_STACK_JACOBIAN 940
+#define SPRING_PENDULUM_STACK_RHS 848
+#define SPRING_PENDULUM_STACK_ROSENBROCK 2184
+
 int spring_pendulum_rhs(double t, const double *x, const double *p, double *dxdt);
 int spring_pendulum_jacobian(double t, const double *x, const double *p, double *J);
 void spring_pendulum_default_parameters(double *p);
@@ -75,7 +95,7 @@ void spring_pendulum_default_parameters(double *p);
  * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant.
  * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
  * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
- * steps, 0 = 1000000).  stats may be NULL. */
+ * steps, 0 = 1000000).  stats may be NULL; work (rosenbrock) may not. */
 typedef struct {
     double rtol;
     double atol;
@@ -91,7 +111,14 @@ typedef struct {
     long n_lu;
     double t_reached;
 } spring_pendulum_stats;
-int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const spring_pendulum_options *opt, spring_pendulum_stats *stats);
+/* Caller-owned work space of spring_pendulum_rosenbrock (the 4 x 4 Jacobian and
+ * iteration matrix): off the stack; one per concurrent call. */
+typedef struct {
+    double J[16];
+    double G[16];
+    int piv[4];
+} spring_pendulum_rosenbrock_work;
+int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const spring_pendulum_options *opt, spring_pendulum_stats *stats, spring_pendulum_rosenbrock_work *work);
 
 #ifdef __cplusplus
 }

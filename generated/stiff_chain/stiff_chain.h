@@ -168,6 +168,37 @@ extern "C" {
 #define STIFF_CHAIN_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define STIFF_CHAIN_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[STIFF_CHAIN_X_<name>], ... */
+#define STIFF_CHAIN_X_x1 0 /* x1 */
+#define STIFF_CHAIN_X_x2 1 /* x2 */
+#define STIFF_CHAIN_X_x3 2 /* x3 */
+#define STIFF_CHAIN_X_x4 3 /* x4 */
+#define STIFF_CHAIN_X_x5 4 /* x5 */
+#define STIFF_CHAIN_X_v1 5 /* v1 */
+#define STIFF_CHAIN_X_v2 6 /* v2 */
+#define STIFF_CHAIN_X_v3 7 /* v3 */
+#define STIFF_CHAIN_X_v4 8 /* v4 */
+#define STIFF_CHAIN_X_v5 9 /* v5 */
+#define STIFF_CHAIN_P_m1 0 /* m1 */
+#define STIFF_CHAIN_P_m2 1 /* m2 */
+#define STIFF_CHAIN_P_m3 2 /* m3 */
+#define STIFF_CHAIN_P_m4 3 /* m4 */
+#define STIFF_CHAIN_P_m5 4 /* m5 */
+#define STIFF_CHAIN_P_k0 5 /* k0 */
+#define STIFF_CHAIN_P_k 6 /* k */
+#define STIFF_CHAIN_P_c 7 /* c */
+#define STIFF_CHAIN_P_a 8 /* a */
+
+/* SHA-256 (16 hex digits) of stiff_chain.h, .c and .py with this value blanked. */
+#define STIFF_CHAIN_CONTENT_HASH "265d5e7c04e24672"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define STIFF_CHAIN_STACK_DEFAULT_PARAMETERS 256
+#define STIFF_CHAIN_STACK_JACOBIAN 2284
+#define STIFF_CHAIN_STACK_RHS 1552
+#define STIFF_CHAIN_STACK_ROSENBROCK 3868
+
 int stiff_chain_rhs(double t, const double *x, const double *p, double *dxdt);
 int stiff_chain_jacobian(double t, const double *x, const double *p, double *J);
 void stiff_chain_default_parameters(double *p);
@@ -176,7 +207,7 @@ void stiff_chain_default_parameters(double *p);
  * x_out is row-major n_out x 10 with row 0 = x0; inputs r are held constant.
  * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
  * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
- * steps, 0 = 1000000).  stats may be NULL. */
+ * steps, 0 = 1000000).  stats may be NULL; work (rosenbrock) may not. */
 typedef struct {
     double rtol;
     double atol;
@@ -192,7 +223,14 @@ typedef struct {
     long n_lu;
     double t_reached;
 } stiff_chain_stats;
-int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const stiff_chain_options *opt, stiff_chain_stats *stats);
+/* Caller-owned work space of stiff_chain_rosenbrock (the 10 x 10 Jacobian and
+ * iteration matrix): off the stack; one per concurrent call. */
+typedef struct {
+    double J[100];
+    double G[100];
+    int piv[10];
+} stiff_chain_rosenbrock_work;
+int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const stiff_chain_options *opt, stiff_chain_stats *stats, stiff_chain_rosenbrock_work *work);
 
 #ifdef __cplusplus
 }

@@ -55,6 +55,29 @@ extern "C" {
 #define TORQUE_FREE_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define TORQUE_FREE_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[TORQUE_FREE_X_<name>], ... */
+#define TORQUE_FREE_X_q1 0 /* q1 */
+#define TORQUE_FREE_X_q2 1 /* q2 */
+#define TORQUE_FREE_X_q3 2 /* q3 */
+#define TORQUE_FREE_X_u1 3 /* u1 */
+#define TORQUE_FREE_X_u2 4 /* u2 */
+#define TORQUE_FREE_X_u3 5 /* u3 */
+#define TORQUE_FREE_P_I11 0 /* I11 */
+#define TORQUE_FREE_P_I22 1 /* I22 */
+#define TORQUE_FREE_P_I33 2 /* I33 */
+#define TORQUE_FREE_P_I12 3 /* I12 */
+#define TORQUE_FREE_P_I23 4 /* I23 */
+#define TORQUE_FREE_P_I31 5 /* I31 */
+
+/* SHA-256 (16 hex digits) of torque_free.h, .c and .py with this value blanked. */
+#define TORQUE_FREE_CONTENT_HASH "5e2f31302ba3f391"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define TORQUE_FREE_STACK_DEFAULT_PARAMETERS 256
+#define TORQUE_FREE_STACK_DOPRI5 2384
+#define TORQUE_FREE_STACK_RHS 848
+
 int torque_free_rhs(double t, const double *x, const double *p, double *dxdt);
 void torque_free_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

@@ -1,0 +1,170 @@
+r"""The step API: advance a state held in a caller-owned memory struct.
+
+For a control loop or a co-simulation master that owns the clock.  Rendered
+into ``<prefix>.h`` / ``<prefix>.c`` by ``templates/step.h.j2`` and
+``templates/step.c.j2`` when :class:`~mbgen.targets.Targets` has ``step``.
+
+Per method ``m`` (``rk4`` always; ``dopri5`` unless the scene asks for
+``rosenbrock`` only; ``rosenbrock`` when the scene asks for it)::
+
+    typedef struct { double t; double x[N_X]; double h; ...; } <prefix>_<m>_memory;
+    int <prefix>_<m>_init(<prefix>_<m>_memory *mem, double t0, const double *x0,
+                          double rtol, double atol);
+    int <prefix>_<m>_step(<prefix>_<m>_memory *mem, double h[, const double *p]
+                          [, const double *r]);
+
+``step`` advances ``mem->x`` from ``mem->t`` to ``mem->t + h`` with the
+inputs ``r`` held constant over the step (they may change from one call to
+the next).  ``rk4`` takes one classic Runge--Kutta step of size ``h``.  The
+adaptive methods take as many error-controlled steps as needed, the last one
+cut to land on ``t + h``, and keep in ``mem`` what the next call needs: the
+step size (``mem->h``; the controller's proposal, not the cut step), and
+``f(t, x)`` with the ``p``, ``r`` it was computed for (reused when the next
+call passes the same values, so an unchanged input costs no extra RHS call).
+The memory's size is ``sizeof(<prefix>_<m>_memory)``, a compile-time
+constant: every work array (for Rosenbrock the ``N_X x N_X`` Jacobian and
+iteration matrix) lives in it, so the functions' stack use is small and
+stated in the header.  No allocation, no globals: one memory per simulated
+system, any number in parallel.
+
+With the same tolerances, ``dopri5_step(mem, T)`` from ``t = 0`` takes exactly
+the steps of ``<prefix>_dopri5`` over ``[0, T]`` (and gives the same bits);
+likewise for Rosenbrock.  On failure the status is returned and ``mem->t``,
+``mem->x`` keep the last accepted state.
+"""
+
+from __future__ import annotations
+
+from ..errors import ModelError
+from ..outputs import Output
+
+#: Default attempted-step limit per call (``mem->max_steps = 0``).
+DEFAULT_MAX_STEPS = 1000000
+
+
+def step_methods(kernel) -> tuple[str, ...]:
+    """The step functions rendered for ``kernel``: ``rk4`` and the adaptive ones."""
+    wanted = set(kernel.integrators)
+    methods = ["rk4"]
+    if Output.DOPRI5 in wanted or Output.ROSENBROCK not in wanted:
+        methods.append("dopri5")
+    if Output.ROSENBROCK in wanted:
+        methods.append("rosenbrock")
+    return tuple(methods)
+
+
+def adaptive_method(kernel) -> str:
+    """The adaptive step method an FMU's co-simulation uses (Rosenbrock for stiff scenes)."""
+    return "rosenbrock" if "rosenbrock" in step_methods(kernel) else "dopri5"
+
+
+def step_context(kernel, prefix: str) -> dict:
+    """Template context (key ``step``) for ``step.h.j2`` / ``step.c.j2``."""
+    from ..integrators import ROSENBROCK, _dopri5_view, _explicit_time, _rk4_view, \
+        _rosenbrock_view
+
+    L = kernel.layout
+    methods = step_methods(kernel)
+    functions = {f.output for f in kernel.functions}
+    non_autonomous = False
+    if "rosenbrock" in methods:
+        if Output.JACOBIAN not in functions:
+            raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs the "
+                             f"Jacobian; add Output.JACOBIAN")
+        non_autonomous = _explicit_time(kernel)
+        if non_autonomous and Output.TIME_DERIVATIVE not in functions:
+            raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs df/dt; "
+                             f"add Output.TIME_DERIVATIVE")
+    params = "".join(f", const double *{a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
+    args = "".join(f", {a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
+    protos = {}
+    for m in methods:
+        protos[m] = dict(
+            memory=f"{prefix}_{m}_memory",
+            init=f"int {prefix}_{m}_init({prefix}_{m}_memory *mem, double t0, const double *x0, "
+                 f"double rtol, double atol)",
+            step=f"int {prefix}_{m}_step({prefix}_{m}_memory *mem, double h{params})")
+    return dict(step=dict(
+        methods=list(methods),
+        protos=protos,
+        params=params,
+        args=args,
+        n_p=L.n_p,
+        n_r=L.n_r,
+        n=max(L.n_x, 1),
+        max_steps=DEFAULT_MAX_STEPS,
+        non_autonomous=non_autonomous,
+        dopri5=_dopri5_view() if "dopri5" in methods else None,
+        rk4=_rk4_view(),
+        rosenbrock=_rosenbrock_view(ROSENBROCK) if "rosenbrock" in methods else None,
+    ))
+
+
+__all__ = ["step_methods", "adaptive_method", "step_context", "DEFAULT_MAX_STEPS"]
+
+
+class Stepper:
+    """The step API of a compiled model, driven from Python (for tests and prototyping).
+
+    ``Stepper(model, "dopri5", t0, x0, rtol=1e-6, atol=1e-9)``; then
+    ``step(h, p=None, r=None)`` advances ``t``, ``x`` by ``h``.  The memory is one
+    ``<prefix>_<method>_memory`` owned by this object.
+    """
+
+    def __init__(self, model, method: str, t0: float, x0, *, rtol: float = 1e-6,
+                 atol: float = 1e-9):
+        import numpy as np
+
+        from ..errors import MbgenError
+
+        rendered = model.rendered
+        if method not in rendered.step_methods:
+            raise MbgenError(f"{model.name!r} has no {method!r} step function (step methods: "
+                             f"{list(rendered.step_methods) or 'none'}); compile with "
+                             f"targets=Targets(step=True)")
+        self.model, self.method = model, method
+        self._np = np
+        ffi, lib = model.ffi, model.lib
+        self.memory = ffi.new(f"{rendered.prefix}_{method}_memory *")
+        self._step = getattr(lib, f"{rendered.prefix}_{method}_step")
+        x0 = model._x(x0)
+        status = getattr(lib, f"{rendered.prefix}_{method}_init")(
+            self.memory, float(t0), ffi.from_buffer("double[]", x0), float(rtol), float(atol))
+        self._check(status, "init")
+
+    def _check(self, status: int, what: str) -> None:
+        if status:
+            from ..errors import IntegrationError
+            from ..render import INTEGRATOR_STATUS_CODES, STATUS_CODES
+
+            names = {v: n for n, v, _ in STATUS_CODES + INTEGRATOR_STATUS_CODES}
+            raise IntegrationError(f"{self.model.name}_{self.method}_{what} failed with status "
+                                   f"{status} ({names.get(status, 'UNKNOWN')}) at t = {self.t!r}",
+                                   status, self.t)
+
+    @property
+    def t(self) -> float:
+        return float(self.memory.t)
+
+    @property
+    def x(self):
+        return self._np.array(list(self.memory.x)[: self.model.n_x])
+
+    @property
+    def h(self) -> float:
+        """The adaptive methods' next step size (0 before the first step)."""
+        return float(getattr(self.memory, "h", 0.0))
+
+    def step(self, h: float, p=None, r=None):
+        """Advance by ``h`` with parameters ``p`` and inputs ``r`` (held over the step); returns ``x``."""
+        buf = self.model.ffi.from_buffer
+        args = [self.memory, float(h)]
+        if self.model.n_p:
+            args.append(buf("double[]", self.model._p(p)))
+        if self.model.n_r:
+            args.append(buf("double[]", self.model._r(r)))
+        self._check(self._step(*args), "step")
+        return self.x
+
+
+__all__ += ["Stepper"]

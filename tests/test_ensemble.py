@@ -1,0 +1,127 @@
+"""Ensembles: members built reproducibly, a LocalCluster of two worker processes gives the
+serial results bit for bit, failures are recorded and never fatal, each worker compiles once."""
+
+import numpy as np
+import pytest
+
+import mbgen
+from mbgen.cli import main
+from mbgen.ensemble import ensemble, members, run_chunk
+from mbgen.errors import MbgenError, SceneError
+from mbgen.pipeline import run
+from mbgen.scene import load_scene
+
+distributed = pytest.importorskip("dask.distributed",
+                                  reason="dask[distributed] is in the test extra")
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       dashboard_address=None)
+    yield cluster
+    cluster.close()
+
+
+@pytest.fixture(scope="module")
+def client(cluster):
+    c = distributed.Client(cluster)
+    yield c
+    c.close()
+
+
+def _private_cache():
+    """Run on a worker: a cache folder of its own (no shared file system)."""
+    import os
+    import tempfile
+
+    os.environ["MBGEN_CACHE_DIR"] = tempfile.mkdtemp(prefix="mbgen-worker-cache-")
+    return os.environ["MBGEN_CACHE_DIR"]
+
+
+def test_each_worker_compiles_once_into_its_own_cache(cluster, client):
+    folders = client.run(_private_cache)
+    assert len(set(folders.values())) == 2
+    scene = load_scene("paraboloid")
+    first = ensemble(scene, samples={"k": ("uniform", 0.2, 0.8)}, n=40, chunk=5,
+                     client=client, progress=False)
+    assert first.tasks == 8 and first.n_failed == 0
+    assert set(first.compiles.values()) == {1}             # every worker that ran: once
+    again = ensemble(scene, samples={"k": ("uniform", 0.2, 0.8)}, n=40, chunk=5,
+                     address=cluster.scheduler_address, progress=False)  # by address
+    assert sum(again.compiles.values()) == 0
+    assert np.array_equal(first.table["final_q1"], again.table["final_q1"])
+
+
+def study(**kw):
+    return dict(grid={"l": [2.0, 4.0], "m": [1.0, -1.0]},          # m < 0: M not definite
+                samples={"q2": ("normal", 1.0, 0.2), "s": ("uniform", 0.5, 1.5)},
+                n=25, seed=7, t_end=3.0, n_out=7, progress=False, **kw)
+
+
+def test_dask_gives_the_serial_results_bit_for_bit(client):
+    scene = load_scene("disc_pendulum")
+    serial = ensemble(scene, serial=True, trajectories=True, outputs=("energy",), **study())
+    dask = ensemble(scene, client=client, chunk=9, trajectories=True, outputs=("energy",),
+                    **study())
+    assert dask.mode == "dask" and dask.tasks == 12 and len(dask.table) == 100
+    for name in serial.table.dtype.names:
+        a, b = serial.table[name], dask.table[name]
+        assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), name
+    # every member is there once, in order, with what was varied
+    assert serial.table["member"].tolist() == list(range(100))
+    assert set(serial.table["l"]) == {2.0, 4.0}
+    # energy at the output times: (n_t, 2) per member, the compiled energy of each state
+    model = mbgen.compile(scene, ("rhs", "energy", "dopri5"))
+    row = serial.table[serial.table["status"] == 0][5]
+    p = model.default_parameters.copy()
+    for name in ("l", "m", "s"):
+        p[model.parameter_names.index(name)] = row[name]
+    assert row["energy"].shape == (7, 2)
+    assert np.array_equal(row["energy"], np.array([model.energy(ti, xi, p)
+                                                   for ti, xi in zip(serial.t, row["x"])]))
+    assert np.all(np.isnan(serial.table[serial.table["status"] != 0]["energy"]))
+    # each worker process compiled the model at most once (the cache is by content hash)
+    assert all(v <= 1 for v in dask.compiles.values()) and len(dask.compiles) <= 2
+
+
+def test_failed_members_are_recorded_not_fatal():
+    scene = load_scene("disc_pendulum")
+    res = ensemble(scene, serial=True, **study())
+    bad = res.table["m"] < 0
+    assert bad.sum() == 50 and res.n_failed == 50
+    assert set(res.table["status"][bad]) == {1}
+    assert all("NOT_POSITIVE_DEFINITE" in m for m in res.table["message"][bad])
+    assert np.all(np.isnan(res.table["final_q1"][bad]))
+    good = res.table[~bad]
+    assert np.all(good["status"] == 0) and np.all(np.isfinite(good["final_q1"]))
+    # a good member's row is a single integrate call
+    model = mbgen.compile(scene)
+    i = int(np.flatnonzero(~bad)[3])
+    x0, p = members(scene, model.layout, **{k: study()[k] for k in ("grid", "samples", "n",
+                                                                        "seed")})[2:]
+    single = model.integrate("dopri5", res.t, x0[i], p[i])
+    assert np.array_equal([res.table[f"final_{s}"][i] for s in model.state_names],
+                          single.x[-1])
+    assert "50 failed" in res.summary() and "status 1: 50 members" in res.summary()
+
+
+def test_tampered_sources_and_baked_parameters_are_refused():
+    scene = load_scene("disc_pendulum")
+    sources = run(scene, build=False).rendered.sources()
+    sources["files"] = {**sources["files"], "disc_pendulum.c": "int x;"}
+    spec = dict(method="dopri5", t=[0.0, 1.0], rtol=1e-6, atol=1e-9, h0=0.0, max_steps=0,
+                n_x=4, n_p=4, n_r=0, trajectories=False)
+    with pytest.raises(MbgenError, match="content hash"):
+        run_chunk(sources, spec, np.zeros((1, 4)), np.ones((1, 4)))
+    with pytest.raises(SceneError, match="baked into the code"):
+        ensemble(load_scene("bead_wire"), grid={"m": [1.0, 2.0]}, serial=True, progress=False)
+
+
+def test_sweep_command_writes_the_table(tmp_path):
+    csv = tmp_path / "sweep.csv"
+    code = main(["sweep", "disc_pendulum", "--grid", "l=2:4:3", "--samples",
+                 "q2=uniform:0.5:1.0", "-n", "2", "--serial", "--quiet", "--csv", str(csv)])
+    assert code == 0
+    lines = csv.read_text().splitlines()
+    assert len(lines) == 7 and lines[0].startswith("member,l,q2,status,message")

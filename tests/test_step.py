@@ -1,0 +1,189 @@
+"""The step API: same steps and bits as the whole-trajectory integrators, inputs per step,
+step size kept between calls, caller-owned memory, stated stack bounds."""
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import mbgen
+from mbgen.pipeline import run
+from mbgen.scene import load_scene
+from mbgen.targets import Targets
+from mbgen.targets.step import Stepper
+
+CC = shutil.which("gcc") or shutil.which("cc")
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    scene = load_scene("disc_pendulum")
+    return scene, mbgen.compile(scene, ("rhs", "dopri5", "rk4"), targets=Targets(step=True))
+
+
+@pytest.fixture(scope="module")
+def chain():
+    scene = load_scene("stiff_chain")
+    return scene, mbgen.compile(scene, targets=Targets(step=True))
+
+
+def test_dopri5_step_takes_the_steps_of_integrate(pendulum):
+    scene, model = pendulum
+    x0 = scene.x0(model.layout)
+    whole = model.integrate("dopri5", [0.0, 8.0], x0, rtol=1e-8, atol=1e-10)
+    s = Stepper(model, "dopri5", 0.0, x0, rtol=1e-8, atol=1e-10)
+    s.step(8.0)
+    assert s.t == 8.0
+    assert np.array_equal(s.x, whole.x[-1])                     # bit for bit
+    assert s.memory.n_steps == whole.n_steps and s.memory.n_rhs == whole.n_rhs
+
+
+def test_rosenbrock_step_takes_the_steps_of_integrate(chain):
+    scene, model = chain
+    x0 = scene.x0(model.layout)
+    whole = model.integrate("rosenbrock", [0.0, 4.0], x0, rtol=1e-6, atol=1e-9)
+    s = Stepper(model, "rosenbrock", 0.0, x0, rtol=1e-6, atol=1e-9)
+    s.step(4.0)
+    assert np.array_equal(s.x, whole.x[-1])
+    assert (s.memory.n_steps, s.memory.n_jac) == (whole.n_steps, whole.n_jac)
+
+
+def test_rk4_step_is_integrate_with_the_same_step(pendulum):
+    scene, model = pendulum
+    x0 = scene.x0(model.layout)
+    h = 0.125                                                    # exact in binary
+    t = h * np.arange(41)
+    whole = model.integrate("rk4", t, x0, h=h)
+    s = Stepper(model, "rk4", 0.0, x0)
+    rows = [s.x] + [s.step(h) for _ in t[1:]]
+    assert np.array_equal(np.array(rows), whole.x)
+
+
+def _attempts(mem):
+    return mem.n_steps + mem.n_rejected
+
+
+def test_adaptive_steps_keep_their_step_size_and_follow_integrate(pendulum):
+    scene, model = pendulum
+    x0 = scene.x0(model.layout)
+    t = np.linspace(0.0, 10.0, 201)
+    ref = model.integrate("dopri5", t, x0, rtol=1e-10, atol=1e-12)
+    kept = Stepper(model, "dopri5", 0.0, x0, rtol=1e-10, atol=1e-12)
+    restarted = Stepper(model, "dopri5", 0.0, x0, rtol=1e-10, atol=1e-12)
+    xs = [kept.x]
+    for a, b in zip(t[:-1], t[1:]):
+        xs.append(kept.step(b - a))
+        restarted.memory.h = 0.0                 # what a restart per call would do
+        restarted.memory.f_valid = 0
+        restarted.step(b - a)
+    assert np.abs(np.array(xs) - ref.x).max() < 1e-7
+    assert np.abs(restarted.x - ref.x[-1]).max() < 1e-7
+    # a restart costs the step-size search (2 RHS calls) and the steps that regrow h
+    assert kept.memory.n_rhs + 2 * 200 < restarted.memory.n_rhs
+    assert kept.h > 0.0
+
+
+def test_inputs_change_between_steps():
+    scene = load_scene("n_link_cart", n=2)
+    model = mbgen.compile(scene, targets=Targets(step=True))
+    x0 = scene.x0(model.layout)
+    s = Stepper(model, "dopri5", 0.0, x0, rtol=1e-10, atol=1e-12)
+    s.step(0.5, r=[0.0])
+    rhs, tries = s.memory.n_rhs, _attempts(s.memory)
+    s.step(0.5, r=[0.0])
+    # 6 RHS calls per attempted step; f(t, x) reused (first same as last across calls)
+    assert s.memory.n_rhs - rhs == 6 * (_attempts(s.memory) - tries)
+    x_unforced = s.x
+    a = Stepper(model, "dopri5", 0.0, x0, rtol=1e-10, atol=1e-12)
+    a.step(0.5, r=[0.0])
+    rhs, tries = a.memory.n_rhs, _attempts(a.memory)
+    a.step(0.5, r=[5.0])
+    assert a.memory.n_rhs - rhs == 6 * (_attempts(a.memory) - tries) + 1  # f for the new r
+    u0 = model.state_names.index("u0")
+    assert abs(a.x[u0] - x_unforced[u0]) > 0.1
+    # and it matches integrate with the force held from t = 0.5
+    half = model.integrate("dopri5", [0.0, 0.5], x0, r=[0.0], rtol=1e-10, atol=1e-12).x[-1]
+    rest = model.integrate("dopri5", [0.5, 1.0], half, r=[5.0], rtol=1e-10, atol=1e-12).x[-1]
+    assert np.abs(a.x - rest).max() < 1e-8
+
+
+def test_failure_keeps_the_last_state_and_reports(pendulum):
+    scene, model = pendulum
+    s = Stepper(model, "dopri5", 0.0, scene.x0(model.layout))
+    s.memory.max_steps = 2
+    with pytest.raises(mbgen.IntegrationError, match="MAX_STEPS"):
+        s.step(10.0)
+    assert 0.0 < s.t < 10.0 and np.all(np.isfinite(s.x))
+    with pytest.raises(mbgen.IntegrationError, match="BAD_ARGUMENT"):
+        s.step(-1.0)
+
+
+def test_memory_holds_the_large_arrays(chain):
+    _, model = chain
+    n = model.n_x
+    size = model.ffi.sizeof("stiff_chain_rosenbrock_memory")
+    assert size >= 8 * 2 * n * n                                 # J and G live in the memory
+    bounds = dict(model.rendered.stack_bounds)
+    assert bounds["stiff_chain_rosenbrock_step"] < 8 * 2 * n * n + 8 * 1024
+
+
+def _stack_usage(tmp_path, files, opt):
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    src = next(n for n in files if n.endswith(".c"))
+    subprocess.run([CC, "-std=c99", opt, "-fstack-usage", "-c", src, "-o",
+                    src.replace(".c", ".o")], cwd=tmp_path, check=True)
+    usage = {}
+    for line in (tmp_path / src.replace(".c", ".su")).read_text().splitlines():
+        m = re.match(r".*:\d+:\d+:(\w+)\s+(\d+)\s+([\w,]+)", line)
+        assert m and m.group(3) in ("static", "dynamic,bounded"), line   # never unbounded
+        usage[m.group(1)] = int(m.group(2))
+    return usage
+
+
+def _call_graph(source):
+    """``{function: names of the functions its body calls}`` from the generated C."""
+    bodies = re.findall(r"^(?:static )?(?:int|void|double) (\w+)\([^)]*\)\n\{\n(.*?)^\}",
+                        source, re.M | re.S)
+    names = {n for n, _ in bodies}
+    return {n: {c for c in re.findall(r"\b(\w+)\(", body) if c in names and c != n}
+            for n, body in bodies}
+
+
+def _deepest(fn, usage, graph):
+    return usage[fn] + max((_deepest(c, usage, graph) for c in graph[fn]), default=0)
+
+
+@pytest.mark.parametrize("name", ["disc_pendulum", "stiff_chain", "n_link_cart"])
+@pytest.mark.parametrize("opt", ["-O0", "-O2"])
+def test_stack_bounds_hold(name, opt, tmp_path):
+    """gcc's stack usage along the deepest call chain of each public function stays under the
+    bound the header states (-O0: every local in its own slot; -O2: inlining and spills)."""
+    rendered = run(load_scene(name), build=False, targets=Targets(step=True)).rendered
+    usage = _stack_usage(tmp_path, rendered.files, opt)
+    graph = _call_graph(rendered.source)
+    bounds = dict(rendered.stack_bounds)
+    assert set(bounds) <= set(usage) and set(bounds) <= set(graph)
+    for fn, bound in bounds.items():
+        macro = f"{rendered.prefix.upper()}_STACK_{fn[len(rendered.prefix) + 1:].upper()}"
+        assert f"#define {macro} {bound}\n" in rendered.header
+        graph_o2 = {f: {c for c in cs if c in usage} for f, cs in graph.items()}  # inlined: gone
+        assert _deepest(fn, usage, graph_o2) <= bound, (fn, _deepest(fn, usage, graph_o2), bound)
+
+
+CXX = shutil.which("g++") or shutil.which("c++")
+
+
+@pytest.mark.parametrize("name", ["disc_pendulum", "stiff_chain", "n_link_cart"])
+def test_step_target_compiles_strictly_as_c_and_cxx(name, tmp_path):
+    rendered = run(load_scene(name), build=False, targets=Targets(step=True)).rendered
+    for fname, text in rendered.files.items():
+        (tmp_path / fname).write_text(text)
+    src = f"{rendered.prefix}.c"
+    for tool, flags in ((CC, ["-std=c99"]), (CXX, ["-x", "c++", "-std=c++11"])):
+        done = subprocess.run([tool, *flags, "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2",
+                               "-c", src, "-o", "m.o"], cwd=tmp_path, capture_output=True,
+                              text=True)
+        assert done.returncode == 0 and not done.stderr, done.stderr
