@@ -3,9 +3,9 @@
  * Model:      bicycle
  * Source:     scene 'bicycle' (mbgen/scenes/bicycle.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 17400 after CSE (33604429 before), excluding the L D L^T solve
- *   bicycle_rhs: 2358 (1454070 before CSE)
- *   bicycle_jacobian: 15042 (32150359 before CSE)
+ * Operations: 17381 after CSE (33604429 before), excluding the L D L^T solve
+ *   bicycle_rhs: 2375 (1454070 before CSE)
+ *   bicycle_jacobian: 15006 (32150359 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -160,6 +160,29 @@ extern "C" {
 #define BICYCLE_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define BICYCLE_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[BICYCLE_X_<name>], ... */
+#define BICYCLE_X_x 0 /* x */
+#define BICYCLE_X_y 1 /* y */
+#define BICYCLE_X_psi 2 /* psi */
+#define BICYCLE_X_phi 3 /* phi */
+#define BICYCLE_X_delta 4 /* delta */
+#define BICYCLE_X_theta_r 5 /* theta_r */
+#define BICYCLE_X_theta_f 6 /* theta_f */
+#define BICYCLE_X_u_phi 7 /* u_phi */
+#define BICYCLE_X_u_delta 8 /* u_delta */
+#define BICYCLE_X_u_r 9 /* u_r */
+#define BICYCLE_P_g 0 /* g */
+
+/* SHA-256 (16 hex digits) of bicycle.h, .c and .py with this value blanked. */
+#define BICYCLE_CONTENT_HASH "53023848265e3c1c"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define BICYCLE_STACK_DEFAULT_PARAMETERS 256
+#define BICYCLE_STACK_JACOBIAN 24156
+#define BICYCLE_STACK_RHS 9296
+#define BICYCLE_STACK_ROSENBROCK 25740
+
 int bicycle_rhs(double t, const double *x, const double *p, double *dxdt);
 int bicycle_jacobian(double t, const double *x, const double *p, double *J);
 void bicycle_default_parameters(double *p);
@@ -168,7 +191,7 @@ void bicycle_default_parameters(double *p);
  * x_out is row-major n_out x 10 with row 0 = x0; inputs r are held constant.
  * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
  * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
- * steps, 0 = 1000000).  stats may be NULL. */
+ * steps, 0 = 1000000).  stats may be NULL; work (rosenbrock) may not. */
 typedef struct {
     double rtol;
     double atol;
@@ -184,7 +207,14 @@ typedef struct {
     long n_lu;
     double t_reached;
 } bicycle_stats;
-int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const bicycle_options *opt, bicycle_stats *stats);
+/* Caller-owned work space of bicycle_rosenbrock (the 10 x 10 Jacobian and
+ * iteration matrix): off the stack; one per concurrent call. */
+typedef struct {
+    double J[100];
+    double G[100];
+    int piv[10];
+} bicycle_rosenbrock_work;
+int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const double *t_out, double *x_out, const bicycle_options *opt, bicycle_stats *stats, bicycle_rosenbrock_work *work);
 
 #ifdef __cplusplus
 }

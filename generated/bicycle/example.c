@@ -23,11 +23,12 @@ int main(void)
     double t[N_OUT];
     double x[N_OUT * BICYCLE_N_X];
     int i, j, status;
+    static bicycle_rosenbrock_work work; /* the n_x x n_x matrices, off the stack */
 
     for (i = 0; i < N_OUT; ++i) {
         t[i] = 0.0 + (0.6 - 0.0) * i / (N_OUT - 1);
     }
-    status = bicycle_rosenbrock(x0, p, N_OUT, t, x, &options, &stats);
+    status = bicycle_rosenbrock(x0, p, N_OUT, t, x, &options, &stats, &work);
     if (status != BICYCLE_OK) {
         fprintf(stderr, "rosenbrock failed with status %d at t = %g\n", status, stats.t_reached);
         return 1;

@@ -58,6 +58,29 @@ extern "C" {
 #define CAR_TRAILER_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define CAR_TRAILER_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
 
+/* Index of every state, parameter and input: x[CAR_TRAILER_X_<name>], ... */
+#define CAR_TRAILER_X_X 0 /* X */
+#define CAR_TRAILER_X_Y 1 /* Y */
+#define CAR_TRAILER_X_psi 2 /* psi */
+#define CAR_TRAILER_X_theta 3 /* theta */
+#define CAR_TRAILER_X_u 4 /* u */
+#define CAR_TRAILER_X_v 5 /* v */
+#define CAR_TRAILER_X_r 6 /* r */
+#define CAR_TRAILER_X_w 7 /* w */
+#define CAR_TRAILER_P_m_car 0 /* m_car */
+#define CAR_TRAILER_P_m_tr 1 /* m_tr */
+#define CAR_TRAILER_R_F_drive 0 /* F_drive */
+#define CAR_TRAILER_R_delta 1 /* delta */
+
+/* SHA-256 (16 hex digits) of car_trailer.h, .c and .py with this value blanked. */
+#define CAR_TRAILER_CONTENT_HASH "87142bec6462cd02"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define CAR_TRAILER_STACK_DEFAULT_PARAMETERS 256
+#define CAR_TRAILER_STACK_DOPRI5 3048
+#define CAR_TRAILER_STACK_RHS 1272
+
 int car_trailer_rhs(double t, const double *x, const double *p, const double *r, double *dxdt);
 void car_trailer_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.

@@ -3,8 +3,8 @@
  * Model:      spatial_arm
  * Source:     scene 'spatial_arm' (mbgen/scenes/spatial_arm.py)
  * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 914 after CSE (6225 before), excluding the L D L^T solve
- *   spatial_arm_rhs: 914 (6225 before CSE)
+ * Operations: 913 after CSE (6225 before), excluding the L D L^T solve
+ *   spatial_arm_rhs: 913 (6225 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -54,6 +54,27 @@ extern "C" {
 #define SPATIAL_ARM_MAX_STEPS 4 /* the step limit was reached before the last output time */
 #define SPATIAL_ARM_SINGULAR_ITERATION_MATRIX 5 /* the implicit method's matrix I - h*gamma*J is singular */
 #define SPATIAL_ARM_BAD_ARGUMENT 6 /* invalid argument (output times not increasing, bad tolerances, ...) */
+
+/* Index of every state, parameter and input: x[SPATIAL_ARM_X_<name>], ... */
+#define SPATIAL_ARM_X_q1 0 /* q1 */
+#define SPATIAL_ARM_X_q2 1 /* q2 */
+#define SPATIAL_ARM_X_q3 2 /* q3 */
+#define SPATIAL_ARM_X_q4 3 /* q4 */
+#define SPATIAL_ARM_X_u1 4 /* u1 */
+#define SPATIAL_ARM_X_u2 5 /* u2 */
+#define SPATIAL_ARM_X_u3 6 /* u3 */
+#define SPATIAL_ARM_X_u4 7 /* u4 */
+#define SPATIAL_ARM_P_m4 0 /* m4 */
+#define SPATIAL_ARM_P_g 1 /* g */
+
+/* SHA-256 (16 hex digits) of spatial_arm.h, .c and .py with this value blanked. */
+#define SPATIAL_ARM_CONTENT_HASH "8a6b48a1cba9a017"
+
+/* Stack bound in bytes of one call of each function, the functions it calls included
+ * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
+#define SPATIAL_ARM_STACK_DEFAULT_PARAMETERS 256
+#define SPATIAL_ARM_STACK_DOPRI5 4160
+#define SPATIAL_ARM_STACK_RHS 2384
 
 int spatial_arm_rhs(double t, const double *x, const double *p, double *dxdt);
 void spatial_arm_default_parameters(double *p);
