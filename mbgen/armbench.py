@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 import os
 import resource
 import shutil
@@ -45,7 +44,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -296,7 +295,8 @@ def sympy_arm(n: int):
     N = me.ReferenceFrame("N")
     O = me.Point("O")
     O.set_vel(N, 0)
-    bodies, loads, parent, joint, values = [], [], N, O, {"g": link_parameters(n)["g"]}
+    bodies, loads, values = [], [], {"g": link_parameters(n)["g"]}
+    parent, joint, previous_joint = N, O, O
     for i in range(1, n + 1):
         names = [f"{k}{i}" for k in ("b", "m", "Ixx", "Iyy", "Izz", "Ixy", "Iyz", "Izx")]
         b, m, ixx, iyy, izz, ixy, iyz, izx = sm.symbols(names)

@@ -83,7 +83,6 @@ def test_bicycle_conserves_energy():
 
 
 def test_bicycle_straight_run_matches_closed_form():
-    scene = bicycle_scene()
     model = bicycle_compiled()
     layout = model.layout
     x0 = np.zeros(layout.n_x)
