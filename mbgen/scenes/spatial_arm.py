@@ -30,9 +30,9 @@ rod-like inertias with small products.  All of them are baked into the code as
 the last link's mass ``m{n}`` (a payload) stay free at run time.  The start is
 a bent pose at rest, ``q{i} = 0.3 (-1)^i``, ``u = 0``.
 
-Option: ``n`` (number of links, default 4: with every output, Jacobians
-included, the test suite's pipeline runs take ~10 s at ``n = 4`` and ~100 s at
-``n = 6`` on today's symbolic core; ``mbgen bench arm`` goes further).
+Option: ``n`` (number of links, default 4, which keeps the tests that run
+every scene with every output, Jacobians included, quick; ``mbgen bench arm``
+goes to ``n = 32``).
 """
 
 from __future__ import annotations
