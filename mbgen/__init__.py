@@ -9,8 +9,10 @@ Pipeline (each arrow is one function returning a frozen value)::
 from ._version import __version__
 from .derive import Method, derive
 from .equations import Equations
-from .errors import (BuildError, CheckFailed, IntegrationError, MbgenError, ModelError,
-                     NonFiniteResultError, SceneError, SingularMassMatrixError)
+from .errors import (BuildError, CheckFailed, ConstraintError, IntegrationError, MbgenError,
+                     ModelError,
+                     NonFiniteResultError, SceneError, SingularConstraintError,
+                     SingularMassMatrixError)
 from .importers import from_sympy
 from .layout import Layout
 from .model import Model, t
@@ -27,5 +29,5 @@ from .ensemble import ensemble
 __all__ = ["__version__", "Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
-           "SceneError", "BuildError", "SingularMassMatrixError", "NonFiniteResultError",
+           "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",
            "CheckFailed", "IntegrationError", "Targets", "export_fmu", "ensemble"]

@@ -12,7 +12,9 @@ cuts, in pipeline order:
 4. parameters and inputs that no emitted expression reads (gone from the ABI);
 5. exact zeros (entries that need no arithmetic; the solve skips structural
    zeros of ``M``);
-6. common-subexpression elimination.
+6. the accelerations: the mass matrix and its solve, or the articulated-body
+   recursion, whichever needs fewer operations;
+7. common-subexpression elimination.
 
 Operation counts are those of :mod:`mbgen.symbolic` (expressions evaluated as
 trees before CSE; temporaries plus outputs after); lines are the lines of the
@@ -23,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .outputs import INTEGRATORS, Output, applicable
+from .outputs import INTEGRATORS, Form, Output, applicable
 from .pipeline import PipelineResult, equations_of, run
 from .scene import Scene
 from .solver import UNROLL_MAX, fill_pattern
@@ -83,7 +85,7 @@ def audit(scene: Scene) -> Audit:
     integrators = tuple(o for o in outs if o in INTEGRATORS)
     all_points = tuple(p.name for p in getattr(scene.model, "points", ())
                        if p is not getattr(scene.model, "origin", None))
-    full_eq = equations_of(scene, points=all_points)
+    full_eq = equations_of(scene, points=all_points, reactions=True)
     everything = applicable(full_eq) + integrators
     full = run(full_eq, everything, build=False, sliced=False)
     wanted = run(scene, outs, build=False, sliced=False)
@@ -115,15 +117,35 @@ def audit(scene: Scene) -> Audit:
                     if unused_p or unused_r else "every remaining parameter is read"))
     cuts.append(Cut("5 exact zeros", _zeros(sliced), "zero entries need no arithmetic; the "
                     "L D L^T solve touches only structural nonzeros"))
-    cuts.append(Cut("6 CSE", f"{sliced.kernel.ops_before - sliced.kernel.ops_after} repeated "
+    cuts.append(_form_cut(sliced))
+    cuts.append(Cut("7 CSE", f"{sliced.kernel.ops_before - sliced.kernel.ops_after} repeated "
                     f"operations", f"one {sliced.kernel.cse_backend.value} CSE pass over every "
                     f"emitted expression", sliced.kernel.ops_before, sliced.kernel.ops_after))
     has_math = "#include <math.h>" in sliced.rendered.source
-    cuts.append(Cut("7 includes", "nothing: <math.h> is kept" if has_math else "<math.h>",
+    cuts.append(Cut("8 includes", "nothing: <math.h> is kept" if has_math else "<math.h>",
                     "it declares " + _math_reason(sliced) if has_math else
                     "no math function is called"))
     return Audit(scene.name, sliced.rendered.prefix, tuple(cuts), full.kernel.ops_after,
                  sliced.kernel.ops_after, _c_lines(full), _c_lines(sliced))
+
+
+def _form_cut(result: PipelineResult) -> Cut:
+    """How ``u'`` is computed: the mass matrix and its solve, or the articulated-body recursion."""
+    k = result.kernel
+    costs = dict(k.form_costs)
+    if not costs:
+        why = ("the equations carry no recursion (Kane's method, or joints whose speeds are "
+               "shared: derive with Method.NEWTON_EULER and relative joint coordinates)"
+               if result.baked.accelerations is None else "the form was chosen by the caller")
+        return Cut("6 accelerations", "nothing: u' solves M u' = F", why)
+    solve, rec = costs[Form.SOLVE], costs[Form.RECURSIVE]
+    if k.form is Form.RECURSIVE:
+        return Cut("6 accelerations", f"the mass matrix and its L D L^T solve ({solve} ops)",
+                   f"the articulated-body recursion gives u' in {rec} ops (right-hand side "
+                   f"alone, after CSE)", solve, rec)
+    return Cut("6 accelerations", f"the articulated-body recursion ({rec} ops)",
+               f"M u' = F with its L D L^T solve costs {solve} ops (right-hand side alone, "
+               f"after CSE, solve included)", rec, solve)
 
 
 def _zeros(result: PipelineResult) -> str:

@@ -19,7 +19,10 @@ import time
 from pathlib import Path
 
 
+from dataclasses import replace
+
 from ._version import __version__
+from .derive import Method
 from .errors import (BuildError, CheckFailed, MbgenError, ModelError, NonFiniteResultError,
                      SceneError, SingularMassMatrixError)
 
@@ -39,7 +42,9 @@ def _options(pairs) -> dict:
 def _scene(args):
     from .scene import load_scene
 
-    return load_scene(args.scene, **_options(args.option))
+    scene = load_scene(args.scene, **_options(args.option))
+    derivation = getattr(args, "derivation", None)
+    return replace(scene, method=Method(derivation)) if derivation else scene
 
 
 def _progress(msg: str) -> None:
@@ -305,17 +310,20 @@ def parser() -> argparse.ArgumentParser:
     top.add_argument("--version", action="version", version=f"mbgen {__version__}")
     sub = top.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
-    def scene_args(p):
+    def scene_args(p, method_flag=False):
         p.add_argument("scene", metavar="SCENE",
                        help="built-in scene name (see 'mbgen scenes') or path to a scene .py file")
         p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
                        help="scene option, e.g. -O n=8 (repeatable)")
+        flags = ("--derivation", "--method") if method_flag else ("--derivation",)
+        p.add_argument(*flags, dest="derivation", choices=[m.value for m in Method],
+                       help="derivation method (default: the scene's, else kane)")
 
     p = sub.add_parser("scenes", help="list the built-in scenes")
     p.set_defaults(func=cmd_scenes)
 
     p = sub.add_parser("generate", help="write the generated C header, C source and Python")
-    scene_args(p)
+    scene_args(p, method_flag=True)
     p.add_argument("-o", "--output", metavar="DIR", help="output folder (default generated/SCENE)")
     p.add_argument("--outputs", metavar="LIST",
                    help="comma-separated outputs (e.g. rhs,jacobian,dopri5); default: the scene's")
@@ -326,7 +334,7 @@ def parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_generate)
 
     p = sub.add_parser("check", help="compare compiled C, generated Python and lambdify")
-    scene_args(p)
+    scene_args(p, method_flag=True)
     p.add_argument("--samples", type=int, default=20, help="random states (default 20)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance (default 1e-9)")

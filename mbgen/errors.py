@@ -33,6 +33,20 @@ class SingularMassMatrixError(MbgenError, ArithmeticError):
     """
 
 
+class SingularConstraintError(MbgenError, ArithmeticError):
+    """The constraint Jacobian of the dependent speeds is singular at the given state.
+
+    A locked or singular configuration (a four-bar linkage at its dead point,
+    a wheel whose contact cannot determine the chosen dependent speeds): the
+    constraints do not determine the dependent speeds there.  C status
+    ``<MODEL>_CONSTRAINT_SINGULAR``.
+    """
+
+
+class ConstraintError(MbgenError, ValueError):
+    """A state violates the constraints and cannot be made consistent (Newton failed)."""
+
+
 class NonFiniteResultError(MbgenError, ArithmeticError):
     """An output evaluated to NaN or infinity (e.g. a 1/cos(q) at gimbal lock)."""
 

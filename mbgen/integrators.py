@@ -422,7 +422,18 @@ def integrator_context(kernel) -> dict:
         params=extra_params,
         n=max(L.n_x, 1),
         max_steps=DEFAULT_MAX_STEPS,
+        project=_projection(kernel),
     ))
+
+
+def _projection(kernel):
+    """What the integrators need to project onto holonomic constraints (None: nothing)."""
+    c = kernel.equations.constraints
+    if c is None or not c.m_h:
+        return None
+    L = kernel.layout
+    dep = [L.coordinates.index(q) for q in c.dependent_coordinates]
+    return dict(m=c.m_h, n_q=L.n_q, dep=dep, names=[str(q) for q in c.dependent_coordinates])
 
 
 __all__ = ["ExplicitRungeKutta", "Dopri5", "RK4", "Rosenbrock", "Rodas3", "Rodas4", "ROSENBROCK",

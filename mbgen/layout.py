@@ -15,6 +15,10 @@ Arrays
     inputs (applied forces/torques given at run time), in declaration order
 ``dxdt`` : shape (n_q + n_u,)
     ``[q', u']``
+
+A constrained model's *dependent speeds* (``dependent_speeds``) are symbols of
+the equations but not states: the generated code computes them from the
+constraints.  ``M`` and ``F`` are ordered ``speeds + dependent_speeds``.
 """
 
 from __future__ import annotations
@@ -37,9 +41,10 @@ class Layout:
     parameters: tuple[sm.Symbol, ...] = ()
     inputs: tuple[sm.Symbol, ...] = ()
     time: sm.Symbol = sm.Symbol("t")
+    dependent_speeds: tuple[sm.Symbol, ...] = ()
 
     def __post_init__(self):
-        every = self.states + self.parameters + self.inputs + (self.time,)
+        every = self.states + self.parameters + self.inputs + (self.time,) + self.dependent_speeds
         names = [str(s) for s in every]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
@@ -61,6 +66,16 @@ class Layout:
     @property
     def n_x(self) -> int:
         return self.n_q + self.n_u
+
+    @property
+    def n_d(self) -> int:
+        """Number of dependent speeds (computed from constraints, not states)."""
+        return len(self.dependent_speeds)
+
+    @property
+    def all_speeds(self) -> tuple[sm.Symbol, ...]:
+        """Independent then dependent speeds: the order of ``M`` and ``F``."""
+        return self.speeds + self.dependent_speeds
 
     @property
     def n_p(self) -> int:
@@ -106,4 +121,5 @@ class Layout:
 
     def symbols(self) -> frozenset:
         """Every symbol the equations may contain."""
-        return frozenset(self.states + self.parameters + self.inputs + (self.time,))
+        return frozenset(self.states + self.parameters + self.inputs + (self.time,)
+                         + self.dependent_speeds)

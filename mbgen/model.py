@@ -143,6 +143,48 @@ class LineElement:
     natural_length: sm.Expr
 
 
+@dataclass(frozen=True)
+class Joint:
+    """How a body hangs from its parent, stated by the user (else inferred at derivation).
+
+    ``child`` and ``parent`` name particles or rigid bodies (``parent`` None:
+    inferred; the Newtonian frame: the ground).  ``point`` is the joint point,
+    fixed in the child; ``frame`` the frame in which the joint's reaction force
+    and moment are reported (default: the child's).
+    """
+
+    name: str
+    child: str
+    parent: object = None
+    point: spv.Point | None = None
+    frame: spv.ReferenceFrame | None = None
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """A stated constraint, ``expression = 0`` (see :meth:`Model.holonomic`, :meth:`Model.nonholonomic`).
+
+    ``kind`` is ``"holonomic"`` (configuration: ``f(q, t)``) or ``"motion"``
+    (``f(q, u, t)``, linear in the speeds).  ``dependent`` is the dependent
+    coordinate (holonomic) or speed (motion); ``speed`` the dependent speed of a
+    holonomic constraint's time derivative (None: the speed ``u`` with
+    ``q' = u`` for the dependent coordinate).  ``points``, ``frame`` and
+    ``axis`` record a point constraint (``no_slip``: the velocity of
+    ``points[0]`` along ``axis`` of ``frame``; ``coincident``: the position of
+    ``points[0]`` minus ``points[1]``) so that its force can act on the bodies.
+    """
+
+    name: str
+    kind: str
+    expression: object
+    dependent: object
+    speed: object = None
+    points: tuple = ()
+    frame: spv.ReferenceFrame | None = None
+    axis: int | None = None
+    body: object = None
+
+
 _AXES = {1: 1, 2: 2, 3: 3, "x": 1, "y": 2, "z": 3, "X": 1, "Y": 2, "Z": 3}
 
 
@@ -190,6 +232,8 @@ class Model:
         self.loads: list[Force | Torque | Gravity | LineElement] = []
         self.kinematic_equations_: list[sm.Expr] = []
         self.prescribed_: dict[str, sm.Expr] = {}
+        self.joints_: list[Joint] = []
+        self.constraints_: list[Constraint] = []
         self._names: set[str] = set()
         self.N: spv.ReferenceFrame | None = None
         self.origin: spv.Point | None = None
@@ -457,6 +501,58 @@ class Model:
         self.loads.append(el)
         return el
 
+    # ------------------------------------------------------------------ joints
+    def joint(self, child, parent=None, point: spv.Point | None = None, *,
+              frame: spv.ReferenceFrame | None = None, name: str | None = None) -> Joint:
+        """State the joint of ``child`` (a particle or rigid body, or its name).
+
+        Joints are inferred from the frame and point tree (a body hangs from the
+        nearest body in which a point of its chain is fixed); state one where the
+        inference is ambiguous, to name it, or to report its reaction in another
+        frame.  The joint's free motion is whatever the rotations and offsets
+        between parent and child allow; nothing here constrains it.
+
+        Parameters
+        ----------
+        child : Particle, RigidBody or str
+        parent : Particle, RigidBody, str, the Newtonian frame, or None
+            The body the child hangs from; the Newtonian frame for the ground;
+            None to infer it.
+        point : Point, optional
+            The joint point, fixed in the child (default: inferred).
+        frame : ReferenceFrame, optional
+            Frame of the reaction components (default: the child's frame).
+        name : str, optional
+            Joint name (default: the child's name); names the rows of the
+            ``reactions`` output.
+        """
+        child_name = self._mass_name(child, "child")
+        if parent is not None and parent is not self.N:
+            parent = self._mass_name(parent, "parent")
+            if parent == child_name:
+                raise ModelError(f"joint of {child_name!r}: a body cannot hang from itself")
+        if point is not None:
+            self._check_point(point)
+        if frame is not None:
+            self._check_frame(frame)
+        if any(j.child == child_name for j in self.joints_):
+            raise ModelError(f"the joint of {child_name!r} is already stated")
+        name = child_name if name is None else name
+        if any(j.name == name for j in self.joints_):
+            raise ModelError(f"a joint named {name!r} already exists")
+        j = Joint(name, child_name, parent, point, frame)
+        self.joints_.append(j)
+        return j
+
+    def _mass_name(self, element, what: str) -> str:
+        names = [p.name for p in self.particles] + [b.name for b in self.bodies]
+        name = element if isinstance(element, str) else getattr(element, "name", None)
+        if name not in names or (not isinstance(element, str) and
+                                 element not in self.particles + self.bodies):
+            raise ModelError(f"joint {what} {element!r} is not a particle or rigid body of model "
+                             f"{self.name!r}; bodies: {', '.join(names) or 'none'}")
+        return name
+
     # -------------------------------------------------------------- kinematics
     def kinematics(self, mapping: Mapping) -> None:
         """Give the kinematic differential equations explicitly: ``{q_i: q_i'(q, u, t)}``."""
@@ -471,6 +567,167 @@ class Model:
         They must be linear in the q'.  Example: ``[q1.diff(t) - u1, q2.diff(t) - u2/q1]``.
         """
         self.kinematic_equations_.extend(sm.sympify(e) for e in equations)
+
+    # ------------------------------------------------------------- constraints
+    def holonomic(self, expressions, dependent, *, speeds=None, names=None) -> tuple:
+        """Configuration constraints ``f_h(q, t) = 0``, one dependent coordinate each.
+
+        Their time derivative constrains the speeds too; each holonomic
+        constraint makes one speed dependent: ``speeds`` (default: the speed
+        ``u`` with ``q' = u`` of each dependent coordinate).  Dependent
+        coordinates stay in the state (the C integrators project them back onto
+        the constraint after every step); dependent speeds are computed from the
+        constraints and are not states.  ``names`` name the constraints' forces
+        (default ``<dependent>_constraint``).
+
+        Example: close a four-bar loop, ``m.holonomic([xc - xr, yc - yr], [q2, q3])``.
+        """
+        exprs, deps = self._listed(expressions), self._listed(dependent)
+        spds = [None] * len(exprs) if speeds is None else self._listed(speeds)
+        if len(deps) != len(exprs) or len(spds) != len(exprs):
+            raise ModelError(f"{len(exprs)} holonomic constraint(s) need as many dependent "
+                             f"coordinates (got {len(deps)}) and speeds (got {len(spds)})")
+        for q in deps:
+            if q not in self.coordinates_:
+                raise ModelError(f"dependent coordinate {q} is not a coordinate of model "
+                                 f"{self.name!r}; declare it with model.coordinates()")
+        for u in spds:
+            if u is not None and u not in self.speeds_:
+                raise ModelError(f"dependent speed {u} is not a speed of model {self.name!r}")
+        out = []
+        for k, (e, q, u) in enumerate(zip(exprs, deps, spds)):
+            name = self._constraint_name(names, k, f"{q.func}_constraint")
+            out.append(self._add_constraint(Constraint(name, "holonomic", self._constraint_expr(
+                e, name), q, u)))
+        return tuple(out)
+
+    def nonholonomic(self, expressions, dependent, *, names=None) -> tuple:
+        """Motion constraints ``f_n(q, u, t) = 0``, linear in the speeds, one dependent speed each.
+
+        ``q'`` may appear in them (it is replaced by the kinematic equations).
+        The dependent speeds are computed from the constraints; they are not
+        states.  ``names`` name the constraints' forces (multipliers).
+        """
+        exprs, deps = self._listed(expressions), self._listed(dependent)
+        if len(deps) != len(exprs):
+            raise ModelError(f"{len(exprs)} motion constraint(s) need as many dependent speeds "
+                             f"(got {len(deps)})")
+        for u in deps:
+            if u not in self.speeds_:
+                raise ModelError(f"dependent speed {u} is not a speed of model {self.name!r}; "
+                                 f"declare it with model.speeds()")
+        out = []
+        for k, (e, u) in enumerate(zip(exprs, deps)):
+            name = self._constraint_name(names, k, f"{u.func}_constraint")
+            out.append(self._add_constraint(Constraint(name, "motion", self._constraint_expr(
+                e, name), u)))
+        return tuple(out)
+
+    def no_slip(self, point: spv.Point, body, dependent, *,
+                frame: spv.ReferenceFrame | None = None, axes=(1, 2, 3),
+                name: str | None = None) -> tuple:
+        """Rolling without slip: the point of ``body`` at ``point`` has zero velocity in ``frame``.
+
+        ``point`` is where the body touches (it may move over the body, as the
+        contact point of a wheel does); the constrained velocity is that of the
+        body's material point there, ``v_G + w_body x (r_point - r_G)``.  One
+        motion constraint ``v . e_k = 0`` per axis ``k`` of ``frame`` (default the
+        Newtonian frame), one dependent speed each (in the order of ``axes``).
+        Its multiplier is the force the ground exerts on the body at ``point``
+        along ``e_k`` (``constraint_forces``), and it enters the joint reactions.
+
+        Parameters
+        ----------
+        body : RigidBody or Particle
+            The rolling body (a particle: its own point).
+        """
+        self._check_point(point)
+        if body not in self.bodies + self.particles:
+            raise ModelError(f"no_slip: {body!r} is not a rigid body or particle of model "
+                             f"{self.name!r}")
+        frame = self.N if frame is None else frame
+        self._check_frame(frame)
+        axes = [_axis_index(a) for a in self._listed(axes)]
+        deps = self._listed(dependent)
+        if len(deps) != len(axes):
+            raise ModelError(f"no_slip at {point} over {len(axes)} axes needs {len(axes)} "
+                             f"dependent speeds, got {len(deps)}")
+        base = name or f"{point.name}_contact"
+        out = []
+        for k, u in zip(axes, deps):
+            if u not in self.speeds_:
+                raise ModelError(f"dependent speed {u} is not a speed of model {self.name!r}")
+            cname = f"{base}_{'xyz'[k - 1]}"
+            out.append(self._add_constraint(Constraint(cname, "motion", None, u, None, (point,),
+                                                       frame, k, body)))
+        return tuple(out)
+
+    def coincident(self, a: spv.Point, b: spv.Point, dependent, *,
+                   frame: spv.ReferenceFrame | None = None, axes=(1, 2, 3), speeds=None,
+                   name: str | None = None) -> tuple:
+        """Close a loop: points ``a`` and ``b`` coincide along ``axes`` of ``frame`` (holonomic).
+
+        One configuration constraint ``(r_a - r_b) . e_k = 0`` per axis, one
+        dependent coordinate (and speed, see :meth:`holonomic`) each.  Its
+        multiplier is the force on the body holding ``a`` along ``e_k`` (the body
+        holding ``b`` gets the opposite), and it enters the joint reactions.
+        """
+        self._check_point(a)
+        self._check_point(b)
+        frame = self.N if frame is None else frame
+        self._check_frame(frame)
+        axes = [_axis_index(x) for x in self._listed(axes)]
+        deps = self._listed(dependent)
+        spds = [None] * len(axes) if speeds is None else self._listed(speeds)
+        if len(deps) != len(axes) or len(spds) != len(axes):
+            raise ModelError(f"coincident {a} and {b} over {len(axes)} axes needs {len(axes)} "
+                             f"dependent coordinates and speeds")
+        base = name or f"{a.name}_{b.name}"
+        out = []
+        for k, q, u in zip(axes, deps, spds):
+            if q not in self.coordinates_:
+                raise ModelError(f"dependent coordinate {q} is not a coordinate of model "
+                                 f"{self.name!r}")
+            cname = f"{base}_{'xyz'[k - 1]}"
+            out.append(self._add_constraint(Constraint(cname, "holonomic", None, q, u, (a, b),
+                                                       frame, k)))
+        return tuple(out)
+
+    @staticmethod
+    def _listed(value) -> list:
+        if isinstance(value, (list, tuple)):
+            return list(value)
+        if isinstance(value, sm.MatrixBase):
+            return list(value)
+        return [value]
+
+    def _constraint_name(self, names, k, default) -> str:
+        if names is None:
+            return default
+        names = self._listed(names)
+        if len(names) <= k:
+            raise ModelError(f"names= must give one name per constraint; got {len(names)}")
+        return str(names[k])
+
+    def _constraint_expr(self, expr, name):
+        if isinstance(expr, str):
+            raise ModelError(f"constraint {name!r} must be a sympy expression of the model's "
+                             f"symbols, not the string {expr!r}")
+        if isinstance(expr, sm.Equality):
+            expr = expr.lhs - expr.rhs
+        value = self._scalar(expr, f"constraint {name!r}")
+        if value == 0:
+            raise ModelError(f"constraint {name!r} is identically zero")
+        return value
+
+    def _add_constraint(self, c: Constraint) -> Constraint:
+        if any(x.name == c.name for x in self.constraints_):
+            raise ModelError(f"a constraint named {c.name!r} already exists; pass names=")
+        if c.kind == "holonomic" and any(x.kind == "holonomic" and x.dependent == c.dependent
+                                         for x in self.constraints_):
+            raise ModelError(f"{c.dependent} is already the dependent coordinate of a constraint")
+        self.constraints_.append(c)
+        return c
 
     # ------------------------------------------------------------- validation
     def _check_frame(self, frame) -> None:

@@ -32,7 +32,7 @@ C_KEYWORDS = frozenset(
 #: Names used by the generated code itself or by the C library it includes.
 RESERVED = frozenset(
     """
-    t x p r dxdt out status math np numpy M F G i j k n s d L b A J Jp DT dfdt energy result positions velocities
+    t x p r dxdt out status math np numpy M F G i j k n s d L b A J Jp DT dfdt energy result positions velocities reactions
     sqrt sin cos tan asin acos atan atan2 sinh cosh tanh asinh acosh atanh exp exp2 expm1
     log log2 log10 log1p pow fabs abs floor ceil fmod fmin fmax hypot cbrt erf erfc
     tgamma lgamma isfinite isnan isinf copysign round trunc sign

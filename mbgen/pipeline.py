@@ -23,7 +23,7 @@ from .derive import Method, derive
 from .equations import Equations
 from .errors import ModelError
 from .model import Model
-from .optimize import CseBackend, Kernel, Output, optimize
+from .optimize import CseBackend, Form, Kernel, Output, optimize
 from .render import Rendered, render
 from .runtime import CompiledModel, PythonModel
 from .scene import Scene
@@ -51,8 +51,9 @@ class PipelineResult:
         return self.kernel.layout
 
 
-def equations_of(source: Model | Equations | Scene, method: Method = Method.KANE, *,
-                 energy: bool = True, points: Sequence[str] | None = None) -> Equations:
+def equations_of(source: Model | Equations | Scene, method: Method | None = None, *,
+                 energy: bool = True, points: Sequence[str] | None = None,
+                 reactions: bool = False) -> Equations:
     """Derive (for a ``Model`` or a scene holding one) or pass through ``Equations``.
 
     A scene's parameter values become the equations' defaults and its name and
@@ -61,14 +62,16 @@ def equations_of(source: Model | Equations | Scene, method: Method = Method.KANE
     the scene's points, else none).
     """
     if isinstance(source, Scene):
-        eq = equations_of(source.model, method, energy=energy,
-                          points=source.points if points is None else points)
+        eq = equations_of(source.model, method or source.method, energy=energy,
+                          points=source.points if points is None else points,
+                          reactions=reactions)
         src = f"scene {source.name!r} ({source.source})" if source.source else f"scene {source.name!r}"
         return replace(eq, defaults={**eq.defaults, **{k: float(v) for k, v in
                                                           source.parameters.items()}},
                        source=src)
     if isinstance(source, Model):
-        return derive(source, method, energy=energy, points=tuple(points or ()))
+        return derive(source, method or Method.KANE, energy=energy, points=tuple(points or ()),
+                      reactions=reactions)
     if isinstance(source, Equations):
         return source
     raise ModelError(f"expected a Model, Equations or Scene, got {type(source).__name__}")
@@ -91,7 +94,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         build: bool = True, parameters: Mapping[str, float] | None = None,
         fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
         name: str | None = None, sliced: bool = True,
-        cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None) -> PipelineResult:
+        cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None,
+        method: Method | None = None, form: Form | None = None) -> PipelineResult:
     """Run every stage and time it: derive, bake, optimize, render, and (optionally) compile.
 
     Parameters
@@ -111,6 +115,11 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         ``False`` ignores the scene's fixed parameters and input selection.
     targets : mbgen.targets.Targets, optional
         What to render besides the outputs (the step API).
+    method : Method, optional
+        Derivation method (default: the scene's, else ``Method.KANE``).
+    form : Form, optional
+        How ``u'`` is computed (default: chosen by operation count; see
+        :func:`mbgen.optimize.optimize`).
     """
     outs = _outputs(source, outputs)
     scene = source if isinstance(source, Scene) else None
@@ -124,7 +133,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
 
     wants_points = bool({Output.POSITIONS, Output.VELOCITIES} & set(outs))
     points = None if not wants_points or (scene and scene.points) else _all_points(source)
-    equations = timed("derive", equations_of, source, energy=Output.ENERGY in outs,
+    equations = timed("derive", equations_of, source, method,
+                      reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
                       points=points)
     if parameters:
         equations = replace(equations, defaults={**equations.defaults,
@@ -137,7 +147,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
     if inputs is None and sliced and scene:
         inputs = scene.inputs
     baked = timed("bake", bake, equations, fixed, inputs)
-    kernel = timed("cse", optimize, baked, outs, cse_backend)
+    kernel = timed("cse", optimize, baked, outs, cse_backend, form)
     rendered = timed("render", render, kernel, targets)
     compiled, cached = None, False
     if build:
@@ -152,7 +162,8 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
             parameters: Mapping[str, float] | None = None,
             fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
             name: str | None = None,
-            cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None) -> CompiledModel:
+            cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None,
+            method: Method | None = None, form: Form | None = None) -> CompiledModel:
     """Generate, compile (cached by content hash) and load ``source``.
 
     Parameters
@@ -168,6 +179,10 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         Inputs given at run time; the others are zero (default: the scene's, else all).
     name : str, optional
         C prefix, so that two slices of one model can live in one C program.
+    method : Method, optional
+        ``Method.KANE`` or ``Method.NEWTON_EULER`` (default: the scene's, else Kane).
+    form : Form, optional
+        ``Form.SOLVE`` or ``Form.RECURSIVE`` (default: fewer operations wins).
     targets : mbgen.targets.Targets, optional
         What to render besides the outputs, e.g. ``Targets(step=True)`` for the step API.
 
@@ -177,7 +192,7 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         ``model.rhs(t, x, p=None, r=None)`` and the other requested outputs.
     """
     return run(source, outputs, parameters=parameters, fixed=fixed, inputs=inputs, name=name,
-               cse_backend=cse_backend, targets=targets).compiled
+               cse_backend=cse_backend, targets=targets, method=method, form=form).compiled
 
 
 def python_model(rendered: Rendered) -> PythonModel:

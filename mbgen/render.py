@@ -22,13 +22,18 @@ from ._version import __version__
 from .layout import Layout
 from .names import comment_safe, model_prefix
 from .optimize import Kernel, KernelFunction
-from .outputs import Output, acceleration_symbols
+from .outputs import Form, Output, acceleration_symbols, lambda_symbols
 from .printing import CPrinter, PyPrinter, math_functions
 from .solver import UNROLL_MAX, c_lines, factor_program, py_lines, solve_program
 
 STATUS_CODES = (("OK", 0, "success"),
                 ("NOT_POSITIVE_DEFINITE", 1, "the mass matrix is not positive definite"),
                 ("NONFINITE", 2, "an output is NaN or infinite"))
+CONSTRAINT_STATUS_CODES = (
+    ("CONSTRAINT_SINGULAR", 7, "the constraint Jacobian A_r of the dependent speeds is singular "
+                               "(a locked or singular configuration)"),
+    ("PROJECTION_FAILED", 8, "the dependent coordinates could not be projected back onto the "
+                             "configuration constraints (Newton did not converge)"))
 INTEGRATOR_STATUS_CODES = (
     ("STEP_TOO_SMALL", 3, "the step size fell below the resolution of t"),
     ("MAX_STEPS", 4, "the step limit was reached before the last output time"),
@@ -65,6 +70,11 @@ class Rendered:
         Stack bound in bytes of every public C function, as stated in the header.
     step_methods : tuple of str
         The step API's methods (empty without the step target).
+    joints : tuple of (str, str)
+        Name and reaction frame of every joint, in the rows of the ``reactions`` output.
+    constraints : tuple of str, and dependent : tuple of str
+        Names of the constraints (rows of ``constraint_forces``) and the dependent
+        coordinates of the configuration constraints (empty without constraints).
     """
 
     prefix: str
@@ -79,6 +89,9 @@ class Rendered:
     content_hash: str = ""
     stack_bounds: tuple = ()
     step_methods: tuple = ()
+    joints: tuple = ()
+    constraints: tuple = ()
+    dependent: tuple = ()
 
     @property
     def header(self) -> str:
@@ -153,7 +166,7 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
                      mirror=list(b.mirror)) for b in bs]
 
     def temps(ts):
-        return [(printer.doprint(sym), printer.doprint(e)) for sym, e in ts]
+        return [(printer.doprint(sym), printer.doprint(e), sym in fn.checks) for sym, e in ts]
 
     return dict(
         output=s.output.value,
@@ -172,10 +185,13 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
         temps=temps(fn.temporaries),
         pre=blocks(fn.pre),
         solve=s.solve,
-        rhs=s.output is Output.RHS,
+        rhs=s.output is Output.RHS and s.solve,
         post_temps=temps(fn.post_temporaries),
         post=blocks(fn.post),
         columns=s.columns,
+        implicit=s.implicit,
+        velocity=blocks(fn.velocity),
+        velocity_temps=temps(fn.velocity_temporaries),
         n_q=L.n_q,
         n_u=L.n_u,
         ops_before=fn.ops_before,
@@ -205,11 +221,17 @@ def render(kernel: Kernel, targets=None) -> Rendered:
     prefix = model_prefix(eq.name)
     names = dict(L.identifiers)
     for fn in kernel.functions:
-        for sym, _ in fn.temporaries + fn.post_temporaries:
+        for sym, _ in fn.velocity_temporaries + fn.temporaries + fn.post_temporaries:
             names[sym] = str(sym)
     c_names, py_names = dict(names), dict(names)
-    for i, a in enumerate(acceleration_symbols(L.n_u)):
-        c_names[a] = py_names[a] = f"F[{i}]"
+    constrained = eq.constraints is not None
+    for i, a in enumerate(acceleration_symbols(L.n_u + L.n_d)):
+        c_names[a] = py_names[a] = f"ACC[{i}]" if constrained else f"F[{i}]"
+    if constrained:
+        for i, u in enumerate(L.dependent_speeds):
+            c_names[u] = py_names[u] = f"UR[{i}]"
+        for i, lam in enumerate(lambda_symbols(eq.constraints.m)):
+            c_names[lam] = py_names[lam] = f"LAM[{i}]"
     args = _signature_args(kernel)
     c_views = [_view(kernel, fn, prefix, CPrinter(c_names)) for fn in kernel.functions]
     py_views = [_view(kernel, fn, prefix, PyPrinter(py_names)) for fn in kernel.functions]
@@ -229,13 +251,16 @@ def render(kernel: Kernel, targets=None) -> Rendered:
     targets = targets or Targets()
     codes = STATUS_CODES + (INTEGRATOR_STATUS_CODES if kernel.integrators or targets.step
                             else ())
+    if eq.constraints is not None:
+        codes += CONSTRAINT_STATUS_CODES
     defines += [(f"{upper}_{code}", value, text) for code, value, text in codes]
     prototypes = [v["prototype"] + ";" for v in c_views]
     if has_defaults:
         prototypes.append(f"void {prefix}_default_parameters(double *p);")
 
-    exprs = [e for fn in kernel.functions for _, e in fn.temporaries + fn.post_temporaries] + [
-        e for fn in kernel.functions for b in fn.pre + fn.post for _, e in b.entries]
+    exprs = [e for fn in kernel.functions for _, e in
+             fn.velocity_temporaries + fn.temporaries + fn.post_temporaries] + [
+        e for fn in kernel.functions for b in fn.velocity + fn.pre + fn.post for _, e in b.entries]
     funcs = sorted(math_functions(exprs))
     any_solve = any(fn.spec.solve for fn in kernel.functions)
     unrolled = any_solve and L.n_u <= UNROLL_MAX
@@ -273,10 +298,15 @@ def render(kernel: Kernel, targets=None) -> Rendered:
                                        "definite')") if unrolled else [],
         ldl_solve_py=py_lines(solve_program(L.n_u, kernel.mass_pattern, "b", "o + "), "")
         if unrolled else [],
-        needs_math=bool(funcs) or bool(kernel.integrators),
+        needs_math=bool(funcs) or bool(kernel.integrators) or eq.constraints is not None,
         any_columns=any(fn.spec.columns for fn in kernel.functions),
         args=list(args),
         integrators=[o.value for o in kernel.integrators],
+        recursive=kernel.form is Form.RECURSIVE,
+        constrained=constrained,
+        m=eq.constraints.m if constrained else 0,
+        n_all=L.n_u + L.n_d,
+        any_kkt=constrained and any_solve,
     )
     env = environment()
     declarations = list(prototypes)
@@ -312,7 +342,17 @@ def render(kernel: Kernel, targets=None) -> Rendered:
                              f"{prefix}.py": python}, cdef, infos, L,
                     {str(sym): eq.defaults[str(sym)] for sym in L.parameters
                      if str(sym) in eq.defaults}, kernel.outputs, ext_source, ext_cdef, digest,
-                    tuple(sorted(bounds.items())), methods)
+                    tuple(sorted(bounds.items())), methods, _joints(kernel),
+                    eq.constraints.names if eq.constraints is not None else (),
+                    tuple(map(str, eq.constraints.dependent_coordinates))
+                    if eq.constraints is not None else ())
+
+
+def _joints(kernel: Kernel) -> tuple:
+    J = kernel.equations.reactions
+    if J is None or Output.REACTIONS not in kernel.outputs:
+        return ()
+    return tuple(zip(J.names, J.frames))
 
 
 __all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES",

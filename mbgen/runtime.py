@@ -22,10 +22,11 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .errors import IntegrationError, MbgenError, NonFiniteResultError, SingularMassMatrixError
+from .errors import (IntegrationError, MbgenError, NonFiniteResultError, SingularConstraintError,
+                     SingularMassMatrixError)
 from .layout import Layout
 from .optimize import Output
-from .render import INTEGRATOR_STATUS_CODES, STATUS_CODES
+from .render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
 
 F64 = np.dtype(np.float64)
 
@@ -57,6 +58,10 @@ class ModelBase:
         self.default_parameters = (np.array(values, dtype=float)
                                    if all(v is not None for v in values) else None)
         self.outputs = tuple(outputs)
+        self.reaction_names: tuple[str, ...] = ()
+        self.reaction_frames: tuple[str, ...] = ()
+        self.constraint_names: tuple[str, ...] = ()
+        self.dependent_coordinates: tuple[str, ...] = ()
         self._zeros_r = np.zeros(self.n_r)
 
     # -------------------------------------------------------------- validation
@@ -106,6 +111,11 @@ class ModelBase:
                 f"check parameters (masses, inertias > 0) and avoid singular configurations")
         if status == 2:
             raise NonFiniteResultError(f"{self.name}.{what}: result is NaN or infinite {where}")
+        if status == 7:
+            raise SingularConstraintError(
+                f"{self.name}.{what}: the constraint Jacobian of the dependent speeds is singular "
+                f"{where}: a locked or singular configuration (a four-bar at its dead point, ...); "
+                f"choose other dependent speeds or avoid the configuration")
         raise MbgenError(f"{self.name}.{what}: error status {status} {where}")  # pragma: no cover
 
     # ------------------------------------------------------------------ outputs
@@ -152,6 +162,79 @@ class ModelBase:
     def velocities(self, t, x, p=None, r=None) -> np.ndarray:
         """Newtonian velocities of the reported points, shape ``(k, 3)``."""
         return self._evaluate(Output.VELOCITIES, t, x, p, r)
+
+    def input_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
+        """``df/dr`` of the right-hand side, shape ``(n_x, n_r)`` (``B`` of a linearisation)."""
+        return self._evaluate(Output.INPUT_JACOBIAN, t, x, p, r)
+
+    def constraint_forces(self, t, x, p=None, r=None) -> np.ndarray:
+        """Constraint multipliers ``lambda`` of ``M u' = F + A^T lambda``, shape ``(m,)``.
+
+        For a point constraint (``no_slip``, ``coincident``) the force on the body at
+        the point along the frame axis; for a stated one the generalized force
+        conjugate to it.  Order: the model's constraints.
+        """
+        return self._evaluate(Output.CONSTRAINT_FORCES, t, x, p, r)
+
+    def holonomic(self, t, x, p=None, r=None) -> np.ndarray:
+        """Residual ``f_h(q, t)`` of the configuration constraints, shape ``(m_h,)``."""
+        return self._evaluate(Output.HOLONOMIC, t, x, p, r)
+
+    def holonomic_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
+        """``df_h/dq``, shape ``(m_h, n_q)``."""
+        return self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)
+
+    def reactions(self, t, x, p=None, r=None) -> np.ndarray:
+        """Joint reactions, shape ``(n_joints, 6)``: per joint (in :attr:`reaction_names`
+        order, from the root) the force ``Fx, Fy, Fz`` and the moment ``Mx, My, Mz`` about the
+        joint point that the parent exerts on the child, in the joint's frame
+        (:attr:`reaction_frames`)."""
+        return self._evaluate(Output.REACTIONS, t, x, p, r)
+
+    def consistent(self, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-12,
+                   max_iterations: int = 50) -> np.ndarray:
+        """Complete ``x`` to a consistent state: solve the configuration constraints for
+        the dependent coordinates (Newton), keeping every other entry of ``x``.
+
+        Speeds need nothing: only the independent speeds are states; the
+        dependent ones always come from the velocity constraints.
+
+        Raises
+        ------
+        ConstraintError
+            Newton did not converge (the message gives the residual), or the
+            constraint Jacobian of the dependent coordinates is singular.
+        """
+        from .errors import ConstraintError
+
+        x = self._x(x).copy()
+        if not self.dependent_coordinates:
+            return x
+        for o in (Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN):
+            self._require(o)
+        idx = [self.state_names.index(n) for n in self.dependent_coordinates]
+        res = np.inf
+        for _ in range(int(max_iterations)):
+            f = self._evaluate(Output.HOLONOMIC, t, x, p, r)
+            res = float(np.max(np.abs(f)))
+            if res <= tol * (1.0 + float(np.max(np.abs(x[idx])))):
+                return x
+            J = self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)[:, idx]
+            try:
+                x[idx] -= np.linalg.solve(J, f)
+            except np.linalg.LinAlgError:
+                raise ConstraintError(
+                    f"{self.name}: the configuration constraints cannot be solved for "
+                    f"{list(self.dependent_coordinates)} at {dict(zip(self.state_names, x))}: "
+                    f"their Jacobian is singular (a locked configuration); start elsewhere"
+                ) from None
+            if not np.all(np.isfinite(x)):
+                break
+        raise ConstraintError(
+            f"{self.name}: Newton on the configuration constraints did not converge for "
+            f"{list(self.dependent_coordinates)} (residual {res:.3g} after {max_iterations} "
+            f"iterations); give initial values of the dependent coordinates closer to a "
+            f"solution")
 
     def bind(self, p=None, r=None, output: Output = Output.RHS, *,
              vectorized: bool = False) -> Callable:
@@ -204,6 +287,10 @@ class Integration:
         Accepted and rejected steps, right-hand side and Jacobian calls, LU factorisations.
     wall_time : float
         Seconds spent in the C call (``time.perf_counter``).
+    max_residual : float
+        Constrained models: the largest configuration-constraint residual
+        ``max|f_h|`` met after a step, before projection (NaN without
+        configuration constraints).
     """
 
     t: np.ndarray
@@ -216,6 +303,7 @@ class Integration:
     n_jac: int
     n_lu: int
     wall_time: float
+    max_residual: float = float("nan")
 
 
 class CompiledModel(ModelBase):
@@ -227,10 +315,23 @@ class CompiledModel(ModelBase):
         super().__init__(rendered.prefix, layout, defaults, outputs)
         self.rendered = rendered
         self.module = module
+        self.reaction_names = tuple(n for n, _ in rendered.joints)
+        self.reaction_frames = tuple(f for _, f in rendered.joints)
+        self.constraint_names, self.dependent_coordinates = (rendered.constraints,
+                                                             rendered.dependent)
         self.ffi, self.lib = module.ffi, module.lib
         self._calls = {Output(info.output): self._make_call(info) for info in rendered.functions}
+        self._rhs = self._calls.get(Output.RHS) or (
+            lambda t, x, p=None, r=None: self._evaluate(Output.RHS, t, x, p, r))
 
     def _make_call(self, info):
+        """``call(t, x, p=None, r=None)`` for one generated function.
+
+        The common case (a float ``t``, a contiguous float64 ``x`` of the right
+        length, default or float64 ``p`` and ``r``) goes straight to C: the
+        crossing from Python costs under a microsecond.  Anything else takes the
+        validating path (named errors, conversions) or the batch loop.
+        """
         ffi = self.ffi
         buf = ffi.from_buffer
         cfunc = getattr(self.lib, info.c_name)
@@ -238,33 +339,76 @@ class CompiledModel(ModelBase):
         has_p, has_r = "p" in info.args, "r" in info.args
         what = info.output
         check_x, check_p, check_r, as_t, fail = self._x, self._p, self._r, self._t, self._fail
+        empty, ndarray, f64 = np.empty, np.ndarray, F64
+        xshape, stride = (self.n_x,), (8,)
+        reshape = len(shape) != 1
 
         from .targets.batch import evaluate, is_batch
 
         model = self
+        keep: list = []   # arrays behind the cached default buffers
 
-        def call(t, x, p, r):
-            if not (type(x) is np.ndarray and x.ndim == 1) \
-                    or p is not None and not (type(p) is np.ndarray and p.ndim == 1) \
-                    or r is not None and not (type(r) is np.ndarray and r.ndim == 1):
+        def default_buffer(array):
+            keep.append(array)
+            return buf("double[]", array)
+
+        p_default = (default_buffer(self.default_parameters.copy())
+                     if has_p and self.default_parameters is not None else None)
+        r_default = default_buffer(self._zeros_r.copy()) if has_r else None
+
+        def slow(t, x, p, r):
+            if not (type(x) is ndarray and x.ndim == 1) \
+                    or p is not None and not (type(p) is ndarray and p.ndim == 1) \
+                    or r is not None and not (type(r) is ndarray and r.ndim == 1):
                 if is_batch(x, p, r):  # (k, n) arrays: one C loop over the k items
                     return evaluate(model, info, t, x, p, r)
             xa = check_x(x)
-            out = np.empty(size)
-            if has_p and has_r:
-                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", check_p(p)),
-                               buf("double[]", check_r(r)), buf("double[]", out))
-            elif has_p:
-                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", check_p(p)),
-                               buf("double[]", out))
-            elif has_r:
-                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", check_r(r)),
-                               buf("double[]", out))
-            else:
-                status = cfunc(as_t(t), buf("double[]", xa), buf("double[]", out))
+            out = empty(size)
+            args = [as_t(t), buf("double[]", xa)]
+            if has_p:
+                args.append(buf("double[]", check_p(p)))
+            if has_r:
+                args.append(buf("double[]", check_r(r)))
+            status = cfunc(*args, buf("double[]", out))
             if status:
                 fail(status, what, t, xa)
-            return out if len(shape) == 1 else out.reshape(shape)
+            return out.reshape(shape) if reshape else out
+
+        def vector(v, n, default):
+            if v is None and default is not None:
+                return default
+            if v.__class__ is ndarray and v.dtype is f64 and v.shape == (n,) and \
+                    v.strides == stride:
+                return buf("double[]", v)
+            return None
+
+        n_p, n_r = self.n_p, self.n_r
+
+        def call(t, x, p=None, r=None):
+            if not (t.__class__ is float and x.__class__ is ndarray and x.dtype is f64
+                    and x.shape == xshape and x.strides == stride):
+                return slow(t, x, p, r)
+            pb = rb = None
+            if has_p:
+                pb = p_default if p is None else vector(p, n_p, None)
+                if pb is None:
+                    return slow(t, x, p, r)
+            if has_r:
+                rb = r_default if r is None else vector(r, n_r, None)
+                if rb is None:
+                    return slow(t, x, p, r)
+            out = empty(size)
+            if has_p and has_r:
+                status = cfunc(t, buf("double[]", x), pb, rb, buf("double[]", out))
+            elif has_p:
+                status = cfunc(t, buf("double[]", x), pb, buf("double[]", out))
+            elif has_r:
+                status = cfunc(t, buf("double[]", x), rb, buf("double[]", out))
+            else:
+                status = cfunc(t, buf("double[]", x), buf("double[]", out))
+            if status:
+                fail(status, what, t, x)
+            return out.reshape(shape) if reshape else out
 
         return call
 
@@ -276,13 +420,13 @@ class CompiledModel(ModelBase):
             raise
         return call(t, x, p, r)
 
-    def rhs(self, t, x, p=None, r=None) -> np.ndarray:  # fast path, no enum lookup
-        return self._calls[Output.RHS](t, x, p, r) if Output.RHS in self._calls else \
-            self._evaluate(Output.RHS, t, x, p, r)
+    def rhs(self, t, x, p=None, r=None) -> np.ndarray:
+        """``dxdt = [G; u']``, shape ``(n_x,)`` (the fastest way in from Python)."""
+        return self._rhs(t, x, p, r)
 
     def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = 1e-6,
                   atol: float = 1e-9, h: float | None = None, h_max: float = 0.0,
-                  max_steps: int = 0, on_failure: str = "raise"):
+                  max_steps: int = 0, on_failure: str = "raise", project: bool = True):
         """Run a generated C integrator over ``t_eval`` (no Python per step).
 
         Parameters
@@ -310,6 +454,10 @@ class CompiledModel(ModelBase):
         on_failure : str
             Batches only: ``"raise"`` (the first failed member raises) or
             ``"record"`` (statuses and messages are returned per member).
+        project : bool
+            Models with configuration constraints: project the dependent
+            coordinates back onto the constraints after every step (``False``
+            only records the drift, ``Integration.max_residual``).
 
         Raises
         ------
@@ -370,8 +518,12 @@ class CompiledModel(ModelBase):
                                    h_max=h_max, max_steps=max_steps, on_failure=on_failure)
         ffi, prefix = self.ffi, self.rendered.prefix
         buf = ffi.from_buffer
-        opt = ffi.new(f"{prefix}_options *", {"rtol": rtol, "atol": atol, "h0": h0,
-                                              "h_max": h_max, "max_steps": int(max_steps)})
+        settings = {"rtol": rtol, "atol": atol, "h0": h0, "h_max": h_max,
+                    "max_steps": int(max_steps)}
+        projects = "no_projection" in dict(ffi.typeof(f"{prefix}_options").fields)
+        if projects:
+            settings["no_projection"] = 0 if project else 1
+        opt = ffi.new(f"{prefix}_options *", settings)
         stats = ffi.new(f"{prefix}_stats *")
         x_out = np.empty((t.size, self.n_x))
         args = [buf("double[]", xa)]
@@ -386,7 +538,8 @@ class CompiledModel(ModelBase):
                        *work)
         wall = time.perf_counter() - start
         if status:
-            names = {v: (n, text) for n, v, text in STATUS_CODES + INTEGRATOR_STATUS_CODES}
+            names = {v: (n, text) for n, v, text in
+                     STATUS_CODES + INTEGRATOR_STATUS_CODES + CONSTRAINT_STATUS_CODES}
             code, text = names.get(status, ("UNKNOWN", "unknown error"))
             raise IntegrationError(
                 f"{self.name}.integrate({output.value!r}) failed with status {status} "
@@ -395,7 +548,8 @@ class CompiledModel(ModelBase):
                 status, float(stats.t_reached))
         return Integration(t, x_out, output.value, int(status), int(stats.n_steps),
                            int(stats.n_rejected), int(stats.n_rhs), int(stats.n_jac),
-                           int(stats.n_lu), wall)
+                           int(stats.n_lu), wall,
+                           float(stats.max_residual) if projects else float("nan"))
 
 
 class PythonModel(ModelBase):
@@ -407,6 +561,10 @@ class PythonModel(ModelBase):
         super().__init__(rendered.prefix, layout, defaults, outputs)
         self.rendered = rendered
         self.module = module
+        self.reaction_names = tuple(n for n, _ in rendered.joints)
+        self.reaction_frames = tuple(f for _, f in rendered.joints)
+        self.constraint_names, self.dependent_coordinates = (rendered.constraints,
+                                                             rendered.dependent)
         self._args = {Output(info.output): info.args for info in rendered.functions}
 
     def _evaluate(self, output, t, x, p, r):
@@ -424,3 +582,5 @@ class PythonModel(ModelBase):
             self._fail(1, output.value, t, xa)
         except self.module.NonFinite:
             self._fail(2, output.value, t, xa)
+        except getattr(self.module, "ConstraintSingular", ()):
+            self._fail(7, output.value, t, xa)

@@ -74,6 +74,9 @@ class Scene:
         The options the scene was built with.
     source : str
         File the scene came from.
+    method : Method or None
+        Derivation method (None: Kane's method; ``Method.NEWTON_EULER`` for
+        joint reactions and the articulated-body recursion of long chains).
     """
 
     name: str
@@ -91,6 +94,7 @@ class Scene:
     prefix: str | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
     source: str = ""
+    method: Any = None
 
     def x0(self, layout) -> np.ndarray:
         """Initial state as an array in ``layout`` order; unknown names are an error."""

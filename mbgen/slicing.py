@@ -1,7 +1,8 @@
 """Slicing: bake fixed parameters and absent inputs into the equations.
 
 ``bake(equations, fixed, inputs)`` is a pure stage between derivation and
-optimisation.  Fixed parameters become numbers (integral values stay exact, so
+optimisation.  Intermediate quantities of a recursive derivation (the
+equations' program) that become numbers are folded into what uses them.  Fixed parameters become numbers (integral values stay exact, so
 ``2*g`` with ``g = 10`` folds to ``20``; a zero offset removes every term it
 multiplies), inputs that a scene leaves out become zero, and both leave the
 layout, so they vanish from the arithmetic and from the generated ABI.
@@ -19,6 +20,7 @@ import sympy as sm
 from .equations import Equations, PointKinematics
 from .errors import ModelError
 from .layout import Layout
+from .program import Program
 from .symbolic import xreplace_dag
 
 
@@ -61,13 +63,24 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
                          f"inputs: {list(L.input_names)}")
     sub = {by_name[k]: number(v) for k, v in fixed.items()}
     sub.update({s: sm.S.Zero for s in L.inputs if str(s) not in keep_inputs})
-    if not sub:
+    program = equations.program
+    if not sub and not program:
         return equations
 
     memo: dict = {}   # one memo for every field: shared subexpressions are replaced once
+    mapping = dict(sub)
+    kept = []
+    for sym, e in program.assignments:   # fold: assignments that became numbers or symbols go
+        value = xreplace_dag([e], mapping, memo)[0]
+        if sym not in program.checks and (value.is_Number or value.is_Symbol):
+            mapping[sym] = value
+        else:
+            kept.append((sym, value))
+    if not sub and len(kept) == len(program.assignments):
+        return equations
 
     def bake_all(exprs):
-        return xreplace_dag(exprs, sub, memo)
+        return xreplace_dag(exprs, mapping, memo)
 
     def bake_matrix(m):
         return sm.ImmutableMatrix(m.rows, m.cols, bake_all(list(m)))
@@ -75,6 +88,9 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
     def bake_expr(e):
         return None if e is None else bake_all([e])[0]
 
+    reactions = equations.reactions
+    if reactions is not None:
+        reactions = replace(reactions, matrix=bake_matrix(reactions.matrix))
     layout = Layout(L.coordinates, L.speeds,
                     tuple(s for s in L.parameters if s not in sub),
                     tuple(s for s in L.inputs if s not in sub), L.time)
@@ -89,4 +105,8 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
         points=tuple(PointKinematics(pk.name, bake_matrix(pk.position), bake_matrix(pk.velocity))
                      for pk in equations.points),
         defaults={k: v for k, v in equations.defaults.items() if k not in fixed},
+        program=Program(tuple(kept), program.checks),
+        accelerations=(None if equations.accelerations is None
+                       else bake_matrix(equations.accelerations)),
+        reactions=reactions,
     )

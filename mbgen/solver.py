@@ -95,6 +95,21 @@ def solve_program(n: int, pattern: frozenset, b: str = "b", offset: str = "") ->
     return out
 
 
+def solve_ops(n: int, pattern: frozenset) -> int:
+    """Floating-point operations of factoring ``M`` and solving once (the unrolled programs).
+
+    Used to weigh ``M u' = F`` against a recursion; loops (``n > UNROLL_MAX``)
+    are counted as their dense equivalent.
+    """
+    if n > UNROLL_MAX:
+        pattern = frozenset((i, j) for i in range(n) for j in range(i))
+    ops = 0
+    for st in factor_program(n, pattern) + solve_program(n, pattern):
+        if st.kind != "check":
+            ops += st.value.count("*") + st.value.count(" - ") + st.value.count("/")
+    return ops
+
+
 def c_lines(program: list[Statement], fail: str) -> list[str]:
     """C statements; a failed check returns ``fail``."""
     out = []

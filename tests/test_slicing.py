@@ -119,7 +119,7 @@ def test_audit_reports_every_cut(name):
     report = audit(load_scene(name))
     text = report.format()
     for step in ("1 outputs", "2 fixed parameters", "3 inputs", "4 unused symbols",
-                 "5 exact zeros", "6 CSE", "7 includes"):
+                 "5 exact zeros", "6 accelerations", "7 CSE", "8 includes"):
         assert step in text
     assert report.sliced_ops < report.full_ops and report.sliced_lines < report.full_lines
     assert "jacobian" in text  # a left-out output is named with its cost

@@ -7,17 +7,21 @@ from enum import Enum
 from ..equations import Equations
 from ..errors import ModelError
 from ..model import Model
+from .constraints import constrain
 from .kane import kane
+from .newton_euler import newton_euler
+from .prepare import prepare
 
 
 class Method(str, Enum):
-    """Derivation methods."""
+    """Derivation methods: both give the same ``M u' = F``."""
 
     KANE = "kane"
+    NEWTON_EULER = "newton_euler"
 
 
 def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
-           points=()) -> Equations:
+           points=(), reactions: bool = False) -> Equations:
     """Derive the equations of motion of ``model``.
 
     Parameters
@@ -25,12 +29,16 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
     model : Model
         The multibody model.
     method : Method
-        ``Method.KANE`` (Kane's method with partial velocities).
+        ``Method.KANE`` (Kane's method with partial velocities) or
+        ``Method.NEWTON_EULER`` (body by body over the joint tree, with the
+        articulated-body recursion for ``u'`` where the joints allow it).
     energy : bool
         Also derive the kinetic and potential energy (needed for ``Output.ENERGY``).
     points : sequence of str
         Points whose Newtonian position and velocity the equations carry
         (needed for ``Output.POSITIONS`` and ``Output.VELOCITIES``).
+    reactions : bool
+        Also derive the joint reactions (needed for ``Output.REACTIONS``).
 
     Returns
     -------
@@ -39,10 +47,18 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
     """
     if not isinstance(model, Model):
         raise ModelError(f"derive() needs an mbgen.Model, got {type(model).__name__}")
-    method = Method(method)
+    try:
+        method = Method(method)
+    except ValueError:
+        raise ModelError(f"unknown derivation method {method!r}; choose from "
+                         f"{', '.join(m.value for m in Method)}") from None
+    prep = prepare(model)
     if method is Method.KANE:
-        return kane(model, energy, tuple(points))
-    raise ModelError(f"unknown derivation method {method!r}")  # pragma: no cover
+        eq = kane(model, energy, tuple(points), reactions, prep=prep)
+    else:
+        eq = newton_euler(model, energy, tuple(points), reactions,
+                          articulated=not model.constraints_, prep=prep)
+    return constrain(eq, prep)
 
 
 __all__ = ["Method", "derive"]

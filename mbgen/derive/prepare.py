@@ -28,6 +28,7 @@ class MassElement:
     mass: sm.Expr
     frame: FrameNode | None = None
     inertia: tuple | None = None  # 3x3 rows in ``frame`` components
+    point: object = None          # the model's Point (particle, or mass centre)
 
 
 @dataclass
@@ -46,6 +47,7 @@ class Prepared:
     torques: list = field(default_factory=list)   # [(FrameNode, sign, vector terms)]
     lines: list = field(default_factory=list)     # [(LineElement, signed atoms)]
     plain: object = None                           # callable expr -> plain expr
+    terms: object = None                           # callable Vector -> [(FrameNode, Vec3)]
 
 
 def prepare(model: Model) -> Prepared:
@@ -128,16 +130,17 @@ def prepare(model: Model) -> Prepared:
                     for n, c in terms(pd.offset, f"the offset of point {point.name}"))
         point_atoms[point] = (point_atoms[pd.parent] if pd.parent is not None else ()) + own
 
-    masses = [MassElement(p.name, point_atoms[p.point], plain(p.mass, f"mass of {p.name}"))
-              for p in model.particles]
+    masses = [MassElement(p.name, point_atoms[p.point], plain(p.mass, f"mass of {p.name}"),
+                          point=p.point) for p in model.particles]
     for b in model.bodies:
         inertia = tuple(tuple(plain(b.inertia[i, j], f"inertia of {b.name}") for j in range(3))
                         for i in range(3))
         masses.append(MassElement(b.name, point_atoms[b.center], plain(b.mass, f"mass of {b.name}"),
-                                  nodes[b.frame], inertia))
+                                  nodes[b.frame], inertia, b.center))
 
     prep = Prepared(model, layout, tree, qdot, nodes, point_atoms, masses, None)
     prep.plain = plain
+    prep.terms = terms
     for load in model.loads:
         if isinstance(load, Gravity):
             prep.gravity = terms(load.vector, "gravity")
