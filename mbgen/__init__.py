@@ -15,6 +15,7 @@ from .errors import (BuildError, CheckFailed, ConstraintError, IntegrationError,
                      SingularMassMatrixError)
 from .importers import from_sympy
 from .layout import Layout
+from .linearize import Linearization, linearize
 from .model import Model, t
 from .optimize import CseBackend, Output
 from .pipeline import compile, equations_of, python_model, run
@@ -26,7 +27,7 @@ from .targets.fmu import export_fmu
 from .ensemble import ensemble
 
 
-__all__ = ["__version__", "Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
+__all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",

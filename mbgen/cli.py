@@ -91,6 +91,54 @@ def cmd_generate(args) -> int:
     return EXIT_OK
 
 
+def cmd_linearize(args) -> int:
+    import numpy as np
+
+    from .fileio import write_atomic
+    from .linearize import linearize
+    from .outputs import Output
+    from .pipeline import compile
+
+    scene = _scene(args)
+    outputs = [Output.RHS, Output.JACOBIAN]
+    model_eq = scene.model
+    constrained = bool(getattr(model_eq, "constraints_", None) or
+                       getattr(model_eq, "constraints", None))
+    if constrained:
+        outputs += [Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN]
+    model = compile(scene, outputs + ([Output.INPUT_JACOBIAN] if _has_inputs(scene) else []))
+    x = scene.x0(model.layout)
+    for pair in args.state or ():
+        name, _, value = pair.partition("=")
+        if name.strip() not in model.state_names:
+            raise SceneError(f"-x {pair!r}: {name!r} is not a state of {scene.name!r}; states: "
+                             f"{list(model.state_names)}")
+        x[model.state_names.index(name.strip())] = float(value)
+    if model.dependent_coordinates:
+        x = model.consistent(x)
+    lin = linearize(model, x, scene.p(model.layout))
+    print(f"{scene.name}: operating point " + ", ".join(
+        f"{n} = {v:.6g}" for n, v in zip(model.state_names, x)))
+    print(lin.format())
+    if args.output:
+        folder = Path(args.output)
+        for name, matrix, cols in (("A", lin.A, lin.states), ("B", lin.B, lin.inputs)):
+            text = ",".join(cols) + "\n" + "".join(
+                ",".join(repr(float(v)) for v in row) + "\n" for row in np.atleast_2d(matrix))
+            write_atomic(folder / f"{name}.csv", text)
+        print(f"wrote {folder / 'A.csv'} and {folder / 'B.csv'} (rows and columns: "
+              f"{', '.join(lin.states)})")
+    return EXIT_OK
+
+
+def _has_inputs(scene) -> bool:
+    model = scene.model
+    inputs = getattr(model, "inputs_", None)
+    if inputs is None:
+        inputs = model.layout.inputs
+    return bool(inputs) and scene.inputs != ()
+
+
 def cmd_check(args) -> int:
     from .check import check
 
@@ -190,6 +238,18 @@ def cmd_demo(args) -> int:
 
 
 def cmd_bench(args) -> int:
+    if args.what == "arm":
+        return _bench_arm(args)
+    if args.stages:
+        from .stagetimes import format_stages, stage_times
+
+        outputs = tuple(args.outputs.split(",")) if args.outputs else ()
+        rows = stage_times(args.what, _options(args.option), outputs, budget_s=args.budget,
+                           memory_gb=args.memory_gb, progress=_progress)
+        print(format_stages(args.what, rows))
+        return EXIT_OK
+    if args.repeats is None:
+        args.repeats = 3
     if args.what == "scaling":
         from .bench import format_scaling, scaling
 
@@ -218,6 +278,27 @@ def cmd_bench(args) -> int:
     return EXIT_OK
 
 
+def _bench_arm(args) -> int:
+    from .armbench import BenchmarkError, arm_scaling, format_arm, plot, write_csv
+
+    ns = tuple(int(v) for v in args.ns.split(","))
+    try:
+        rows = arm_scaling(ns, repeats=args.repeats or 7, budget_s=args.budget,
+                           sympy_budget_s=args.sympy_budget, memory_gb=args.memory_gb,
+                           pinocchio=not args.no_pinocchio, cxx=not args.no_cxx,
+                           method=args.derivation, progress=_progress)
+    except BenchmarkError as exc:  # a missing optional dependency or a driver that failed
+        print(f"mbgen: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    print(format_arm(rows))
+    folder = Path(args.output or Path("bench") / "arm")
+    folder.mkdir(parents=True, exist_ok=True)
+    csv_path = write_csv(rows, folder / "arm_scaling.csv")
+    png_path = plot(rows, folder / "arm_scaling.png")
+    print(f"\nwrote {csv_path} and {png_path}")
+    return EXIT_OK
+
+
 def cmd_stress(args) -> int:
     from .stress import stress
 
@@ -229,14 +310,16 @@ def cmd_stress(args) -> int:
 def cmd_golden(args) -> int:
     from . import golden
 
+    names = args.scenes.split(",") if args.scenes else None
+
     root = Path(args.root)
     if args.update:
-        changed = golden.update(root)
+        changed = golden.update(root, names)
         print(f"{len(changed)} file(s) rewritten under {root}")
         for p in changed:
             print(f"  {p}")
         return EXIT_OK
-    diffs = golden.differences(root)
+    diffs = golden.differences(root, names)
     for d in diffs:
         print(d)
     print(f"{root}: {'up to date' if not diffs else f'{len(diffs)} difference(s); run mbgen golden --update'}")
@@ -298,6 +381,14 @@ def parser() -> argparse.ArgumentParser:
                    help="ignore the scene's fixed parameters and input selection")
     p.set_defaults(func=cmd_generate)
 
+    p = sub.add_parser("linearize", help="A, B and eigenvalues at the scene's initial state")
+    scene_args(p, method_flag=True)
+    p.add_argument("-x", "--state", action="append", metavar="NAME=VALUE",
+                   help="operating point: a state's value (repeatable; default the scene's "
+                        "initial state, made consistent with its constraints)")
+    p.add_argument("-o", "--output", metavar="DIR", help="write A.csv and B.csv into DIR")
+    p.set_defaults(func=cmd_linearize)
+
     p = sub.add_parser("check", help="compare compiled C, generated Python and lambdify")
     scene_args(p, method_flag=True)
     p.add_argument("--samples", type=int, default=20, help="random states (default 20)")
@@ -326,10 +417,12 @@ def parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "bench", help="benchmarks: 'mbgen bench SCENE' (work-precision: error against run time "
-                      "of every integrator and back end) or 'mbgen bench scaling' (n-link "
-                      "pendulum, mbgen vs sympy)")
-    p.add_argument("what", metavar="SCENE|scaling",
-                   help="a scene (name or .py file) for the work-precision report, or 'scaling'")
+                      "of every integrator and back end), 'mbgen bench scaling' (n-link "
+                      "pendulum, mbgen vs sympy) or 'mbgen bench arm' (spatial arm: mbgen vs "
+                      "sympy vs Pinocchio, RHS timed inside C)")
+    p.add_argument("what", metavar="SCENE|scaling|arm",
+                   help="a scene (name or .py file) for the work-precision report, 'scaling' "
+                        "or 'arm'")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
                    help="scene option, e.g. -O stiffness=1e6 (repeatable)")
     p.add_argument("-o", "--output", metavar="DIR",
@@ -341,11 +434,29 @@ def parser() -> argparse.ArgumentParser:
                    help="RHS back ends for solve_ivp (default lambdify,python,c)")
     p.add_argument("--time-budget", type=float, default=10.0,
                    help="seconds one solve may take (default 10)")
-    p.add_argument("--repeats", type=int, default=3,
-                   help="timed repeats per point; medians are reported (default 3)")
+    p.add_argument("--repeats", type=int, default=None,
+                   help="timed repeats per point; medians are reported (default 3; arm: 7)")
     p.add_argument("--ns", default="2,4,8,16,32", help="scaling: link counts (default 2,4,8,16,32)")
     p.add_argument("--sympy-max-n", type=int, default=32,
                    help="scaling: largest n run through sympy's KanesMethod (default 32)")
+    p.add_argument("--stages", action="store_true",
+                   help="time every pipeline stage of SCENE (derive, bake, CSE per output, "
+                        "render, compile), each under --budget, instead of the work-precision "
+                        "report")
+    p.add_argument("--outputs", metavar="LIST", help="--stages: outputs (default: the scene's)")
+    p.add_argument("--budget", type=float, default=300.0,
+                   help="arm: seconds mbgen may take for one n (default 300; stops larger n); "
+                        "--stages: seconds one stage may take")
+    p.add_argument("--sympy-budget", type=float, default=120.0,
+                   help="arm: seconds sympy's KanesMethod may take for one n (default 120; 0: skip)")
+    p.add_argument("--memory-gb", type=float, default=12.0,
+                   help="arm, --stages: address-space cap of each timed child process "
+                        "(default 12)")
+    p.add_argument("--no-pinocchio", action="store_true", help="arm: leave Pinocchio out")
+    p.add_argument("--no-cxx", action="store_true",
+                   help="arm: time Pinocchio from Python only (no C++ loop)")
+    p.add_argument("--derivation", default="kane", metavar="METHOD",
+                   help="arm: mbgen's derivation method (default kane)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("stress", help="stability suite: stiff, extreme, near-singular, long runs, "
@@ -390,6 +501,8 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser("golden", help="compare (or --update) generated/ with the generator")
     p.add_argument("--root", default="generated", help="folder (default generated)")
     p.add_argument("--update", action="store_true", help="rewrite the files")
+    p.add_argument("--scenes", metavar="LIST",
+                   help="only these scenes, e.g. --scenes bicycle,spatial_arm (default: all)")
     p.set_defaults(func=cmd_golden)
     return top
 

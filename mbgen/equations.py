@@ -28,6 +28,11 @@ def acceleration_symbols(n: int) -> tuple[sm.Symbol, ...]:
     return tuple(sm.Symbol(f"mbgen:acc{i}") for i in range(n))
 
 
+def lambda_symbols(m: int) -> tuple[sm.Symbol, ...]:
+    """Placeholders for the constraint multipliers ``lambda`` (solved with the accelerations)."""
+    return tuple(sm.Symbol(f"mbgen:lam{i}") for i in range(m))
+
+
 @dataclass(frozen=True)
 class Constraints:
     r"""Holonomic and motion constraints of a model, in the form the generated code solves.
@@ -189,7 +194,9 @@ class Equations:
                    ("kinematics", self.kinematics)]
         if self.program:
             checked.append(("program", [e for _, e in self.program.assignments]))
-            known = known | set(acceleration_symbols(n))
+            # the placeholders of solved quantities (accelerations, multipliers) are internal
+            known = known | {s for s in free_symbols([e for _, e in self.program.assignments])
+                             if s.name.startswith("mbgen:")}
         if self.accelerations is not None:
             checked.append(("accelerations", self.accelerations))
         if self.constraints is not None:

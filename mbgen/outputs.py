@@ -49,7 +49,7 @@ from typing import Iterable
 
 import sympy as sm
 
-from .equations import Equations, acceleration_symbols
+from .equations import Equations, acceleration_symbols, lambda_symbols
 from .program import Program, derivatives
 from .errors import ModelError
 from .symbolic import symbols_back, to_symengine, to_sympy
@@ -189,11 +189,6 @@ def _mass_blocks(eq: Equations):
         blocks += (Block("BETA", eq.constraints.m,
                          tuple(enumerate(eq.constraints.acceleration_bias))),)
     return blocks
-
-
-def lambda_symbols(m: int) -> tuple[sm.Symbol, ...]:
-    """Placeholders for the constraint multipliers (printed as ``LAM[i]``)."""
-    return tuple(sm.Symbol(f"mbgen:lam{i}") for i in range(m))
 
 
 def _velocity_blocks(eq: Equations) -> tuple[Block, ...]:

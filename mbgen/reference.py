@@ -20,7 +20,7 @@ from dataclasses import replace
 import numpy as np
 import sympy as sm
 
-from .equations import Equations, acceleration_symbols
+from .equations import Equations, acceleration_symbols, lambda_symbols
 from .errors import ModelError
 from .layout import Layout
 from .optimize import Output
@@ -216,8 +216,9 @@ def _constrained(self, output, t, x, p, r):
     if output is Output.CONSTRAINT_FORCES:
         return lam
     if output is Output.REACTIONS:
-        accs = list(acceleration_symbols(n))
-        return ev("reactions", lambda: eq.reactions.matrix, (accs,), ur, acc).reshape(-1, 6)
+        accs, lams = list(acceleration_symbols(n)), list(lambda_symbols(m))
+        return ev("reactions", lambda: eq.reactions.matrix, (accs, lams), ur, acc, lam
+                  ).reshape(-1, 6)
     # sensitivities: implicit differentiation of C = A u + b, E = M a - F - A^T lam, B = A a + beta
     variables = {Output.JACOBIAN: L.states, Output.PARAMETER_JACOBIAN: L.parameters,
                  Output.TIME_DERIVATIVE: (L.time,), Output.INPUT_JACOBIAN: L.inputs}[output]

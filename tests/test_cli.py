@@ -104,7 +104,21 @@ def test_usage_error_exit_code():
 
 def test_golden_check_and_update(tmp_path, capsys):
     root = tmp_path / "g"
-    assert main(["golden", "--root", str(root)]) == EXIT_CHECK
-    assert main(["golden", "--root", str(root), "--update"]) == EXIT_OK
-    assert main(["golden", "--root", str(root)]) == EXIT_OK
+    some = ["--scenes", "disc_pendulum,car_trailer"]   # the full tree: tests/test_golden.py
+    assert main(["golden", "--root", str(root), *some]) == EXIT_CHECK
+    assert main(["golden", "--root", str(root), "--update", *some]) == EXIT_OK
+    assert sorted(p.name for p in root.iterdir()) == ["car_trailer", "disc_pendulum"]
+    assert main(["golden", "--root", str(root), *some]) == EXIT_OK
     assert "up to date" in capsys.readouterr().out
+
+
+def test_bench_arm_small_run(tmp_path, capsys):
+    args = ["bench", "arm", "--ns", "2", "--no-pinocchio", "--sympy-budget", "0",
+            "--repeats", "1", "-o", str(tmp_path)]
+    assert main(args) == EXIT_OK
+    out = capsys.readouterr().out
+    assert "n=2: mbgen ok; sympy not run" in out
+    assert (tmp_path / "arm_scaling.csv").read_text().startswith("n,derive_s,")
+    assert (tmp_path / "arm_scaling.png").exists()
+    assert main(args + ["--derivation", "lagrange"]) == 2
+    assert "unknown derivation method 'lagrange'" in capsys.readouterr().err

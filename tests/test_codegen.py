@@ -14,7 +14,9 @@ import mbgen
 from mbgen import build as build_module
 from mbgen.golden import GOLDEN_OPTIONS
 from mbgen.pipeline import run
-from mbgen.scene import builtin_names, load_scene
+from mbgen.scene import load_scene
+
+from heavy import scene_params
 
 GCC = shutil.which("gcc") or shutil.which("cc")
 STRICT = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-Wconversion",
@@ -25,7 +27,7 @@ def rendered(name):
     return run(load_scene(name, **GOLDEN_OPTIONS.get(name, {})), build=False).rendered
 
 
-@pytest.mark.parametrize("name", builtin_names())
+@pytest.mark.parametrize("name", scene_params())
 def test_generated_c_compiles_without_warnings(name, tmp_path):
     r = rendered(name)
     for fname, text in r.files.items():

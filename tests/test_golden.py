@@ -5,8 +5,12 @@ Regenerate with ``mbgen golden --update`` (run from the repository root).
 
 from pathlib import Path
 
+import pytest
+
 from mbgen import golden
 from mbgen.scene import builtin_names
+
+from heavy import scene_params
 
 ROOT = Path(__file__).resolve().parent.parent / "generated"
 
@@ -15,10 +19,11 @@ def test_every_builtin_scene_has_a_folder():
     assert sorted(p.name for p in ROOT.iterdir() if p.is_dir()) == builtin_names()
 
 
-def test_generated_tree_matches_generator(tmp_path):
+@pytest.mark.parametrize("name", scene_params())
+def test_generated_tree_matches_generator(name, tmp_path):
     fresh = tmp_path / "generated"
-    golden.update(fresh)
-    assert not golden.differences(fresh), "update() must produce a tree with no differences"
-    diffs = golden.differences(ROOT)
+    golden.update(fresh, [name])
+    assert not golden.differences(fresh, [name]), "update() must produce a tree with no differences"
+    diffs = golden.differences(ROOT, [name])
     assert not diffs, ("generated/ is out of date; run 'mbgen golden --update':\n"
                        + "\n".join(diffs)[:5000])

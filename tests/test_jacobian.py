@@ -7,8 +7,9 @@ from scipy.integrate import solve_ivp
 import mbgen
 from mbgen import Output
 from mbgen.check import check
-from mbgen.scene import builtin_names, load_scene
+from mbgen.scene import load_scene
 
+from heavy import scene_params
 from models import stiff_pair
 
 SENSITIVITIES = (Output.RHS, Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE)
@@ -25,7 +26,7 @@ def central_difference(f, x, h=1e-6):
     return np.column_stack(cols)
 
 
-@pytest.fixture(scope="module", params=builtin_names())
+@pytest.fixture(scope="module", params=scene_params())
 def result(request):
     return mbgen.run(load_scene(request.param), outputs=SENSITIVITIES)
 

@@ -15,6 +15,8 @@ from mbgen.outputs import applicable
 from mbgen.scene import builtin_names
 from mbgen.scenes import bent_pipe, n_link_cart, torque_free
 
+from heavy import scene_params
+
 TIGHT = dict(method="DOP853", rtol=1e-11, atol=1e-11)
 
 
@@ -121,7 +123,7 @@ def test_conservative_scenes_include_the_required_ones():
     assert "bead_wire" not in CONSERVATIVE
 
 
-@pytest.mark.parametrize("name", CONSERVATIVE)
+@pytest.mark.parametrize("name", scene_params(CONSERVATIVE))
 def test_energy_is_conserved(name):
     scn = scene(name)
     model = mbgen.compile(scn, outputs={"rhs", "energy"})
@@ -222,7 +224,7 @@ def random_point(scn, layout, rng):
     return rng.uniform(0, 1), x, p, rng.uniform(-1, 1, layout.n_r)
 
 
-@pytest.mark.parametrize("name", builtin_names())
+@pytest.mark.parametrize("name", scene_params())
 def test_backends_agree(name):
     res = pipeline(name)
     outputs = applicable(res.baked)

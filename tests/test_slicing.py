@@ -7,8 +7,10 @@ import mbgen
 from mbgen import Model, Output
 from mbgen.audit import audit
 from mbgen.pipeline import run
-from mbgen.scene import builtin_names, load_scene
+from mbgen.scene import load_scene
 from mbgen.slicing import bake
+
+from heavy import scene_params
 
 
 def values(scene, layout):
@@ -16,7 +18,7 @@ def values(scene, layout):
     return np.array([merged[n] for n in layout.parameter_names])
 
 
-@pytest.mark.parametrize("name", builtin_names())
+@pytest.mark.parametrize("name", scene_params())
 def test_sliced_code_gives_the_numbers_of_the_full_code(name):
     scene = load_scene(name)
     outputs = [o for o in scene.outputs if not Output(o).is_integrator]

@@ -38,12 +38,12 @@ from .tree import cross, unit
 
 def constrain(eq: Equations, prep: Prepared) -> Equations:
     """``eq`` (derived over every speed) with the model's constraints; unchanged without any."""
-    model = prep.model
-    stated = model.constraints_
+    stated = ordered(prep.model)
     if not stated:
         return eq
     L, tree = eq.layout, prep.tree
     qdot = prep.qdot
+    model = prep.model
     to_plain = {f: sm.Symbol(str(f.func)) for f in model.coordinates_ + model.speeds_}
     speeds = list(L.speeds)
     coords = list(L.coordinates)
@@ -159,6 +159,12 @@ def constrain(eq: Equations, prep: Prepared) -> Equations:
                    forcing=sm.ImmutableMatrix(n, 1, [F[i] for i in order]),
                    program=program if isinstance(program, Program) else Program(),
                    accelerations=None, reactions=reactions, constraints=cons)
+
+
+def ordered(model) -> list:
+    """The model's constraints in the order of their rows: configuration ones first."""
+    return ([c for c in model.constraints_ if c.kind == "holonomic"]
+            + [c for c in model.constraints_ if c.kind != "holonomic"])
 
 
 def _material_velocity(prep: Prepared, P, body, fnode, axis):

@@ -59,12 +59,13 @@ from collections import defaultdict
 
 import sympy as sm
 
-from ..equations import Equations, JointLoads, acceleration_symbols
+from ..equations import Equations, JointLoads, acceleration_symbols, lambda_symbols
 from ..model import Force, Model, Torque
 from ..program import ProgramBuilder
 from .common import Grouping, energies, line_coefficient, point_kinematics
+from .constraints import ordered
 from .joints import GROUND, Body, BodyTree, build_bodies
-from .prepare import Prepared, prepare
+from .prepare import Prepared, prepare, signed_atoms as _signed
 from .spatial import (ZERO6, Rotation, congruence, dot6, force_to_parent, join, matvec6,
                       motion_to_child, spatial_inertia, split, symmetric)
 from .tree import (S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, transpose, unit, vadd,
@@ -470,12 +471,47 @@ class NewtonEuler:
         return udot
 
     # ------------------------------------------------------------------ reactions
-    def reactions(self, udot=None) -> JointLoads:
+    def constraint_loads(self, constraints) -> dict:
+        """Body -> [(moment, force)] of point constraints' forces, in multiplier placeholders.
+
+        ``constraints`` in the order of their rows (multiplier ``k`` belongs to
+        row ``k``): a ``no_slip`` row's force ``lambda_k e`` acts on its body at the
+        contact point, a ``coincident`` row's ``lambda_k e`` on the body holding
+        the first point and ``-lambda_k e`` on the body holding the second.
+        Stated (expression) constraints have no point of application and give none.
+        """
+        prep, bt, tree = self.prep, self.bt, self.tree
+        lam = lambda_symbols(len(constraints))
+        out: dict = defaultdict(list)
+        by_element = {me.name: b for b in self.bodies for me, _ in b.elements}
+        for k, c in enumerate(constraints):
+            if not c.points:
+                continue
+            node = prep.frame_nodes[c.frame]
+            e = vscale(lam[k], unit(c.axis))
+            if c.kind == "holonomic":
+                targets = [(c.points[0], bt.body_of_point(c.points[0]), 1),
+                           (c.points[1], bt.body_of_point(c.points[1]), -1)]
+            else:
+                targets = [(c.points[0], by_element.get(c.body.name), 1)]
+            for point, body, sign in targets:
+                if not isinstance(body, Body):
+                    continue
+                f = vscale(sm.Integer(sign), tree.express(e, node, body.frame))
+                rel = [(s, a) for s, a in _signed(prep.point_atoms[point],
+                                                   prep.point_atoms[body.point])]
+                rho = vadd(ZERO3, *(vscale(sm.Integer(s), tree.express(a.c, a.frame, body.frame))
+                                    for s, a in rel))
+                out[body].append((cross(rho, f), f))
+        return out
+
+    def reactions(self, udot=None, extra=None) -> JointLoads:
         """Force and moment of every joint (parent on child, at the joint point).
 
         ``udot``: the accelerations (default: the placeholders of
         :func:`~mbgen.equations.acceleration_symbols`, so that the reactions
-        hold for whatever ``M u' = F`` gives).
+        hold for whatever ``M u' = F`` gives).  ``extra``: further loads on
+        bodies (:meth:`constraint_loads`), which do not enter ``F``.
         """
         P, tree = self.P, self.tree
         udot = acceleration_symbols(self.nu) if udot is None else udot
@@ -487,8 +523,11 @@ class NewtonEuler:
                 a = vadd6(a, tuple(mul(udot[k], x) for x in s))
             accel[b] = P.vector(a)
         f = {}
+        extra = extra or {}
         for b in reversed(self.bodies):
             own = vadd6(matvec6(self.inertia[b]["spatial"], accel[b]), vneg6(self.g[b]))
+            for n, force in extra.get(b, ()):
+                own = vadd6(own, vneg6(join(n, force)))
             f[b] = P.vector(vadd6(own, self._children_sum(b, f)))
         rows = []
         for b in self.bodies:
@@ -568,7 +607,7 @@ def newton_euler(model: Model, energy: bool = True, points=(), reactions: bool =
     nu = layout.n_u
     M = [[rows[max(r, s)][min(r, s)] for s in range(nu)] for r in range(nu)]
     udot = ne.articulated() if articulated else None
-    loads = ne.reactions() if reactions else None
+    loads = ne.reactions(extra=ne.constraint_loads(ordered(model))) if reactions else None
     kinetic, potential = energies(prep, Grouping(prep)) if energy else (None, None)
     return Equations(
         name=model.name,
@@ -590,7 +629,7 @@ def newton_euler(model: Model, energy: bool = True, points=(), reactions: bool =
 def reactions_for(prep: Prepared) -> tuple:
     """``(program, JointLoads)`` for a model derived by another method (Kane)."""
     ne = NewtonEuler(prep)
-    loads = ne.reactions()
+    loads = ne.reactions(extra=ne.constraint_loads(ordered(prep.model)))
     return ne.P.build(), loads
 
 
