@@ -53,11 +53,11 @@ a constrained KanesMethod keeps only the reduced ``Fr + Fr* = 0``, so the
 unconstrained ones are re-formed: a second KanesMethod over the same frame,
 coordinates, kinematic equations, bodies and loads, with every speed
 independent, through sympy's public ``kanes_equations``.  That doubles sympy's
-own derivation time (0.15 s on the rolling disc) but reads nothing of sympy's
-beyond the stated constraints and the frame; sympy discards its full-size
-matrices after reducing them with ``Ars = -B_dep^-1 B_ind`` (a symbolic
-inverse), so reading them back would mean copying its private
-``_form_frstar``.  A LagrangesMethod keeps its unconstrained ``M`` (the first
+own derivation time (0.20 s of the 0.27 s import of the rolling disc, medians
+of 5) but reads nothing of sympy's beyond the stated constraints and the frame;
+sympy discards its full-size matrices after reducing them with
+``Ars = -B_dep^-1 B_ind`` (a symbolic inverse), so reading them back would mean
+copying its private ``_form_frstar``.  A LagrangesMethod keeps its unconstrained ``M`` (the first
 ``n`` columns of ``mass_matrix``) and ``forcing``.  How the constraint rows,
 their names and the dependent speeds of a LagrangesMethod are chosen:
 :mod:`mbgen.sympy_constraints`.
