@@ -156,3 +156,43 @@ def test_car_trailer_sway_dies_out_at_the_default_speed():
     x = model.integrate("dopri5", t_eval, scene.x0(layout), rtol=1e-9, atol=1e-12).x
     theta = x[:, list(layout.state_names).index("theta")]
     assert abs(theta[0]) == 0.1 and abs(theta[-1]) < 1e-3
+
+
+def test_car_trailer_hitch_force_is_newtons_law_for_the_trailer():
+    """The hitch row of ``reactions`` (car on trailer, car axes) by hand: Newton's law for the
+    trailer, ``F_hitch + F_tyre = m_tr a_G``, with ``a_G`` from its velocity differentiated along
+    the motion; a ball hitch carries no yaw moment; the car (a free body) gets nothing from the
+    ground."""
+    scene = mbgen.load_scene("car_trailer")
+    model = mbgen.compile(scene, outputs=("rhs", "reactions"))
+    assert model.reaction_names == ("car", "hitch") and model.reaction_frames == ("C", "C")
+    P = {**car_trailer.PARAMETERS, **scene.parameters}
+    names = list(model.layout.state_names)
+    rng = np.random.default_rng(8)
+
+    def trailer_velocity(x):     # mass centre, car axes
+        X, Y, psi, th, u, v, r, w = x
+        return np.array([u, v - r * P["lh"]]) + (r + w) * P["e"] * np.array(
+            [np.sin(th), -np.cos(th)])
+
+    for _ in range(4):
+        x = rng.uniform(-0.3, 0.3, model.n_x)
+        x[names.index("u")] = rng.uniform(10.0, 30.0)
+        delta = rng.uniform(-0.05, 0.05)
+        r_in = np.array([{"F_drive": 300.0, "delta": delta}[n] for n in model.layout.input_names])
+        f = model.rhs(0.0, x, None, r_in)
+        h = 1e-6
+        vg = trailer_velocity(x)
+        dvg = (trailer_velocity(x + h * f) - trailer_velocity(x - h * f)) / (2 * h)
+        r_yaw = x[names.index("r")]
+        a = dvg + r_yaw * np.array([-vg[1], vg[0]])          # acceleration, car axes
+        X, Y, psi, th, u, v, r, w = x
+        c, s = np.cos(th), np.sin(th)
+        vt = np.array([u, v - r * P["lh"]]) + (r + w) * P["lt"] * np.array([s, -c])
+        heading = np.array([c, s])
+        across = np.array([-s, c])
+        tyre = -P["C_t"] * (vt @ across) / (vt @ heading) * across
+        R = model.reactions(0.0, x, None, r_in)
+        np.testing.assert_allclose(R[1, :2], P["m_tr"] * a - tyre, rtol=1e-6, atol=1e-3)
+        assert abs(R[1, 5]) < 1e-9 * max(1.0, np.abs(R[1, :2]).max())
+        np.testing.assert_allclose(R[0], 0.0, atol=1e-9)

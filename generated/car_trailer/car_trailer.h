@@ -2,9 +2,10 @@
  *
  * Model:      car_trailer
  * Source:     scene 'car_trailer' (mbgen/scenes/car_trailer.py)
- * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 186 after CSE (896 before), excluding the L D L^T solve
- *   car_trailer_rhs: 186 (896 before CSE)
+ * Derivation: newton_euler; common subexpressions eliminated by symengine
+ * Operations: 287 after CSE (558 before), excluding the L D L^T solve
+ *   car_trailer_rhs: 124 (252 before CSE)
+ *   car_trailer_reactions: 163 (306 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -35,6 +36,19 @@
  *     dxdt[5] = v'
  *     dxdt[6] = r'
  *     dxdt[7] = w'
+ *   car_trailer_reactions: Joint reactions, row-major 2 x 6: for each joint, the force and the moment (about the joint point) that the parent exerts on the child, in the joint's frame: Fx, Fy, Fz, Mx, My, Mz.
+ *     reactions[0] = car.Fx [C]
+ *     reactions[1] = car.Fy [C]
+ *     reactions[2] = car.Fz [C]
+ *     reactions[3] = car.Mx [C]
+ *     reactions[4] = car.My [C]
+ *     reactions[5] = car.Mz [C]
+ *     reactions[6] = hitch.Fx [C]
+ *     reactions[7] = hitch.Fy [C]
+ *     reactions[8] = hitch.Fz [C]
+ *     reactions[9] = hitch.Mx [C]
+ *     reactions[10] = hitch.My [C]
+ *     reactions[11] = hitch.Mz [C]
  *
  * Build: cc -std=c99 -O2 -c car_trailer.c && link with -lm
  */
@@ -73,15 +87,17 @@ extern "C" {
 #define CAR_TRAILER_R_delta 1 /* delta */
 
 /* SHA-256 (16 hex digits) of car_trailer.h, .c and .py with this value blanked. */
-#define CAR_TRAILER_CONTENT_HASH "87142bec6462cd02"
+#define CAR_TRAILER_CONTENT_HASH "f3301f0d34e8449a"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
 #define CAR_TRAILER_STACK_DEFAULT_PARAMETERS 256
-#define CAR_TRAILER_STACK_DOPRI5 3048
-#define CAR_TRAILER_STACK_RHS 1272
+#define CAR_TRAILER_STACK_DOPRI5 3072
+#define CAR_TRAILER_STACK_REACTIONS 1456
+#define CAR_TRAILER_STACK_RHS 1296
 
 int car_trailer_rhs(double t, const double *x, const double *p, const double *r, double *dxdt);
+int car_trailer_reactions(double t, const double *x, const double *p, const double *r, double *reactions);
 void car_trailer_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.
  * t_out[0] is the initial time, t_out strictly increasing (else CAR_TRAILER_BAD_ARGUMENT);

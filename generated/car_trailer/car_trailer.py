@@ -2,8 +2,8 @@
 
 Model:      car_trailer
 Source:     scene 'car_trailer' (mbgen/scenes/car_trailer.py)
-Derivation: kane; common subexpressions eliminated by symengine
-Operations: 186 after CSE (896 before)
+Derivation: newton_euler; common subexpressions eliminated by symengine
+Operations: 287 after CSE (558 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as car_trailer.h:
 state x = ['X', 'Y', 'psi', 'theta', 'u', 'v', 'r', 'w']
@@ -76,7 +76,7 @@ def _ldl_solve(M, b, o=0):
 def rhs(t, x, p, r):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
-    Returns a new array of shape 8; 186 operations (896 before CSE).
+    Returns a new array of shape 8; 124 operations (252 before CSE).
     """
     psi = x[2]
     theta = x[3]
@@ -88,85 +88,217 @@ def rhs(t, x, p, r):
     m_tr = p[1]
     F_drive = r[0]
     delta = r[1]
-    v53 = r_ + w
-    v0 = math.sin(psi)
-    v1 = math.cos(psi)
-    v2 = u*v1 - v*v0
-    v3 = v*v1
-    v4 = u*v0
-    v5 = (v0*v0)
-    v6 = (v1*v1)
-    v7 = m_car + m_tr
-    v8 = math.cos(theta)
-    v9 = 1.6*v8
-    v10 = v1*v9
-    v11 = math.sin(theta)
-    v12 = 1.6*v11
-    v13 = v0*v12
-    v14 = -v10 + v13
-    v15 = v0*v9
-    v16 = v1*v12
-    v17 = v15 + v16
-    v18 = m_tr*(-v0*v17 + v1*v14)
-    v19 = 2.5*v5
-    v20 = 2.5*v6
-    v21 = m_tr*v8
-    v22 = 2.5600000000000005*m_tr + 700
-    v23 = -v3 - v4
-    v24 = r_*v23
-    v25 = r_*v2
-    v26 = (r_*r_)
-    v27 = (v53*v53)
-    v28 = v15*v27 + v16*v27
-    v29 = v10*v27 - v13*v27
-    v30 = math.sin(delta)
-    v31 = math.cos(delta)
-    v32 = 1.2*r_ + v
-    v33 = (-u*v30 + v31*v32)/(u*v31 + v30*v32)
-    v34 = v30*v33
-    v35 = 80000*v1
-    v36 = v31*v33
-    v37 = 80000*v0
-    v38 = v34*v35 + v36*v37
-    v39 = 2.5*r_
-    v40 = v - v39
-    v41 = (-1.9*r_ - u*v11 + v40*v8 - 1.9*w)/(u*v8 + v11*v40)
-    v42 = v41*v8
-    v43 = 50000*v0
-    v44 = v11*v41
-    v45 = 50000*v1
-    v46 = v42*v43 + v44*v45
-    v47 = -v42*v45 + v43*v44
-    v48 = v34*v37 - v35*v36
-    v49 = (-1.5*r_ + v)/u
-    v50 = 90000*v49
-    v51 = 4.0*m_tr*v11
-    v52 = -m_tr*(v14*v25 + v17*v24) - v26*v51 + 95000.0*v41
+    v0 = math.cos(psi)
+    v1 = v*v0
+    v2 = math.sin(psi)
+    v3 = u*v2
+    v4 = -v1 - v3
+    v5 = r_*v0
+    v6 = u*v0 - v*v2
+    v7 = r_*v2
+    v8 = v4*v5 + v6*v7
+    v9 = -v4*v7 + v5*v6
+    v10 = (v0*v0) + (v2*v2)
+    v11 = (v0*v0) + (v2*v2)
+    v12 = r_ + w
+    v13 = math.sin(theta)
+    v14 = math.cos(theta)
+    v15 = 2.5*(r_*r_) + v8
+    v16 = v13*v9 + v14*v15
+    v17 = -v13*v15 + v14*v9
+    v18 = -1.6*m_tr
+    v19 = 2.5600000000000005*m_tr
+    v20 = v19 + 700
+    v21 = math.cos(delta)
+    v22 = math.sin(delta)
+    v23 = 1.2*r_ + v
+    v24 = (-u*v22 + v21*v23)/(u*v21 + v22*v23)
+    v25 = (-1.5*r_ + v)/u
+    v26 = -96000.0*v21*v24 + 135000.0*v25
+    v27 = 80000*v24
+    v28 = F_drive - m_car*v8 + v22*v27
+    v29 = -m_car*v9 - v21*v27 - 90000*v25
+    v30 = -2.5*r_ + v
+    v31 = (-1.9*r_ - u*v13 + v14*v30 - 1.9*w)/(u*v14 + v13*v30)
+    v32 = -v17*v18 + 95000.0*v31
+    v33 = -m_tr*v16 + (v12*v12)*v18
+    v34 = -m_tr*v17 - 50000*v31
+    v35 = v14*v34
+    v36 = v13*v33
+    v37 = 2.5*v36
+    v38 = v26 + v32 - 2.5*v35 - v37
+    v39 = v14*v33
+    v40 = -v13*v34 + v28 + v39
+    v41 = v29 + v35 + v36
+    v47 = v13*v18
+    v49 = v14*v18
+    v50 = 6.25*m_tr - 5.0*v49
+    v52 = v20 + v50 + 2500
+    v53 = -v47
+    v54 = m_car + m_tr
+    v55 = 2.5*m_tr
+    v56 = v49 - v55
+    v57 = m_car + m_tr
+    v60 = v10*v53
+    v61 = v10*v54
+    v62 = v11*v56
+    v63 = v11*v57
+    v64 = v20 - 2.5*v49
+    v65 = -v47
     dxdt = [0.0] * 8
-    dxdt[0] = v2
-    dxdt[1] = v3 + v4
+    dxdt[0] = v6
+    dxdt[1] = v1 + v3
     dxdt[2] = r_
     dxdt[3] = w
     M = [0.0] * 16
-    M[0] = v7*(v5 + v6)
+    M[0] = v10*v61
     M[4] = 0
-    M[5] = v7*(v5 + v6)
-    M[8] = m_tr*(v0*v14 + v1*v17)
-    M[9] = m_tr*(-v19 - v20) + v18
-    M[10] = 8.81*m_tr + 8.0*v21 + 3200
-    M[12] = m_tr*(v0*v14 + v1*v17)
-    M[13] = v18
-    M[14] = 4.0*v21 + v22
-    M[15] = v22
+    M[5] = v11*v63
+    M[8] = v60
+    M[9] = v62
+    M[10] = v52
+    M[12] = v10*v65
+    M[13] = v11*v49
+    M[14] = v64
+    M[15] = v20
     F = [0.0] * 4
-    F[0] = F_drive*v5 + F_drive*v6 - m_tr*(v0*v28 + v1*v29) - m_tr*(v19*v26 + v20*v26) + v0*v47 + v0*v48 + v1*v38 + v1*v46 - v7*(v0*v25 + v1*v24)
-    F[1] = -m_tr*(-v0*v29 + v1*v28) - v0*v38 - v0*v46 + v1*v47 + v1*v48 - v5*v50 - v50*v6 - v7*(-v0*v24 + v1*v25)
-    F[2] = -m_tr*(v0*v23*v39 - v1*v2*v39) + v27*v51 - 96000.0*v36 + 125000.0*v42 + 135000.0*v49 + v52
-    F[3] = v52
+    F[0] = v10*v40
+    F[1] = v11*v41
+    F[2] = v38
+    F[3] = v32
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[4:] = F
     result = np.array(dxdt, dtype=np.float64)
     if not np.isfinite(result).all():
         raise NonFinite("rhs: non-finite output %r" % (result,))
+    return result
+
+
+def reactions(t, x, p, r):
+    """Joint reactions, row-major 2 x 6: for each joint, the force and the moment (about the joint point) that the parent exerts on the child, in the joint's frame: Fx, Fy, Fz, Mx, My, Mz.
+
+    Returns a new array of shape 2 x 6; 163 operations (306 before CSE).
+    """
+    psi = x[2]
+    theta = x[3]
+    u = x[4]
+    v = x[5]
+    r_ = x[6]
+    w = x[7]
+    m_car = p[0]
+    m_tr = p[1]
+    F_drive = r[0]
+    delta = r[1]
+    v0 = math.cos(psi)
+    v1 = v*v0
+    v2 = math.sin(psi)
+    v3 = u*v2
+    v4 = -v1 - v3
+    v5 = r_*v0
+    v6 = u*v0 - v*v2
+    v7 = r_*v2
+    v8 = v4*v5 + v6*v7
+    v9 = -v4*v7 + v5*v6
+    v10 = (v0*v0) + (v2*v2)
+    v11 = (v0*v0) + (v2*v2)
+    v12 = r_ + w
+    v13 = math.sin(theta)
+    v14 = math.cos(theta)
+    v15 = 2.5*(r_*r_) + v8
+    v16 = v13*v9 + v14*v15
+    v17 = -v13*v15 + v14*v9
+    v18 = -1.6*m_tr
+    v19 = 2.5600000000000005*m_tr
+    v20 = v19 + 700
+    v21 = math.cos(delta)
+    v22 = math.sin(delta)
+    v23 = 1.2*r_ + v
+    v24 = (-u*v22 + v21*v23)/(u*v21 + v22*v23)
+    v25 = (-1.5*r_ + v)/u
+    v26 = -96000.0*v21*v24 + 135000.0*v25
+    v27 = 80000*v24
+    v28 = F_drive - m_car*v8 + v22*v27
+    v29 = -m_car*v9 - v21*v27 - 90000*v25
+    v30 = -2.5*r_ + v
+    v31 = (-1.9*r_ - u*v13 + v14*v30 - 1.9*w)/(u*v14 + v13*v30)
+    v32 = -v17*v18 + 95000.0*v31
+    v33 = -m_tr*v16 + (v12*v12)*v18
+    v34 = -m_tr*v17 - 50000*v31
+    v35 = v14*v34
+    v36 = v13*v33
+    v37 = 2.5*v36
+    v38 = v26 + v32 - 2.5*v35 - v37
+    v39 = v14*v33
+    v40 = -v13*v34 + v28 + v39
+    v41 = v29 + v35 + v36
+    v47 = v13*v18
+    v49 = v14*v18
+    v50 = 6.25*m_tr - 5.0*v49
+    v52 = v20 + v50 + 2500
+    v53 = -v47
+    v54 = m_car + m_tr
+    v55 = 2.5*m_tr
+    v56 = v49 - v55
+    v57 = m_car + m_tr
+    v60 = v10*v53
+    v61 = v10*v54
+    v62 = v11*v56
+    v63 = v11*v57
+    v64 = v20 - 2.5*v49
+    v65 = -v47
+    v69 = -v34
+    v88 = -v26
+    v90 = -v28
+    v92 = -v29
+    M = [0.0] * 16
+    M[0] = v10*v61
+    M[4] = 0
+    M[5] = v11*v63
+    M[8] = v60
+    M[9] = v62
+    M[10] = v52
+    M[12] = v10*v65
+    M[13] = v11*v49
+    M[14] = v64
+    M[15] = v20
+    F = [0.0] * 4
+    F[0] = v10*v40
+    F[1] = v11*v41
+    F[2] = v38
+    F[3] = v32
+    _ldl(M)
+    _ldl_solve(M, F)
+    v142 = F[0]*v10
+    v143 = F[1]*v11
+    v144 = F[2] + F[3]
+    v145 = -2.5*F[2] + v143
+    v146 = v13*v145 + v14*v142
+    v147 = -v13*v142 + v14*v145
+    v148 = v144*v20 + v147*v18 - v32
+    v149 = m_tr*v146 - v33
+    v150 = m_tr*v147 + v144*v18 + v69
+    v151 = v13*v149
+    v152 = v14*v150
+    v153 = 2500*F[2] + v148 - 2.5*v151 - 2.5*v152 + v88
+    v154 = -v13*v150 + v14*v149
+    v155 = m_car*v142 + v154 + v90
+    v156 = v151 + v152
+    v157 = m_car*v143 + v156 + v92
+    reactions = [0.0] * 12
+    reactions[0] = v155
+    reactions[1] = v157
+    reactions[2] = 0
+    reactions[3] = 0
+    reactions[4] = 0
+    reactions[5] = v153
+    reactions[6] = v154
+    reactions[7] = v156
+    reactions[8] = 0
+    reactions[9] = 0
+    reactions[10] = 0
+    reactions[11] = v148
+    result = np.array(reactions, dtype=np.float64).reshape(2, 6)
+    if not np.isfinite(result).all():
+        raise NonFinite("reactions: non-finite output %r" % (result,))
     return result

@@ -2,9 +2,10 @@
  *
  * Model:      spatial_arm
  * Source:     scene 'spatial_arm' (mbgen/scenes/spatial_arm.py)
- * Derivation: kane; common subexpressions eliminated by symengine
- * Operations: 913 after CSE (6225 before), excluding the L D L^T solve
- *   spatial_arm_rhs: 913 (6225 before CSE)
+ * Derivation: newton_euler; common subexpressions eliminated by symengine
+ * Operations: 1168 after CSE (1810 before), excluding the L D L^T solve
+ *   spatial_arm_rhs: 477 (767 before CSE)
+ *   spatial_arm_reactions: 691 (1043 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -32,6 +33,31 @@
  *     dxdt[5] = u2'
  *     dxdt[6] = u3'
  *     dxdt[7] = u4'
+ *   spatial_arm_reactions: Joint reactions, row-major 4 x 6: for each joint, the force and the moment (about the joint point) that the parent exerts on the child, in the joint's frame: Fx, Fy, Fz, Mx, My, Mz.
+ *     reactions[0] = link1.Fx [L1]
+ *     reactions[1] = link1.Fy [L1]
+ *     reactions[2] = link1.Fz [L1]
+ *     reactions[3] = link1.Mx [L1]
+ *     reactions[4] = link1.My [L1]
+ *     reactions[5] = link1.Mz [L1]
+ *     reactions[6] = link2.Fx [L2]
+ *     reactions[7] = link2.Fy [L2]
+ *     reactions[8] = link2.Fz [L2]
+ *     reactions[9] = link2.Mx [L2]
+ *     reactions[10] = link2.My [L2]
+ *     reactions[11] = link2.Mz [L2]
+ *     reactions[12] = link3.Fx [L3]
+ *     reactions[13] = link3.Fy [L3]
+ *     reactions[14] = link3.Fz [L3]
+ *     reactions[15] = link3.Mx [L3]
+ *     reactions[16] = link3.My [L3]
+ *     reactions[17] = link3.Mz [L3]
+ *     reactions[18] = link4.Fx [L4]
+ *     reactions[19] = link4.Fy [L4]
+ *     reactions[20] = link4.Fz [L4]
+ *     reactions[21] = link4.Mx [L4]
+ *     reactions[22] = link4.My [L4]
+ *     reactions[23] = link4.Mz [L4]
  *
  * Build: cc -std=c99 -O2 -c spatial_arm.c && link with -lm
  */
@@ -68,15 +94,17 @@ extern "C" {
 #define SPATIAL_ARM_P_g 1 /* g */
 
 /* SHA-256 (16 hex digits) of spatial_arm.h, .c and .py with this value blanked. */
-#define SPATIAL_ARM_CONTENT_HASH "8a6b48a1cba9a017"
+#define SPATIAL_ARM_CONTENT_HASH "234aae3d0236b16b"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
 #define SPATIAL_ARM_STACK_DEFAULT_PARAMETERS 256
-#define SPATIAL_ARM_STACK_DOPRI5 4160
-#define SPATIAL_ARM_STACK_RHS 2384
+#define SPATIAL_ARM_STACK_DOPRI5 4016
+#define SPATIAL_ARM_STACK_REACTIONS 2824
+#define SPATIAL_ARM_STACK_RHS 2240
 
 int spatial_arm_rhs(double t, const double *x, const double *p, double *dxdt);
+int spatial_arm_reactions(double t, const double *x, const double *p, double *reactions);
 void spatial_arm_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.
  * t_out[0] is the initial time, t_out strictly increasing (else SPATIAL_ARM_BAD_ARGUMENT);

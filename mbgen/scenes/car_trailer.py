@@ -21,9 +21,10 @@ axle along ``c1``.  Tyre side slip dissipates energy, so ``T + V`` is not
 conserved (there is no potential energy: the motion is horizontal).
 
 The hitch is the joint whose load matters: the trailer's inertia and tyre
-force all pass through it, and the point ``hitch`` and the trailer body
-(``trailer`` in ``T``) are named for the ``reactions`` output (the force the car
-exerts on the trailer at the hitch) that a Newton-Euler derivation provides.
+force all pass through it.  The scene derives by Newton-Euler and reports the
+``reactions``: row ``car`` (the ground's load on the car: zero, the car is a
+free body) and row ``hitch`` (the force and moment the car exerts on the
+trailer at the hitch, in car axes ``C``; a ball hitch carries no yaw moment).
 
 Parameters are a mid-size car with a small luggage trailer; the masses stay
 free at run time (a loaded trailer), the rest is baked in.  The default start
@@ -35,7 +36,7 @@ from __future__ import annotations
 
 import sympy as sm
 
-from mbgen import Model, Output, Scene
+from mbgen import Method, Model, Output, Scene
 
 #: Parameter values (SI units).
 PARAMETERS = {
@@ -70,6 +71,7 @@ def build_model() -> Model:
     axle_tr = m.point("trailer_axle", hitch, -lt * T.x)
     m.body("car", C, m_car, (0, 0, Izz_car), G)
     m.body("trailer", T, m_tr, (0, 0, Izz_tr), G_tr)
+    m.joint("trailer", name="hitch", frame=C)   # the ball hitch; its load in car axes
 
     # velocities of the tyre points from the speeds (rigid-body formula in each body)
     v_G = u * C.x + v * C.y
@@ -93,7 +95,8 @@ def scene() -> Scene:
     return Scene(
         name="car_trailer",
         model=build_model(),
-        outputs=(Output.RHS, Output.DOPRI5),
+        outputs=(Output.RHS, Output.REACTIONS, Output.DOPRI5),
+        method=Method.NEWTON_EULER,
         parameters={k: PARAMETERS[k] for k in free},
         fixed={k: v for k, v in PARAMETERS.items() if k not in free},
         initial_state={"u": 25.0, "theta": 0.1},

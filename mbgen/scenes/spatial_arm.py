@@ -37,7 +37,7 @@ goes to ``n = 32``).
 
 from __future__ import annotations
 
-from mbgen import Model, Output, Scene
+from mbgen import Method, Model, Output, Scene
 
 
 def axis(i: int) -> int:
@@ -105,7 +105,8 @@ def scene(n: int = 4) -> Scene:
     return Scene(
         name="spatial_arm",
         model=build_model(n),
-        outputs=(Output.RHS, Output.DOPRI5),
+        outputs=(Output.RHS, Output.REACTIONS, Output.DOPRI5),
+        method=Method.NEWTON_EULER,
         parameters={k: values[k] for k in free},
         fixed={k: v for k, v in values.items() if k not in free},
         initial_state={f"q{i}": 0.3 * (-1) ** i for i in range(1, n + 1)},
