@@ -11,6 +11,7 @@ on one line, and can neither end the construct it sits in nor start a new one:
 ``py_comment``      after ``#`` in Python
 ``py_docstring``    inside a triple-quoted Python docstring
 ``py_string``       a Python string literal, quotes included
+``py_list``         a Python list literal of strings
 ``xml_attr``        an XML attribute value, quotes excluded
 ``xml_text``        XML character data
 ==================  ==========================================================
@@ -23,8 +24,8 @@ names enter (:mod:`mbgen.names`).
 
 from __future__ import annotations
 
-__all__ = ["c_comment", "c_string", "py_comment", "py_docstring", "py_string", "xml_attr",
-           "xml_text"]
+__all__ = ["c_comment", "c_string", "py_comment", "py_docstring", "py_list", "py_string",
+           "xml_attr", "xml_text", "FILTERS"]
 
 
 def _visible(ch: str) -> str:
@@ -64,18 +65,26 @@ def c_comment(text) -> str:
 def c_string(text) -> str:
     """``text`` as a C string literal (with its quotes); also valid C++.
 
-    Non-ASCII characters are written as UTF-8 bytes in fixed-width octal
-    escapes (a hex escape would swallow a following hex digit).
+    Newline and tab are written ``\\n`` and ``\\t``; other control and
+    non-ASCII characters as UTF-8 bytes in fixed-width octal escapes (a hex
+    escape would swallow a following hex digit).  A ``%`` is kept: a string
+    used as a ``printf`` format must be passed through ``.replace("%", "%%")``
+    first.
     """
     out = []
     for ch in str(text):
         if ch in '\\"?':
             out.append("\\" + ch)
+        elif ch in _C_NAMED:
+            out.append(_C_NAMED[ch])
         elif " " <= ch <= "~":
             out.append(ch)
         else:
-            out.extend(f"\\{b:03o}" for b in ch.encode("utf-8"))
+            out.extend(f"\\{b:03o}" for b in ch.encode("utf-8", "surrogatepass"))
     return '"' + "".join(out) + '"'
+
+
+_C_NAMED = {"\n": "\\n", "\t": "\\t"}
 
 
 def py_comment(text) -> str:
@@ -95,6 +104,11 @@ def py_docstring(text) -> str:
 def py_string(text) -> str:
     """``text`` as a Python string literal (with its quotes), ASCII only."""
     return ascii(str(text))
+
+
+def py_list(texts) -> str:
+    """``texts`` (strings) as a Python list literal, ``['a', 'b']``, each item by :func:`py_string`."""
+    return "[" + ", ".join(py_string(t) for t in texts) + "]"
 
 
 def xml_attr(text) -> str:
@@ -124,3 +138,8 @@ _XML = {"&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;", "'": "&apos;"}
 def xml_text(text) -> str:
     """``text`` for XML character data (between tags); same rules as :func:`xml_attr`."""
     return xml_attr(text)
+
+
+#: The functions above by name, as Jinja filters (``{{ name|c_comment }}`` in a template).
+FILTERS = {f.__name__: f for f in (c_comment, c_string, py_comment, py_docstring, py_list,
+                                   py_string, xml_attr, xml_text)}

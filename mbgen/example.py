@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 
 from ._version import __version__
-from .names import comment_safe
 from .pipeline import PipelineResult
 from .render import environment
 from .scene import Scene
@@ -49,8 +48,8 @@ def render_example(scene: Scene, result: PipelineResult) -> str | None:
     prefix = result.rendered.prefix
     args = ["x0"] + (["p"] if L.n_p else []) + (["r"] if L.n_r else [])
     return environment().get_template("example.c.j2").render(
-        version=__version__, scene=comment_safe(scene.name),
-        description=comment_safe(scene.description), prefix=prefix, upper=prefix.upper(),
+        version=__version__, scene=scene.name,
+        description=scene.description, prefix=prefix, upper=prefix.upper(),
         integrator=method, t0=_c(t[0]), t1=_c(t[-1]), n_out=N_OUT,
         state_names=list(L.state_names), x0=[_c(v) for v in x0],
         parameter_names=list(L.parameter_names), parameters=[_c(v) for v in p],

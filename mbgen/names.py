@@ -1,9 +1,26 @@
-"""Names that reach generated code.
+"""Names that reach generated code, and the one rule every user-given name follows.
+
+The name rule
+-------------
+Every name a user gives -- a model, frame, point, particle, body, coordinate,
+speed, constant, input, prescribed motion, spring, joint, constraint or scene
+name -- is checked once, where it enters (:func:`check_name`), against one rule:
+
+    an ASCII letter, then ASCII letters, digits and ``_``; at most
+    :data:`MAX_NAME_LENGTH` (64) characters.
+
+So a name can never carry quotes, comment markers, path separators, control or
+non-ASCII characters into a generated file or a file name.  A name that breaks
+the rule is a :class:`~mbgen.errors.ModelError` that names it and says how to
+fix it.  Names that are C, C++ or Python keywords (``int``, ``lambda``) are
+allowed for symbols (the generated code renames them, ``int_``) but not for
+the model, whose name prefixes every C symbol.
 
 Symbol names of a model appear in generated C and Python (as local variable
 names and in comments), and the model name is the prefix of every C symbol.
-This module turns arbitrary names into identifiers that are valid in C99, C++
-and Python, deterministically.
+:func:`identifier` turns names (including those of sympy models imported with
+:func:`mbgen.from_sympy`, which never passed through :func:`check_name`) into
+identifiers that are valid in C99, C++ and Python, deterministically.
 """
 
 from __future__ import annotations
@@ -39,6 +56,44 @@ RESERVED = frozenset(
     min max float int len range sum list tuple dict set print object type
     """.split()
 )
+
+#: Longest name a user may give (C99 guarantees 63 significant characters; files stay short).
+MAX_NAME_LENGTH = 64
+
+NAME_RULE = (f"an ASCII letter followed by ASCII letters, digits or '_', at most "
+             f"{MAX_NAME_LENGTH} characters")
+
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+
+
+def _shown(name) -> str:
+    text = repr(name)
+    return text if len(text) <= 80 else f"{text[:60]}...' ({len(str(name))} characters)"
+
+
+def check_name(name, what: str) -> str:
+    """Return ``name`` if it follows the name rule (see the module docstring), else raise.
+
+    ``what`` says what is being named (``"frame"``, ``"model"``, ...) for the message.
+
+    Raises
+    ------
+    ModelError
+        Naming the offending name, what it names, the rule and a suggested fix.
+    """
+    if not isinstance(name, str):
+        raise ModelError(f"the {what} name must be a string, got {type(name).__name__} "
+                         f"{_shown(name)}")
+    if len(name) > MAX_NAME_LENGTH:
+        raise ModelError(f"the {what} name {_shown(name)} is too long: a name is {NAME_RULE}; "
+                         f"shorten it")
+    if not _NAME.match(name):
+        fixed = re.sub(r"[^A-Za-z0-9_]", "_", name.encode("ascii", "replace").decode())
+        fixed = fixed if fixed[:1].isalpha() else "n_" + fixed
+        raise ModelError(f"the {what} name {_shown(name)} is not allowed: a name is {NAME_RULE}; "
+                         f"rename it, e.g. {fixed[:MAX_NAME_LENGTH]!r}")
+    return name
+
 
 def model_prefix(name: str) -> str:
     """Return the C prefix for a model called ``name``.
@@ -98,7 +153,3 @@ def unique_identifiers(names: list[str]) -> list[str]:
         seen[ident] = original
     return out
 
-
-def comment_safe(text: str) -> str:
-    """Make ``text`` safe inside a C block comment and a Python comment."""
-    return str(text).replace("*/", "* /").replace("/*", "/ *").replace("\n", " ")

@@ -4,6 +4,12 @@ Printers turn expressions into code strings; the Jinja templates in
 ``templates/`` own the file structure.  Templates receive plain data (strings,
 numbers, lists of tuples), never sympy objects or modules.
 
+Text a user controls (model, scene, point and symbol names, descriptions, the
+source line, output labels) reaches the templates raw and is escaped where it
+lands, by the filter of that context (:mod:`mbgen.escape`):
+``{{ name|c_comment }}`` in a C comment, ``{{ name|py_docstring }}`` in a
+Python docstring, ``{{ names|py_list }}`` for a Python list literal.
+
 The C prototypes and ``#define`` constants are produced once here and used both
 by the header template and by the cdef string, so they cannot drift apart.
 """
@@ -20,7 +26,8 @@ import jinja2
 
 from ._version import __version__
 from .layout import Layout
-from .names import comment_safe, model_prefix
+from .escape import FILTERS
+from .names import model_prefix
 from .optimize import Kernel, KernelFunction
 from .outputs import Form, Output, acceleration_symbols, lambda_symbols
 from .printing import CPrinter, PyPrinter, math_functions
@@ -141,9 +148,11 @@ def environment() -> jinja2.Environment:
     except ModuleNotFoundError:  # a source checkout used without installing
         root = Path(__file__).resolve().parent.parent / "templates"
     loader = jinja2.FunctionLoader(lambda name: (root / name).read_text(encoding="utf-8"))
-    return jinja2.Environment(loader=loader, undefined=jinja2.StrictUndefined,
-                              keep_trailing_newline=True, trim_blocks=True,
-                              lstrip_blocks=True, autoescape=False)
+    env = jinja2.Environment(loader=loader, undefined=jinja2.StrictUndefined,
+                             keep_trailing_newline=True, trim_blocks=True,
+                             lstrip_blocks=True, autoescape=False)
+    env.filters.update(FILTERS)  # one escaping function per context, see mbgen.escape
+    return env
 
 
 def _signature_args(kernel: Kernel) -> tuple[str, ...]:
@@ -176,7 +185,7 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
         out=s.out_name,
         out_size=s.out_size,
         out_shape=list(s.out_shape),
-        out_labels=[comment_safe(x) for x in s.labels],
+        out_labels=list(s.labels),
         args=list(args),
         unused=[a for a in args if a not in fn.uses],
         time_name=L.identifiers[L.time],
@@ -269,17 +278,17 @@ def render(kernel: Kernel, targets=None) -> Rendered:
         version=__version__,
         prefix=prefix,
         upper=upper,
-        name=comment_safe(eq.name),
-        source=comment_safe(eq.source or eq.name),
-        method=comment_safe(eq.method),
+        name=eq.name,
+        source=eq.source or eq.name,
+        method=str(eq.method),
         cse=kernel.cse_backend.value,
-        states=[(i, comment_safe(n)) for i, n in enumerate(L.state_names)],
+        states=list(enumerate(L.state_names)),
         n_q=L.n_q,
         n_u=L.n_u,
         n_x=L.n_x,
-        parameters=[(i, comment_safe(n), None if d is None else repr(float(d)))
+        parameters=[(i, n, None if d is None else repr(float(d)))
                     for i, (n, d) in enumerate(zip(L.parameter_names, defaults))],
-        inputs=[(i, comment_safe(n)) for i, n in enumerate(L.input_names)],
+        inputs=list(enumerate(L.input_names)),
         state_names=list(L.state_names),
         parameter_names=list(L.parameter_names),
         input_names=list(L.input_names),
