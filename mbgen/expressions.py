@@ -89,10 +89,24 @@ def expression(value, symbols: Mapping[str, sm.Basic] | None, what: str) -> sm.E
     if isinstance(value, (bytes, bytearray)):
         raise ModelError(f"{what} must be a number or sympy expression, got bytes")
     try:
-        return sm.sympify(value, strict=True)
+        expr = sm.sympify(value, strict=True)
     except (sm.SympifyError, TypeError, ValueError):
         raise ModelError(f"{what} must be a number or sympy expression, got "
                          f"{type(value).__name__} {_short(repr(value))}") from None
+    if isinstance(expr, sm.Basic) and _has_nonfinite(expr):
+        raise ModelError(f"{what} is not finite ({_short(str(value))}); give a finite number "
+                         f"or expression")
+    return expr
+
+
+def _has_nonfinite(expr) -> bool:
+    """True when ``expr`` contains inf, -inf, zoo or nan (one visit per distinct node)."""
+    from .symbolic import walk_unique
+
+    for node in walk_unique([expr]):
+        if node in _NONFINITE or (isinstance(node, sm.Float) and not math.isfinite(float(node))):
+            return True
+    return False
 
 
 def parse(text: str, symbols: Mapping[str, sm.Basic], what: str = "expression") -> sm.Expr:

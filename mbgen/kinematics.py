@@ -17,7 +17,8 @@ SOPHIA (Maple)              mbgen / sympy
 
 These work on vectors written with time-dependent symbols (``q1(t)``); the
 derivation engine in :mod:`mbgen.derive` uses its own faster representation and
-is tested against these.
+is tested against these.  Components are numbers or sympy expressions; strings
+are refused (they are never evaluated, see :mod:`mbgen.expressions`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,9 @@ from typing import Sequence
 import sympy as sm
 from sympy.physics import vector as spv
 
+from .errors import ModelError
+from .expressions import expression
+
 __all__ = ["vec", "components", "express", "dcm", "frame_dt", "angular_velocity",
            "position", "velocity", "acceleration"]
 
@@ -34,8 +38,9 @@ __all__ = ["vec", "components", "express", "dcm", "frame_dt", "angular_velocity"
 def vec(frame: spv.ReferenceFrame, components: Sequence) -> spv.Vector:
     """The vector with ``components`` (length 3) in ``frame``: SOPHIA ``frame &ev [a, b, c]``."""
     if len(components) != 3:
-        raise ValueError(f"a vector needs 3 components, got {len(components)}")
-    a, b, c = (sm.sympify(x) for x in components)
+        raise ModelError(f"a vector needs 3 components, got {len(components)}")
+    a, b, c = (expression(x, None, f"component {i} of a vector in {frame}")
+               for i, x in enumerate(components, 1))
     return a * frame.x + b * frame.y + c * frame.z
 
 

@@ -38,14 +38,19 @@ The pendulum hanging from a rotating disc (lecture 1, example 3)::
 
 from __future__ import annotations
 
+import contextvars
+import re
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Iterable, Mapping, Sequence
 
 import sympy as sm
+from sympy.matrices.exceptions import ShapeError
 from sympy.physics import vector as spv
 
 from .errors import ModelError
-from .names import model_prefix
+from .expressions import expression as _expression
+from .names import check_name, model_prefix
 
 #: The time symbol used by sympy.physics.vector's dynamicsymbols.
 t = spv.dynamicsymbols._t
@@ -195,9 +200,67 @@ def _axis_index(axis) -> int:
         raise ModelError(f"rotation axis {axis!r} is not 1, 2 or 3 (or 'x', 'y', 'z')") from None
 
 
-def _symbols(names, factory) -> tuple:
+def _symbols(names, factory, what: str, force: bool = False) -> tuple:
+    if not isinstance(names, str):
+        raise ModelError(f"{what} names must be given as one string, e.g. 'q1 q2' or 'q1:3'; "
+                         f"got {type(names).__name__}")
+    if what in ("coordinate", "speed") and not force:
+        _guard_range(names, what)
     out = factory(names)
-    return tuple(out) if isinstance(out, (list, tuple)) else (out,)
+    out = tuple(out) if isinstance(out, (list, tuple)) else (out,)
+    if not out:
+        raise ModelError(f"no {what} names in {names!r}")
+    return out
+
+
+#: Most generalized speeds a model may have without ``force=True``.  Kane's
+#: equations of n speeds have ~n^2 mass-matrix entries; measured on the n-link
+#: cart (``mbgen.scenes.n_link_cart``): 64 links, 29,000 operations after CSE and
+#: 10 s from model to rendered code, growing as ~n^2.5 -- so 200 speeds take
+#: minutes, and 100,000 would take years.
+MAX_SPEEDS = 200
+#: Most particles and rigid bodies a model may have without ``force=True``.
+MAX_BODIES = 1000
+
+
+def _guard_range(names: str, what: str) -> None:
+    """Refuse ``'u:100001'`` before sympy creates 100,001 symbols (unless forced)."""
+    if _FORCE_SIZE.get():
+        return
+    for a, b in re.findall(r"(\d*):(\d+)", names):
+        count = int(b[:12]) - int(a[:12] or 0)
+        if count > MAX_SPEEDS:
+            raise ModelSizeError(f"{names!r} declares {count} {what}s; a model with more than "
+                                 f"{MAX_SPEEDS} speeds cannot be derived and compiled in "
+                                 f"reasonable time ({_COST}). {_FORCE_HINT}")
+
+
+_COST = ("measured: 64 speeds take 10 s from model to code and the time grows as about "
+         "n^2.5")
+_FORCE_HINT = ("If you really mean it, build it with Model(name, force=True), load the scene "
+               "with load_scene(..., force=True), or pass --force on the command line.")
+
+
+_FORCE_SIZE: contextvars.ContextVar[bool] = contextvars.ContextVar("mbgen_force_size",
+                                                                  default=False)
+
+
+class ModelSizeError(ModelError):
+    """A model is far larger than mbgen can derive and compile in reasonable time.
+
+    Raised while the model is built (before any derivation starts); pass
+    ``force=True`` (``--force`` on the command line) to go on anyway.
+    """
+
+
+@contextmanager
+def allow_large_models():
+    """Within this block, models larger than :data:`MAX_SPEEDS` / :data:`MAX_BODIES` are built."""
+    token = _FORCE_SIZE.set(True)
+    try:
+        yield
+    finally:
+        _FORCE_SIZE.reset(token)
 
 
 class Model:
@@ -207,10 +270,17 @@ class Model:
     ----------
     name : str
         Model name; it becomes the prefix of every generated C symbol, so it
-        must not be a C keyword.
+        must follow the name rule (:mod:`mbgen.names`) and not be a C keyword.
+    force : bool
+        Build the model even when it has more than :data:`MAX_SPEEDS` speeds or
+        :data:`MAX_BODIES` bodies (default: refuse with :class:`ModelSizeError`).
 
     Notes
     -----
+    Every name (of a frame, point, body, symbol, ...) must follow the name
+    rule of :mod:`mbgen.names`.  Every value may be a number, a sympy
+    expression, or a string such as ``"k*l/2"``, which is parsed without
+    ``eval`` against the model's own symbols (:mod:`mbgen.expressions`).
     Every ``add`` method validates its arguments at once (unknown frames or
     points, wrong types, a body without inertia) and raises
     :class:`~mbgen.errors.ModelError` naming the problem.  Derivation
@@ -218,9 +288,10 @@ class Model:
     declared coordinate, speed, constant or input.
     """
 
-    def __init__(self, name: str):
-        self.name = name
+    def __init__(self, name: str, *, force: bool = False):
+        self.name = check_name(name, "model")
         self.prefix = model_prefix(name)
+        self.force_size = bool(force)
         self.coordinates_: list[sm.Function] = []
         self.speeds_: list[sm.Function] = []
         self.constants_: list[sm.Symbol] = []
@@ -245,29 +316,31 @@ class Model:
         ``m.coordinates("q1 q2")`` and ``m.coordinates("q1:3")`` return a tuple;
         a single name returns a tuple of one (unpack it: ``q, = m.coordinates("q")``).
         """
-        syms = _symbols(names, spv.dynamicsymbols)
-        self._claim(str(s.func) for s in syms)
+        syms = _symbols(names, spv.dynamicsymbols, "coordinate", self.force_size)
+        self._claim((str(s.func) for s in syms), "coordinate")
+        self._size(len(self.coordinates_) + len(syms), "coordinates", MAX_SPEEDS)
         self.coordinates_.extend(syms)
         return syms
 
     def speeds(self, names: str):
         """Declare generalized speeds (functions of time); see :meth:`coordinates`."""
-        syms = _symbols(names, spv.dynamicsymbols)
-        self._claim(str(s.func) for s in syms)
+        syms = _symbols(names, spv.dynamicsymbols, "speed", self.force_size)
+        self._claim((str(s.func) for s in syms), "speed")
+        self._size(len(self.speeds_) + len(syms), "speeds", MAX_SPEEDS)
         self.speeds_.extend(syms)
         return syms
 
     def constants(self, names: str):
         """Declare constant parameters (plain symbols); see :meth:`coordinates`."""
-        syms = _symbols(names, sm.symbols)
-        self._claim(str(s) for s in syms)
+        syms = _symbols(names, sm.symbols, "constant")
+        self._claim((str(s) for s in syms), "constant")
         self.constants_.extend(syms)
         return syms
 
     def inputs(self, names: str):
         """Declare inputs: forces or torques given at run time (functions of time)."""
-        syms = _symbols(names, spv.dynamicsymbols)
-        self._claim(str(s.func) for s in syms)
+        syms = _symbols(names, spv.dynamicsymbols, "input")
+        self._claim((str(s.func) for s in syms), "input")
         self.inputs_.extend(syms)
         return syms
 
@@ -279,14 +352,16 @@ class Model:
         Example: a wire spun at constant rate, ``m.rotate(N, "B", 3,
         m.prescribed("theta", omega * t))``.
         """
-        expr = sm.sympify(expression)
+        check_name(name, "prescribed motion")
+        expr = self._scalar(expression, f"prescribed motion {name!r}")
         if name in self.prescribed_:
             raise ModelError(f"prescribed motion {name!r} is already defined")
         self.prescribed_[name] = expr
         return expr
 
-    def _claim(self, names: Iterable[str]) -> None:
+    def _claim(self, names: Iterable[str], what: str) -> None:
         for n in names:
+            check_name(n, what)
             if n in self._names:
                 raise ModelError(f"the name {n!r} is already used in model {self.name!r}; "
                                  f"every coordinate, speed, constant, input, frame and point "
@@ -298,7 +373,8 @@ class Model:
         """Create the Newtonian (inertial) frame and its origin point."""
         if self.N is not None:
             raise ModelError(f"model {self.name!r} already has a Newtonian frame {self.N}")
-        self._claim([name, origin])
+        self._claim([name], "frame")
+        self._claim([origin], "point")
         self.N = spv.ReferenceFrame(name)
         self.frames[self.N] = FrameDef(self.N, None, None, None)
         self.origin = spv.Point(origin)
@@ -328,8 +404,8 @@ class Model:
         """
         self._check_frame(parent)
         k = _axis_index(axis)
-        angle = sm.sympify(angle)
-        self._claim([name])
+        angle = self._scalar(angle, f"angle of frame {name!r}")
+        self._claim([name], "frame")
         unit = (parent.x, parent.y, parent.z)[k - 1]
         frame = parent.orientnew(name, "Axis", [angle, unit])
         self.frames[frame] = FrameDef(frame, parent, k, angle)
@@ -392,7 +468,7 @@ class Model:
         self._check_point(parent)
         offset = spv.Vector(0) if offset == 0 else offset
         self._check_vector(offset, f"offset of point {name!r}")
-        self._claim([name])
+        self._claim([name], "point")
         p = parent.locatenew(name, offset)
         self.points[p] = PointDef(p, parent, offset)
         return p
@@ -401,7 +477,8 @@ class Model:
         """Add a point mass ``mass`` at ``point``."""
         self._check_point(point)
         mass = self._scalar(mass, f"mass of particle {name!r}")
-        self._claim([name])
+        self._claim([name], "particle")
+        self._size(len(self.particles) + len(self.bodies) + 1, "particles and bodies", MAX_BODIES)
         p = Particle(name, point, mass)
         self.particles.append(p)
         return p
@@ -420,7 +497,8 @@ class Model:
         self._check_point(center)
         mass = self._scalar(mass, f"mass of body {name!r}")
         matrix = self._inertia_matrix(name, frame, inertia)
-        self._claim([name])
+        self._claim([name], "body")
+        self._size(len(self.particles) + len(self.bodies) + 1, "particles and bodies", MAX_BODIES)
         b = RigidBody(name, frame, center, mass, matrix)
         self.bodies.append(b)
         return b
@@ -433,13 +511,16 @@ class Model:
             mat = inertia.to_matrix(frame)
         elif isinstance(inertia, (tuple, list)) and len(inertia) in (3, 6) and not any(
                 isinstance(v, (tuple, list)) for v in inertia):
-            ixx, iyy, izz, *rest = (sm.sympify(v) for v in inertia)
+            ixx, iyy, izz, *rest = (self._scalar(v, f"inertia of body {name!r}")
+                                    for v in inertia)
             ixy, iyz, izx = rest if rest else (0, 0, 0)
             mat = sm.Matrix([[ixx, ixy, izx], [ixy, iyy, iyz], [izx, iyz, izz]])
         else:
             try:
-                mat = sm.Matrix(inertia)
-            except (TypeError, ValueError, sm.SympifyError):
+                rows = inertia.tolist() if hasattr(inertia, "tolist") else list(inertia)
+                mat = sm.Matrix([[self._scalar(v, f"inertia of body {name!r}") for v in row]
+                                 for row in rows])
+            except (TypeError, ValueError, sm.SympifyError, ShapeError):
                 mat = None
             if mat is None or mat.shape != (3, 3):
                 raise ModelError(f"inertia of body {name!r} must be a Dyadic, a 3x3 matrix or "
@@ -497,7 +578,7 @@ class Model:
                          self._scalar(stiffness, f"stiffness of {name!r}"),
                          self._scalar(damping, f"damping of {name!r}"),
                          self._scalar(natural_length, f"natural length of {name!r}"))
-        self._claim([name])
+        self._claim([name], "line element")
         self.loads.append(el)
         return el
 
@@ -537,7 +618,7 @@ class Model:
             self._check_frame(frame)
         if any(j.child == child_name for j in self.joints_):
             raise ModelError(f"the joint of {child_name!r} is already stated")
-        name = child_name if name is None else name
+        name = child_name if name is None else check_name(name, "joint")
         if any(j.name == name for j in self.joints_):
             raise ModelError(f"a joint named {name!r} already exists")
         j = Joint(name, child_name, parent, point, frame)
@@ -559,14 +640,16 @@ class Model:
         for q, rhs in mapping.items():
             if q not in self.coordinates_:
                 raise ModelError(f"{q} is not a coordinate of model {self.name!r}")
-            self.kinematic_equations_.append(q.diff(t) - sm.sympify(rhs))
+            self.kinematic_equations_.append(
+                q.diff(t) - self._scalar(rhs, f"kinematic equation of {q}"))
 
     def kinematic_equations(self, equations: Iterable) -> None:
         """Give kinematic differential equations implicitly: expressions in q, q', u, t that vanish.
 
         They must be linear in the q'.  Example: ``[q1.diff(t) - u1, q2.diff(t) - u2/q1]``.
         """
-        self.kinematic_equations_.extend(sm.sympify(e) for e in equations)
+        self.kinematic_equations_.extend(self._scalar(e, "kinematic equation")
+                                         for e in equations)
 
     # ------------------------------------------------------------- constraints
     def holonomic(self, expressions, dependent, *, speeds=None, names=None) -> tuple:
@@ -652,7 +735,7 @@ class Model:
         if len(deps) != len(axes):
             raise ModelError(f"no_slip at {point} over {len(axes)} axes needs {len(axes)} "
                              f"dependent speeds, got {len(deps)}")
-        base = name or f"{point.name}_contact"
+        base = f"{point.name}_contact" if name is None else check_name(name, "constraint")
         out = []
         for k, u in zip(axes, deps):
             if u not in self.speeds_:
@@ -682,7 +765,7 @@ class Model:
         if len(deps) != len(axes) or len(spds) != len(axes):
             raise ModelError(f"coincident {a} and {b} over {len(axes)} axes needs {len(axes)} "
                              f"dependent coordinates and speeds")
-        base = name or f"{a.name}_{b.name}"
+        base = f"{a.name}_{b.name}" if name is None else check_name(name, "constraint")
         out = []
         for k, q, u in zip(axes, deps, spds):
             if q not in self.coordinates_:
@@ -707,7 +790,7 @@ class Model:
         names = self._listed(names)
         if len(names) <= k:
             raise ModelError(f"names= must give one name per constraint; got {len(names)}")
-        return str(names[k])
+        return check_name(names[k], "constraint")
 
     def _constraint_expr(self, expr, name):
         if isinstance(expr, str):
@@ -754,15 +837,27 @@ class Model:
                 raise ModelError(f"{what} uses frame {frame}, which is not part of model "
                                  f"{self.name!r}")
 
-    @staticmethod
-    def _scalar(value, what: str) -> sm.Expr:
-        try:
-            expr = sm.sympify(value)
-        except sm.SympifyError:
-            raise ModelError(f"{what} must be a number or sympy expression, got {value!r}") from None
-        if isinstance(expr, (spv.Vector, sm.MatrixBase)) or not isinstance(expr, sm.Expr):
+    def symbol_table(self) -> dict:
+        """Names an expression string may use: every symbol of the model, and ``t``."""
+        table = {str(s.func): s for s in self.coordinates_ + self.speeds_ + self.inputs_}
+        table.update((str(s), s) for s in self.constants_)
+        table.setdefault("t", t)
+        return table
+
+    def _scalar(self, value, what: str) -> sm.Expr:
+        """``value`` (number, sympy expression, or string parsed without eval) as a scalar."""
+        if isinstance(value, (spv.Vector, sm.MatrixBase, spv.Dyadic)):
+            raise ModelError(f"{what} must be a scalar, got {type(value).__name__} {value!r}")
+        expr = _expression(value, self.symbol_table(), what)
+        if not isinstance(expr, sm.Expr):
             raise ModelError(f"{what} must be a scalar, got {value!r}")
         return expr
+
+    def _size(self, count: int, what: str, limit: int) -> None:
+        if count > limit and not (self.force_size or _FORCE_SIZE.get()):
+            raise ModelSizeError(f"model {self.name!r} would have {count} {what}, more than "
+                                 f"{limit}: far past what mbgen derives and compiles in "
+                                 f"reasonable time ({_COST}). {_FORCE_HINT}")
 
     # --------------------------------------------------------------- summary
     def __repr__(self) -> str:
