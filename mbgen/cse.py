@@ -17,7 +17,7 @@ from enum import Enum
 
 import sympy as sm
 
-from .printing import MAX_UNROLLED_POWER
+from .printing import printed_base_count
 from .symbolic import symbols_back, to_sympy, to_symengine, walk_unique
 
 
@@ -50,10 +50,9 @@ def cse(exprs: list, prefix: str, backend: CseBackend = CseBackend.SYMENGINE):
 
 
 def _repeats_base(exp) -> bool:
-    """True when a power with exponent ``exp`` prints its base more than once."""
-    if exp.is_Integer:
-        return 2 <= abs(int(exp)) <= MAX_UNROLLED_POWER
-    return bool(exp.is_Rational and exp.q == 2 and 3 <= abs(exp.p) <= 2 * MAX_UNROLLED_POWER + 1)
+    """True when a power with exponent ``exp`` prints its base more than once (the rule:
+    :func:`mbgen.printing.power_form`)."""
+    return printed_base_count(exp) >= 2
 
 
 def _hoist_power_bases(reps, reduced, symbols):

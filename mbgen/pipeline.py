@@ -26,7 +26,7 @@ from .model import Model
 from .optimize import CseBackend, Form, Kernel, Output, optimize
 from .render import Rendered, render
 from .runtime import CompiledModel, PythonModel
-from .scene import Scene
+from .scene import Scene, source_label
 from .slicing import bake
 
 
@@ -65,7 +65,7 @@ def equations_of(source: Model | Equations | Scene, method: Method | None = None
         eq = equations_of(source.model, method or source.method, energy=energy,
                           points=source.points if points is None else points,
                           reactions=reactions)
-        src = f"scene {source.name!r} ({source.source})" if source.source else f"scene {source.name!r}"
+        src = source_label(source)  # the file's name, never the path as typed
         return replace(eq, defaults={**eq.defaults, **{k: float(v) for k, v in
                                                           source.parameters.items()}},
                        source=src)
