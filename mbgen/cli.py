@@ -30,19 +30,25 @@ EXIT_OK, EXIT_CHECK, EXIT_USAGE, EXIT_MODEL, EXIT_BUILD, EXIT_NUMERIC = 0, 1, 2,
 
 
 def _options(pairs) -> dict:
+    """``-O KEY=VALUE`` pairs as ``{key: text}``; the scene converts and checks the values."""
     out = {}
     for pair in pairs or ():
         if "=" not in pair:
             raise SceneError(f"option {pair!r} must look like KEY=VALUE (e.g. -O n=4)")
         k, v = pair.split("=", 1)
-        out[k.strip()] = v.strip()
+        k = k.strip()
+        if not k.isidentifier():
+            raise SceneError(f"option {pair!r}: {k!r} is not an option name (e.g. -O n=4)")
+        if k in out:
+            raise SceneError(f"option {k!r} is given twice (-O {k}={out[k]} and -O {pair})")
+        out[k] = v.strip()
     return out
 
 
 def _scene(args):
     from .scene import load_scene
 
-    scene = load_scene(args.scene, **_options(args.option))
+    scene = load_scene(args.scene, force=getattr(args, "force", False), **_options(args.option))
     derivation = getattr(args, "derivation", None)
     return replace(scene, method=Method(derivation)) if derivation else scene
 
@@ -63,23 +69,33 @@ def cmd_scenes(args) -> int:
     return EXIT_OK
 
 
+#: Where ``mbgen generate SCENE`` writes without ``-o``: ``./mbgen-out/SCENE/`` (never the
+#: checked-in golden tree ``generated/``, which only ``mbgen golden --update`` writes).
+DEFAULT_OUTPUT = Path("mbgen-out")
+
+
 def cmd_generate(args) -> int:
     from .example import render_example
-    from .fileio import write_files
+    from .fileio import plain_name, write_generated
     from .pipeline import run
 
     scene = _scene(args)
     outputs = args.outputs.split(",") if args.outputs else None
+    folder = Path(args.output) if args.output else \
+        DEFAULT_OUTPUT / plain_name(scene.name, "scene name")
+    if folder.exists() and not folder.is_dir():  # before any work
+        raise SceneError(f"output folder {str(folder)!r} is a file; give a folder with -o")
     result = run(scene, outputs, build=False, sliced=not args.no_slice)
-    folder = Path(args.output or Path("generated") / scene.name)
     files = dict(result.rendered.files)
     example = render_example(scene, result)
     if example is not None:
         files["example.c"] = example
-    changed = write_files(folder, files)
+    changed, removed = write_generated(folder, files, overwrite=args.overwrite)
     for name in sorted(files):
         state = "written" if folder / name in changed else "unchanged"
         print(f"{folder / name}  ({state})")
+    for path in removed:
+        print(f"{path}  (removed: no longer generated)")
     k = result.kernel
     print(f"operations: {k.ops_before} before CSE, {k.ops_after} after "
           f"({', '.join(f.output.value for f in k.functions)})")
@@ -149,7 +165,9 @@ def cmd_check(args) -> int:
 
 
 def cmd_simulate(args) -> int:
+    from .fileio import plain_name
     from .outputs import INTEGRATORS, Output
+    from .scene import check_span
     from .pipeline import compile
     from .simulate import simulate, simulate_in_c
 
@@ -159,10 +177,11 @@ def cmd_simulate(args) -> int:
     model = compile(scene, outputs)
     x0 = scene.x0(model.layout)
     t_end = args.t_end if args.t_end is not None else scene.t_span[1]
+    check_span(scene.t_span[0], t_end, "--t-end")  # finite and after the start
     run_ = simulate_in_c if in_c else simulate
     traj = run_(model, x0, (scene.t_span[0], t_end), method=args.method.lower() if in_c else
                 args.method, rtol=args.rtol, atol=args.atol, n_out=args.points)
-    path = traj.write_csv(args.csv or f"{scene.name}.csv")
+    path = traj.write_csv(args.csv or plain_name(f"{scene.name}.csv", "default CSV name"))
     print(f"{scene.name}: {args.method} rtol={args.rtol:g} atol={args.atol:g}, "
           f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls, {traj.wall_time:.3f} s")
     print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
@@ -311,8 +330,8 @@ def cmd_golden(args) -> int:
     from . import golden
 
     names = args.scenes.split(",") if args.scenes else None
-
-    root = Path(args.root)
+    golden.repository_root()  # a developer's command: refuse outside a source checkout
+    root = Path(args.root) if args.root else golden.default_root()
     if args.update:
         changed = golden.update(root, names)
         print(f"{len(changed)} file(s) rewritten under {root}")
@@ -372,7 +391,13 @@ def parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("generate", help="write the generated C header, C source and Python")
     scene_args(p, method_flag=True)
-    p.add_argument("-o", "--output", metavar="DIR", help="output folder (default generated/SCENE)")
+    p.add_argument("-o", "--output", metavar="DIR",
+                   help="output folder (default mbgen-out/SCENE); a regeneration removes the "
+                        "files it wrote before and no longer produces")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace files in the output folder that mbgen did not write")
+    p.add_argument("--force", action="store_true",
+                   help="build a model past the size guard (more than 200 speeds)")
     p.add_argument("--outputs", metavar="LIST",
                    help="comma-separated outputs (e.g. rhs,jacobian,dopri5); default: the scene's")
     p.add_argument("--explain", action="store_true",
@@ -499,7 +524,9 @@ def parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("golden", help="compare (or --update) generated/ with the generator")
-    p.add_argument("--root", default="generated", help="folder (default generated)")
+    p.add_argument("--root", default=None,
+                   help="folder (default: generated/ of the source checkout; the command "
+                        "refuses to run outside one)")
     p.add_argument("--update", action="store_true", help="rewrite the files")
     p.add_argument("--scenes", metavar="LIST",
                    help="only these scenes, e.g. --scenes bicycle,spatial_arm (default: all)")

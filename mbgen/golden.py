@@ -3,6 +3,12 @@
 ``mbgen golden`` compares the tree with freshly generated code and
 ``mbgen golden --update`` rewrites it; ``tests/test_golden.py`` fails on any
 difference, so the checked-in files always match the generator.
+
+It is a developer's command: the tree is the one of the source checkout mbgen
+runs from (:func:`repository_root`, found from the package's own location, not
+from the current folder), and without a checkout it refuses.  The update
+removes files in a scene's folder that the generator no longer produces (the
+folders hold generated files only).
 """
 
 from __future__ import annotations
@@ -10,6 +16,7 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
+from .errors import SceneError
 from .example import render_example
 from .fileio import write_files
 from .pipeline import run
@@ -17,6 +24,29 @@ from .scene import builtin_names, load_scene
 
 #: Scene options used for the checked-in code (kept small).
 GOLDEN_OPTIONS: dict[str, dict] = {"n_link_cart": {"n": 3}}
+
+
+def repository_root() -> Path:
+    """The source checkout mbgen is imported from (holding ``pyproject.toml`` and ``generated/``).
+
+    Raises
+    ------
+    SceneError
+        mbgen is installed, not run from a checkout: the golden tree is not there.
+    """
+    root = Path(__file__).resolve().parent.parent
+    project = root / "pyproject.toml"
+    if project.is_file() and (root / "generated").is_dir() and \
+            'name = "mbgen"' in project.read_text(encoding="utf-8", errors="replace"):
+        return root
+    raise SceneError("'mbgen golden' is a developer command for a source checkout of mbgen "
+                     f"(this mbgen runs from {root}, which has no pyproject.toml and "
+                     f"generated/); to write generated code, use 'mbgen generate SCENE -o DIR'")
+
+
+def default_root() -> Path:
+    """The checked-in tree: ``<repository>/generated``."""
+    return repository_root() / "generated"
 
 
 def scene_files(name: str) -> dict[str, str]:
@@ -36,10 +66,18 @@ def expected(names=None) -> dict[str, dict[str, str]]:
 
 
 def update(root: Path, names=None) -> list[Path]:
-    """Rewrite ``root/<scene>/`` for every scene; returns the files that changed."""
+    """Rewrite ``root/<scene>/`` for every scene; returns the files that changed or were removed.
+
+    Files in a scene's folder that the generator no longer produces are removed.
+    """
     changed = []
     for name, files in expected(names).items():
-        changed += write_files(Path(root) / name, files)
+        folder = Path(root) / name
+        changed += write_files(folder, files)
+        for stale in sorted(folder.iterdir()):
+            if stale.name not in files and stale.is_file() and not stale.is_symlink():
+                stale.unlink()
+                changed.append(stale)
     return changed
 
 

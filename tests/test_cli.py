@@ -29,7 +29,8 @@ def test_scenes_lists_builtins(capsys):
 def test_generate_writes_files_and_is_idempotent(tmp_path, capsys):
     assert main(["generate", "disc_pendulum", "-o", str(tmp_path)]) == EXIT_OK
     names = sorted(p.name for p in tmp_path.iterdir())
-    assert names == ["disc_pendulum.c", "disc_pendulum.h", "disc_pendulum.py", "example.c"]
+    assert names == [".mbgen-manifest.json", "disc_pendulum.c", "disc_pendulum.h",
+                     "disc_pendulum.py", "example.c"]
     assert "written" in capsys.readouterr().out
     assert main(["generate", "disc_pendulum", "-o", str(tmp_path)]) == EXIT_OK
     assert "unchanged" in capsys.readouterr().out
