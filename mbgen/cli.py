@@ -172,12 +172,12 @@ def cmd_simulate(args) -> int:
     from .simulate import simulate, simulate_in_c
 
     scene = _scene(args)
+    check_span(scene.t_span[0], scene.t_span[1] if args.t_end is None else args.t_end, "--t-end")
     in_c = args.method.lower() in {o.value for o in INTEGRATORS}
     outputs = tuple(scene.outputs) + ((Output(args.method.lower()),) if in_c else ())
     model = compile(scene, outputs)
     x0 = scene.x0(model.layout)
     t_end = args.t_end if args.t_end is not None else scene.t_span[1]
-    check_span(scene.t_span[0], t_end, "--t-end")  # finite and after the start
     run_ = simulate_in_c if in_c else simulate
     traj = run_(model, x0, (scene.t_span[0], t_end), method=args.method.lower() if in_c else
                 args.method, rtol=args.rtol, atol=args.atol, n_out=args.points)

@@ -53,11 +53,12 @@ def _ascii_line(text, extra: dict[str, str]) -> str:
 def c_comment(text) -> str:
     """``text`` for a C comment: no ``*/`` or ``/*`` can form, no line break, ASCII only.
 
-    A backslash becomes ``\\\\`` so that a trailing one cannot splice the next
-    line into a ``//`` comment, and ``?`` before ``?`` is broken up so that no
-    trigraph forms.
+    A backslash becomes the visible ``\\x5c``, so that no backslash can end
+    the line and splice the next one into a ``//`` comment (``\\\\`` would: the
+    second backslash still precedes the newline), and ``?`` before ``?`` is
+    broken up so that no trigraph (``??/`` is a backslash) forms.
     """
-    s = _ascii_line(text, {"\\": "\\\\"})
+    s = _ascii_line(text, {"\\": "\\x5c"})
     s = s.replace("*/", "*\\/").replace("/*", "/\\*")
     return s.replace("??", "?\\?")
 
@@ -69,7 +70,8 @@ def c_string(text) -> str:
     non-ASCII characters as UTF-8 bytes in fixed-width octal escapes (a hex
     escape would swallow a following hex digit).  A ``%`` is kept: a string
     used as a ``printf`` format must be passed through ``.replace("%", "%%")``
-    first.
+    first.  C99 compilers need only accept literals of 4095 characters
+    (``-pedantic`` warns past that), so keep long text out of string literals.
     """
     out = []
     for ch in str(text):

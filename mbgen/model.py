@@ -520,6 +520,8 @@ class Model:
                 rows = inertia.tolist() if hasattr(inertia, "tolist") else list(inertia)
                 mat = sm.Matrix([[self._scalar(v, f"inertia of body {name!r}") for v in row]
                                  for row in rows])
+            except ModelError:  # an entry that is not a value: its own message
+                raise
             except (TypeError, ValueError, sm.SympifyError, ShapeError):
                 mat = None
             if mat is None or mat.shape != (3, 3):
