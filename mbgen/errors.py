@@ -17,6 +17,23 @@ class ModelError(MbgenError, ValueError):
     """A model is malformed: an unknown symbol, a body without inertia, ..."""
 
 
+class ModelSizeError(ModelError):
+    """A model is far larger than mbgen can derive and compile in reasonable time.
+
+    Raised while the model is built, before any derivation starts
+    (:data:`mbgen.model.MAX_SPEEDS`, :data:`mbgen.model.MAX_BODIES`); pass
+    ``force=True`` (``--force`` on the command line) to go on anyway.
+    """
+
+
+class NonFiniteConstantError(ModelError):
+    """Code would be generated with an ``inf``, ``nan`` or ``zoo`` constant in it.
+
+    Raised by the C and Python printers (:mod:`mbgen.printing`) instead of
+    printing a bare ``inf`` (which does not compile) or a NaN.
+    """
+
+
 class SceneError(MbgenError, ValueError):
     """A scene cannot be found or loaded, or an option is invalid."""
 

@@ -48,7 +48,7 @@ import sympy as sm
 from sympy.matrices.exceptions import ShapeError
 from sympy.physics import vector as spv
 
-from .errors import ModelError
+from .errors import ModelError, ModelSizeError
 from .expressions import expression as _expression
 from .names import check_name, model_prefix
 
@@ -245,14 +245,6 @@ _FORCE_SIZE: contextvars.ContextVar[bool] = contextvars.ContextVar("mbgen_force_
                                                                   default=False)
 
 
-class ModelSizeError(ModelError):
-    """A model is far larger than mbgen can derive and compile in reasonable time.
-
-    Raised while the model is built (before any derivation starts); pass
-    ``force=True`` (``--force`` on the command line) to go on anyway.
-    """
-
-
 @contextmanager
 def allow_large_models():
     """Within this block, models larger than :data:`MAX_SPEEDS` / :data:`MAX_BODIES` are built."""
@@ -317,16 +309,16 @@ class Model:
         a single name returns a tuple of one (unpack it: ``q, = m.coordinates("q")``).
         """
         syms = _symbols(names, spv.dynamicsymbols, "coordinate", self.force_size)
-        self._claim((str(s.func) for s in syms), "coordinate")
         self._size(len(self.coordinates_) + len(syms), "coordinates", MAX_SPEEDS)
+        self._claim((str(s.func) for s in syms), "coordinate")
         self.coordinates_.extend(syms)
         return syms
 
     def speeds(self, names: str):
         """Declare generalized speeds (functions of time); see :meth:`coordinates`."""
         syms = _symbols(names, spv.dynamicsymbols, "speed", self.force_size)
-        self._claim((str(s.func) for s in syms), "speed")
         self._size(len(self.speeds_) + len(syms), "speeds", MAX_SPEEDS)
+        self._claim((str(s.func) for s in syms), "speed")
         self.speeds_.extend(syms)
         return syms
 
@@ -477,8 +469,8 @@ class Model:
         """Add a point mass ``mass`` at ``point``."""
         self._check_point(point)
         mass = self._scalar(mass, f"mass of particle {name!r}")
-        self._claim([name], "particle")
         self._size(len(self.particles) + len(self.bodies) + 1, "particles and bodies", MAX_BODIES)
+        self._claim([name], "particle")
         p = Particle(name, point, mass)
         self.particles.append(p)
         return p
@@ -497,8 +489,8 @@ class Model:
         self._check_point(center)
         mass = self._scalar(mass, f"mass of body {name!r}")
         matrix = self._inertia_matrix(name, frame, inertia)
-        self._claim([name], "body")
         self._size(len(self.particles) + len(self.bodies) + 1, "particles and bodies", MAX_BODIES)
+        self._claim([name], "body")
         b = RigidBody(name, frame, center, mass, matrix)
         self.bodies.append(b)
         return b

@@ -28,14 +28,10 @@ from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import precedence
 from sympy.printing.pycode import PythonCodePrinter
 
-from .errors import ModelError
+from .errors import NonFiniteConstantError
 
 #: Largest integer power printed as repeated multiplication.
 MAX_UNROLLED_POWER = 8
-
-
-class NonFiniteConstantError(ModelError):
-    """An expression to be printed holds ``inf``, ``nan`` or ``zoo`` (e.g. a fixed value of inf)."""
 
 
 def power_form(exp) -> tuple[str, int] | None:

@@ -21,7 +21,7 @@ from mbgen import Model, Output, Scene, escape, golden
 from mbgen.cli import EXIT_MODEL, EXIT_OK, main
 from mbgen.errors import ModelError, SceneError
 from mbgen.kinematics import vec
-from mbgen.model import MAX_SPEEDS, ModelSizeError, t
+from mbgen.model import MAX_BODIES, MAX_SPEEDS, ModelSizeError, t
 from mbgen.pipeline import python_model, run
 from mbgen.printing import (CPrinter, NonFiniteConstantError, PyPrinter, power_form,
                             printed_base_count)
@@ -482,6 +482,12 @@ def test_size_guard_can_be_forced():
     m.speeds(f"u:{MAX_SPEEDS}")
     with pytest.raises(ModelSizeError, match="force=True"):
         m.speeds("extra")
+    m = Model("many")
+    N = m.newtonian()
+    for i in range(MAX_BODIES):
+        m.particle(f"p{i}", m.origin, 1.0)
+    with pytest.raises(ModelSizeError, match="particles and bodies"):
+        m.body("one_more", N, 1.0, (1, 1, 1), m.origin)
     scene = load_scene("n_link_cart", n=MAX_SPEEDS, force=True)
     assert len(scene.model.speeds_) == MAX_SPEEDS + 1
     with pytest.raises(ModelSizeError):
