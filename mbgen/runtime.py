@@ -640,12 +640,13 @@ class PythonModel(ModelBase):
     def _evaluate(self, output, t, x, p, r):
         self._require(output)
         fn = getattr(self.module, output.value)
-        from .targets.batch import _batch_args, is_batch
-
         takes = self._args[output]
         p_, r_ = (p if "p" in takes else None), (r if "r" in takes else None)
-        if is_batch(x, p_, r_):  # as the C batch loop: item after item, the first failure raises
-            return self._batch(output, fn, t, x, p_, r_, _batch_args)
+        if not all(v is None or type(v) is np.ndarray and v.ndim == 1 for v in (x, p_, r_)):
+            from .targets.batch import _batch_args, is_batch
+
+            if is_batch(x, p_, r_):  # as the C batch loop: item by item, the first failure raises
+                return self._batch(output, fn, t, x, p_, r_, _batch_args)
         xa = self._x(x)
         args = [self._t(t), xa]
         if "p" in self._args[output]:
