@@ -32,6 +32,8 @@ import numpy as np
 
 from .errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from .layout import Layout
+from .optimize import Output
+from .outputs import dynamic_parameters
 from .pipeline import PipelineResult, python_model, run
 from .reference import LambdifiedModel
 from .runtime import ModelBase
@@ -197,7 +199,7 @@ class UnslicedReference(ModelBase):
     backend = "lambdify"
 
     def __init__(self, full: LambdifiedModel, layout: Layout, fixed: Mapping[str, float],
-                 defaults: Mapping[str, float] | None):
+                 defaults: Mapping[str, float] | None, sensitivity_columns=()):
         super().__init__(full.name, layout, defaults, full.outputs)
         self.full = full
         FL = full.layout
@@ -216,6 +218,11 @@ class UnslicedReference(ModelBase):
         self.constraint_names = full.constraint_names
         self.dependent_coordinates = full.dependent_coordinates
         self.reaction_names, self.reaction_frames = full.reaction_names, full.reaction_frames
+        # df/dp: the unsliced columns are the unsliced dynamic parameters; pick the sliced
+        # model's (a parameter missing there has a zero column)
+        full_cols = [str(s) for s in dynamic_parameters(full.equations)]
+        self._dp_cols = [(full_cols.index(n) if n in full_cols else None)
+                         for n in sensitivity_columns]
 
     def _evaluate(self, output, t, x, p, r):
         self._require(output)
@@ -223,13 +230,20 @@ class UnslicedReference(ModelBase):
         P[self._p_to] = self._p(p)
         R = np.zeros(self.full.n_r)
         R[self._r_to] = self._r(r)
-        return self.full._evaluate(output, t, x, P, R)
+        out = self.full._evaluate(output, t, x, P, R)
+        if output is Output.PARAMETER_JACOBIAN:
+            out = np.column_stack([out[:, j] if j is not None else np.zeros(out.shape[0])
+                                   for j in self._dp_cols]) if self._dp_cols else \
+                np.zeros((out.shape[0], 0))
+        return out
 
 
 def reference_model(result: PipelineResult, outputs) -> ModelBase:
     """The reference of :func:`check`: the unsliced equations, with the sliced ABI."""
     full = LambdifiedModel(result.equations, outputs, layout=result.equations.layout)
-    return UnslicedReference(full, result.layout, result.fixed, result.rendered.defaults)
+    dynamic = set(dynamic_parameters(result.baked))
+    columns = [str(s) for s in result.layout.parameters if s in dynamic]
+    return UnslicedReference(full, result.layout, result.fixed, result.rendered.defaults, columns)
 
 
 def check(source, *, samples: int = 20, seed: int = 0, rtol: float = 1e-9, atol: float = 1e-12,

@@ -25,6 +25,11 @@ class BuildError(MbgenError, RuntimeError):
     """The C compiler failed; the message carries the compiler's own output."""
 
 
+class CacheError(BuildError):
+    """The cache of compiled modules cannot be used: ``$MBGEN_CACHE_DIR`` (or every
+    fallback folder) cannot be created or written.  The message names the folder."""
+
+
 class SingularMassMatrixError(MbgenError, ArithmeticError):
     """The mass matrix is not positive definite at the given state.
 

@@ -643,10 +643,10 @@ class PythonModel(ModelBase):
         takes = self._args[output]
         p_, r_ = (p if "p" in takes else None), (r if "r" in takes else None)
         if not all(v is None or type(v) is np.ndarray and v.ndim == 1 for v in (x, p_, r_)):
-            from .targets.batch import _batch_args, is_batch
+            from .targets.batch import _batch_args, _scalar_time, is_batch
 
             if is_batch(x, p_, r_):  # as the C batch loop: item by item, the first failure raises
-                return self._batch(output, fn, t, x, p_, r_, _batch_args)
+                return self._batch(output, fn, t, x, p_, r_, _batch_args, _scalar_time)
         xa = self._x(x)
         args = [self._t(t), xa]
         if "p" in self._args[output]:
@@ -665,12 +665,18 @@ class PythonModel(ModelBase):
         except getattr(self.module, "ConstraintSingular", ()):
             self._fail(7, output.value, t, xa)
 
-    def _batch(self, output, fn, t, x, p, r, batch_args):
+    def _batch(self, output, fn, t, x, p, r, batch_args, _scalar_time):
         k, (xa, xs), (pa, ps), (ra, rs) = batch_args(self, x, p, r)
-        if np.ndim(t) == 0:
+        if _scalar_time(t):
             ta, ts = np.array([self._t(t)]), 0
         else:
-            ta, ts = _real_vector(t, k, "t (a number, or one time per batch item)", ()), 1
+            try:
+                shape = np.shape(t)
+            except ValueError:
+                shape = "ragged"
+            if shape != (k,):
+                raise ArgumentError(f"t must be a number or have shape ({k},); got shape {shape}")
+            ta, ts = _real_vector(t, k, "t", ()), 1
         info = next(f for f in self.rendered.functions if Output(f.output) is output)
         out = np.empty((k,) + tuple(info.out_shape))
         for i in range(k):

@@ -84,6 +84,16 @@ def is_batch(x, p=None, r=None) -> bool:
     return any(v is not None and _two_d(v) for v in (x, p, r))
 
 
+def _scalar_time(t) -> bool:
+    """Whether a batch call's ``t`` is one number (else it must be one per item)."""
+    import numpy as np
+
+    try:
+        return np.ndim(t) == 0
+    except ValueError:  # ragged: not a number, and the shape check names it
+        return False
+
+
 def _two_d(v) -> bool:
     import numpy as np
 
@@ -120,12 +130,19 @@ def evaluate(model, info, t, x, p, r):
     from ..errors import MbgenError
 
     k, (xa, xs), (pa, ps), (ra, rs) = _batch_args(model, x, p, r)
-    if np.ndim(t) == 0:
+    if _scalar_time(t):
         ta, ts = np.array([model._t(t)]), 0
     else:
+        from ..errors import ArgumentError
         from ..runtime import _real_vector
 
-        ta, ts = _real_vector(t, k, "t (a number, or one time per batch item)", ()), 1
+        try:
+            shape = np.shape(t)
+        except ValueError:
+            shape = "ragged"
+        if shape != (k,):
+            raise ArgumentError(f"t must be a number or have shape ({k},); got shape {shape}")
+        ta, ts = _real_vector(t, k, "t", ()), 1
     out = np.empty((k,) + tuple(info.out_shape))
     status = np.zeros(k, dtype=np.intc)
     buf = model.ffi.from_buffer
