@@ -291,13 +291,17 @@ class ModelBase:
         from .errors import ConstraintError
 
         x = self._x(x).copy()
+        tol = real_number(tol, "tol")
+        if not tol >= 0:
+            raise ArgumentError(f"tol must be a number >= 0; got {tol!r}")
+        max_iterations = step_count(max_iterations, "max_iterations")
         if not self.dependent_coordinates:
             return x
         for o in (Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN):
             self._require(o)
         idx = [self.state_names.index(n) for n in self.dependent_coordinates]
         res = np.inf
-        for _ in range(int(max_iterations)):
+        for _ in range(max_iterations):
             f = self._evaluate(Output.HOLONOMIC, t, x, p, r)
             res = float(np.max(np.abs(f)))
             if res <= tol * (1.0 + float(np.max(np.abs(x[idx])))):
