@@ -21,6 +21,7 @@ No ``os.chdir``, no ``sys.path`` edits: the module is loaded from its file.
 
 from __future__ import annotations
 
+import getpass
 import hashlib
 import importlib.machinery
 import importlib.util
@@ -88,7 +89,7 @@ def cache_dir() -> Path:
     why = _writable(root)
     if why is None:
         return root
-    uid = os.getuid() if hasattr(os, "getuid") else os.getlogin()
+    uid = os.getuid() if hasattr(os, "getuid") else getpass.getuser()
     fallback = Path(tempfile.gettempdir()) / f"mbgen-cache-{uid}"
     why2 = _writable(fallback)
     if why2:
