@@ -194,3 +194,15 @@ def test_rhs_fast_path_unchanged(pendulum):
     x = np.array([0.1, 0.0, 0.0, 0.0])
     a, b = c.rhs(0.0, x), c.rhs(0.0, x)
     assert a is not b and np.array_equal(a, b)
+
+
+def test_rosenbrock_step_over_a_subnormal_span_is_not_a_singular_matrix():
+    from mbgen.targets import Targets
+    from mbgen.targets.step import Stepper
+
+    scene = load_scene("stiff_chain")
+    model = mbgen.compile(scene, targets=Targets(step=True))
+    s = Stepper(model, "rosenbrock", 0.0, scene.x0(model.layout))
+    with pytest.raises(IntegrationError) as info:
+        s.step(5e-324)
+    assert info.value.status == STATUS["STEP_TOO_SMALL"]
