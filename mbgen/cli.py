@@ -8,6 +8,8 @@ Exit codes
 3  bad model or scene (unknown scene, missing file, malformed model, bad option)
 4  the C compiler failed
 5  numerical failure (singular mass matrix, non-finite result, integrator failure)
+6  check inconclusive: some output was compared on no sample (every sample failed in
+   every back end: a zero mass, a NaN parameter, a singular mass matrix everywhere)
 """
 
 from __future__ import annotations
@@ -23,10 +25,11 @@ from dataclasses import replace
 
 from ._version import __version__
 from .derive import Method
-from .errors import (BuildError, CheckFailed, MbgenError, ModelError, NonFiniteResultError,
-                     SceneError, SingularMassMatrixError)
+from .errors import (BuildError, CheckFailed, CheckInconclusive, MbgenError, ModelError,
+                     NonFiniteResultError, SceneError, SingularMassMatrixError)
 
 EXIT_OK, EXIT_CHECK, EXIT_USAGE, EXIT_MODEL, EXIT_BUILD, EXIT_NUMERIC = 0, 1, 2, 3, 4, 5
+EXIT_INCONCLUSIVE = 6
 
 
 def _options(pairs) -> dict:
@@ -158,10 +161,22 @@ def _has_inputs(scene) -> bool:
 def cmd_check(args) -> int:
     from .check import check
 
+    if args.samples < 1:
+        print(f"mbgen: error: --samples must be at least 1 (got {args.samples}): a check of "
+              f"no sample proves nothing", file=sys.stderr)
+        return EXIT_USAGE
     report = check(_scene(args), samples=args.samples, seed=args.seed, rtol=args.rtol,
                    atol=args.atol)
     print(report.format())
-    return EXIT_OK if report.ok else EXIT_CHECK
+    if report.ok:
+        return EXIT_OK
+    if report.inconclusive:
+        print(f"mbgen: check inconclusive: {report.name}: nothing was compared for some "
+              f"outputs (every sample failed in every back end); see the report",
+              file=sys.stderr)
+        return EXIT_INCONCLUSIVE
+    print(f"mbgen: check failed: {report.name}: see the report", file=sys.stderr)
+    return EXIT_CHECK
 
 
 def cmd_simulate(args) -> int:
@@ -373,7 +388,7 @@ def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(
         prog="mbgen", description="Multibody models to fast, verified C and Python.",
         epilog="Exit codes: 0 ok, 1 check failed, 2 usage, 3 bad model/scene, 4 compiler "
-               "failed, 5 numerical failure.")
+               "failed, 5 numerical failure, 6 check inconclusive (nothing compared).")
     top.add_argument("--version", action="version", version=f"mbgen {__version__}")
     sub = top.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
@@ -416,7 +431,7 @@ def parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("check", help="compare compiled C, generated Python and lambdify")
     scene_args(p, method_flag=True)
-    p.add_argument("--samples", type=int, default=20, help="random states (default 20)")
+    p.add_argument("--samples", type=int, default=20, help="random states (default 20, >= 1)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance (default 1e-9)")
     p.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
@@ -541,6 +556,9 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
         sys.stderr.close()
         return EXIT_OK
+    except CheckInconclusive as exc:
+        print(f"mbgen: check inconclusive: {exc}", file=sys.stderr)
+        return EXIT_INCONCLUSIVE
     except CheckFailed as exc:
         print(f"mbgen: check failed: {exc}", file=sys.stderr)
         return EXIT_CHECK

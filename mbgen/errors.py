@@ -42,6 +42,11 @@ class BuildError(MbgenError, RuntimeError):
     """The C compiler failed; the message carries the compiler's own output."""
 
 
+class CacheError(BuildError):
+    """The cache of compiled modules cannot be used: ``$MBGEN_CACHE_DIR`` (or every
+    fallback folder) cannot be created or written.  The message names the folder."""
+
+
 class SingularMassMatrixError(MbgenError, ArithmeticError):
     """The mass matrix is not positive definite at the given state.
 
@@ -82,3 +87,20 @@ class IntegrationError(MbgenError, ArithmeticError):
 
 class CheckFailed(MbgenError, AssertionError):
     """A verification found an error above its tolerance."""
+
+
+class ArgumentError(MbgenError, ValueError):
+    """An argument of a runtime call is invalid: a wrong shape or length, a number that
+    cannot be a double (``t=10**400``), a tolerance or step that is not a positive finite
+    number, a step limit out of range, ...  The message names the argument and the fix."""
+
+
+class ArgumentTypeError(ArgumentError, TypeError):
+    """An argument has the wrong type: a complex or string time, a complex or object array,
+    ``None`` where a number is required.  Also a ``TypeError``."""
+
+
+class CheckInconclusive(CheckFailed):
+    """A verification compared nothing: every sample failed in every back end (a zero
+    mass, a NaN parameter, a singular mass matrix everywhere), or no samples were asked
+    for.  Not a pass: ``mbgen check`` exits with its own code (6)."""

@@ -45,6 +45,8 @@ class PipelineResult:
     compiled: CompiledModel | None
     timings: Mapping[str, float] = field(default_factory=dict)
     compile_cached: bool = False
+    #: the parameter values baked in (``baked`` no longer holds them; the check needs them)
+    fixed: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def layout(self):
@@ -155,7 +157,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         module = timed("compile", load, rendered)
         compiled = CompiledModel(rendered, module, rendered.layout, rendered.defaults,
                                  rendered.outputs)
-    return PipelineResult(equations, baked, kernel, rendered, compiled, timings, cached)
+    return PipelineResult(equations, baked, kernel, rendered, compiled, timings, cached,
+                          {k: float(v) for k, v in (fixed or {}).items()})
 
 
 def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, *,

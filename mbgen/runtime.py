@@ -8,27 +8,121 @@ All three expose the same interface, so they can be compared and swapped:
 ``mass_matrix``, ``forcing``, ``energy``
     The other outputs, when they were generated.
 
-Every call returns a **new** array, validates ``x``, ``p`` and ``r`` (a wrong
-length is a ``ValueError``, a non-real dtype a ``TypeError``; non-contiguous
-input is accepted) and raises :class:`~mbgen.errors.SingularMassMatrixError` or
+Every call returns a **new** array, validates ``t``, ``x``, ``p`` and ``r`` (a
+wrong length is an :class:`~mbgen.errors.ArgumentError`, also a ``ValueError``; a
+non-real dtype or a complex or string ``t`` an :class:`~mbgen.errors.ArgumentTypeError`,
+also a ``TypeError``; non-contiguous, read-only and byte-swapped input is accepted) and raises :class:`~mbgen.errors.SingularMassMatrixError` or
 :class:`~mbgen.errors.NonFiniteResultError` instead of returning NaNs.
 """
 
 from __future__ import annotations
 
+import numbers
 import time
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from .errors import (IntegrationError, MbgenError, NonFiniteResultError, SingularConstraintError,
+from .errors import (ArgumentError, ArgumentTypeError, IntegrationError, MbgenError,
+                     NonFiniteResultError, SingularConstraintError,
                      SingularMassMatrixError)
 from .layout import Layout
 from .optimize import Output
 from .render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
 
 F64 = np.dtype(np.float64)
+#: Largest ``max_steps`` the C integrators take (their ``long``; 64-bit Unix).
+LONG_MAX = 2**63 - 1
+
+
+# ---------------------------------------------------------------- argument checks
+# Called off the fast path only (a call whose arguments are not already a float ``t`` and
+# contiguous float64 arrays of the right length), so they may take their time.
+
+def real_number(value, what: str) -> float:
+    """``value`` as a double: a Python or NumPy real (or a 0-d real array).
+
+    Raises ArgumentTypeError for a complex, string, ``None`` ... and ArgumentError for
+    an integer or fraction too large for a double (``10**400``).
+    """
+    if value.__class__ is float:
+        return value
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value[()]
+    if not isinstance(value, numbers.Real):
+        raise ArgumentTypeError(f"{what} must be a real number (int, float or a NumPy real); "
+                                f"got {type(value).__name__} {value!r:.80}")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ArgumentError(f"{what} = {value!r:.40} is too large for a double "
+                            f"(|value| > 1.8e308); pass a finite float") from None
+
+
+def _real_vector(value, n: int, what: str, names) -> np.ndarray:
+    """``value`` as a new C-contiguous float64 array of shape ``(n,)``, or a named error."""
+    try:
+        a = np.asarray(value)
+    except Exception as exc:  # ragged lists and the like
+        raise ArgumentError(f"{what} must be a 1-D array of {n} numbers {list(names)}: "
+                            f"{exc}") from None
+    if a.dtype.kind not in "iuf":
+        raise ArgumentTypeError(f"{what} must hold real numbers (float64); got dtype {a.dtype}")
+    if a.shape != (n,):
+        raise ArgumentError(f"{what} must have shape ({n},) for {list(names)}; got shape "
+                            f"{a.shape}")
+    return np.ascontiguousarray(a, dtype=F64)
+
+
+def _times(t_eval) -> np.ndarray:
+    """Output times: a 1-D array of finite, strictly increasing reals (at most 2**31 - 1)."""
+    try:
+        t = np.asarray(t_eval)
+    except Exception:
+        raise ArgumentError(f"t_eval must be a 1-D array of increasing times; got "
+                            f"{t_eval!r:.80}") from None
+    if t.dtype.kind not in "iuf" and not (t.dtype.kind == "O" and t.size and all(
+            isinstance(v, numbers.Real) for v in t.flat)):
+        raise ArgumentTypeError(f"t_eval must hold real numbers; got dtype {t.dtype} "
+                                f"({t_eval!r:.80})")
+    try:
+        t = t.astype(F64)
+    except OverflowError:
+        raise ArgumentError(f"t_eval holds a number too large for a double: {t_eval!r:.80}") \
+            from None
+    if t.ndim != 1 or t.size < 1:
+        raise ArgumentError(f"t_eval must be a 1-D array of at least one time; got shape "
+                            f"{t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ArgumentError("t_eval must hold finite times")
+    if t.size > 2**31 - 1:
+        raise ArgumentError("t_eval has too many times for the C integrator (int n_out)")
+    with np.errstate(over="ignore"):  # [-1e308, 1e308]: the difference is inf, still > 0
+        steps = np.diff(t)
+    if np.any(steps <= 0):
+        i = int(np.argmax(steps <= 0))
+        raise ArgumentError(f"t_eval must be strictly increasing; t_eval[{i + 1}] = "
+                            f"{t[i + 1]!r} follows t_eval[{i}] = {t[i]!r}")
+    return t
+
+
+def step_count(value, what: str = "max_steps", limit: int = LONG_MAX) -> int:
+    """A step limit: an integer (or integral float) in ``[0, limit]``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ArgumentTypeError(f"{what} must be an integer >= 0 (0: the default); got "
+                                f"{type(value).__name__} {value!r:.40}")
+    if isinstance(value, numbers.Integral):
+        v = int(value)
+    else:
+        f = float(value)
+        if not (np.isfinite(f) and f.is_integer()):
+            raise ArgumentError(f"{what} must be an integer >= 0 (0: the default); got {value!r}")
+        v = int(f)
+    if not 0 <= v <= limit:
+        raise ArgumentError(f"{what} must be in [0, {limit}] (0: the default); got {v}")
+    return v
+
 
 
 class ModelBase:
@@ -70,15 +164,7 @@ class ModelBase:
         if (type(value) is np.ndarray and value.dtype is F64 and value.shape == (n,)
                 and value.flags.c_contiguous):
             return value
-        try:
-            a = np.asarray(value)
-        except Exception as exc:  # ragged lists and the like
-            raise ValueError(f"{what} must be a 1-D array of {n} numbers {list(names)}: {exc}") from None
-        if a.dtype.kind not in "iuf":
-            raise TypeError(f"{what} must hold real numbers (float64); got dtype {a.dtype}")
-        if a.shape != (n,):
-            raise ValueError(f"{what} must have shape ({n},) for {list(names)}; got shape {a.shape}")
-        return np.ascontiguousarray(a, dtype=F64)
+        return _real_vector(value, n, what, names)
 
     def _x(self, x) -> np.ndarray:
         return self._vector(x, self.n_x, "state x", self.state_names)
@@ -86,8 +172,8 @@ class ModelBase:
     def _p(self, p) -> np.ndarray:
         if p is None:
             if self.default_parameters is None and self.n_p:
-                raise ValueError(f"model {self.name!r} has no default for every parameter "
-                                 f"{list(self.parameter_names)}; pass p")
+                raise ArgumentError(f"model {self.name!r} has no default for every parameter "
+                                    f"{list(self.parameter_names)}; pass p")
             return self.default_parameters if self.n_p else np.zeros(0)
         return self._vector(p, self.n_p, "parameters p", self.parameter_names)
 
@@ -98,10 +184,7 @@ class ModelBase:
 
     @staticmethod
     def _t(t) -> float:
-        try:
-            return float(t)
-        except (TypeError, ValueError):
-            raise TypeError(f"time t must be a real number, got {t!r}") from None
+        return real_number(t, "time t")
 
     def _fail(self, status: int, what: str, t, x) -> None:
         where = f"at t={t!r}, x={dict(zip(self.state_names, np.asarray(x).tolist()))}"
@@ -208,13 +291,17 @@ class ModelBase:
         from .errors import ConstraintError
 
         x = self._x(x).copy()
+        tol = real_number(tol, "tol")
+        if not tol >= 0:
+            raise ArgumentError(f"tol must be a number >= 0; got {tol!r}")
+        max_iterations = step_count(max_iterations, "max_iterations")
         if not self.dependent_coordinates:
             return x
         for o in (Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN):
             self._require(o)
         idx = [self.state_names.index(n) for n in self.dependent_coordinates]
         res = np.inf
-        for _ in range(int(max_iterations)):
+        for _ in range(max_iterations):
             f = self._evaluate(Output.HOLONOMIC, t, x, p, r)
             res = float(np.max(np.abs(f)))
             if res <= tol * (1.0 + float(np.max(np.abs(x[idx])))):
@@ -360,8 +447,9 @@ class CompiledModel(ModelBase):
             if not (type(x) is ndarray and x.ndim == 1) \
                     or p is not None and not (type(p) is ndarray and p.ndim == 1) \
                     or r is not None and not (type(r) is ndarray and r.ndim == 1):
-                if is_batch(x, p, r):  # (k, n) arrays: one C loop over the k items
-                    return evaluate(model, info, t, x, p, r)
+                p_, r_ = (p if has_p else None), (r if has_r else None)  # others are ignored
+                if is_batch(x, p_, r_):  # (k, n) arrays: one C loop over the k items
+                    return evaluate(model, info, t, x, p_, r_)
             xa = check_x(x)
             out = empty(size)
             args = [as_t(t), buf("double[]", xa)]
@@ -463,8 +551,9 @@ class CompiledModel(ModelBase):
         ------
         MbgenError
             The integrator was not generated.
-        ValueError
-            Bad ``t_eval``, ``x0``, tolerances or steps.
+        ArgumentError
+            Bad ``t_eval``, ``x0``, tolerances, steps or step limit (ArgumentTypeError, also
+            a ``TypeError``, for a wrong type: a complex or string number, ``None``).
         IntegrationError
             The C integrator failed (step too small, step limit, singular
             matrix, mass matrix not positive definite, non-finite result).
@@ -474,44 +563,29 @@ class CompiledModel(ModelBase):
         except ValueError:
             output = None
         if output is None or not output.is_integrator:
-            raise MbgenError(f"{method!r} is not an integrator; choose from 'dopri5', 'rk4', "
-                             f"'rosenbrock'")
+            raise ArgumentError(f"{method!r:.60} is not an integrator; choose from 'dopri5', "
+                                f"'rk4', 'rosenbrock'")
         self._require(output)
-        try:
-            t = np.array(t_eval, dtype=F64)
-        except (TypeError, ValueError):
-            raise ValueError(f"t_eval must be a 1-D array of increasing times; got {t_eval!r}") \
-                from None
-        if t.ndim != 1 or t.size < 1:
-            raise ValueError(f"t_eval must be a 1-D array of at least one time; got shape "
-                             f"{t.shape}")
-        if not np.all(np.isfinite(t)):
-            raise ValueError("t_eval must hold finite times")
-        if t.size > 2**31 - 1:
-            raise ValueError("t_eval has too many times for the C integrator (int n_out)")
-        if np.any(np.diff(t) <= 0):
-            i = int(np.argmax(np.diff(t) <= 0))
-            raise ValueError(f"t_eval must be strictly increasing; t_eval[{i + 1}] = {t[i + 1]!r} "
-                             f"follows t_eval[{i}] = {t[i]!r}")
+        t = _times(t_eval)
         from .targets import batch
 
         xa = None if batch.is_batch(x0, p, r) else self._x(x0)
         if xa is not None and not np.all(np.isfinite(xa)):
-            raise ValueError(f"initial state x0 must be finite; got {xa.tolist()}")
+            raise ArgumentError(f"initial state x0 must be finite; got {xa.tolist()}")
         if output is Output.RK4:
             if h is None:
-                raise ValueError("the rk4 integrator takes a fixed step: pass h > 0")
-        rtol, atol, h_max = float(rtol), float(atol), float(h_max)
-        h0 = 0.0 if h is None else float(h)
+                raise ArgumentError("the rk4 integrator takes a fixed step: pass h > 0")
+        rtol, atol = real_number(rtol, "rtol"), real_number(atol, "atol")
+        h_max = real_number(h_max, "h_max")
+        h0 = 0.0 if h is None else real_number(h, "h")
         for name, value in (("rtol", rtol), ("atol", atol), ("h", h0)):
             if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0; got {value!r}")
+                raise ArgumentError(f"{name} must be a finite number >= 0; got {value!r}")
         if h is not None and not h0 > 0:
-            raise ValueError(f"h must be > 0; got {h0!r}")
+            raise ArgumentError(f"h must be > 0; got {h0!r}")
         if not h_max >= 0:
-            raise ValueError(f"h_max must be >= 0 (0: unbounded); got {h_max!r}")
-        if int(max_steps) != max_steps or max_steps < 0:
-            raise ValueError(f"max_steps must be an integer >= 0 (0: default); got {max_steps!r}")
+            raise ArgumentError(f"h_max must be >= 0 (0: unbounded); got {h_max!r}")
+        max_steps = step_count(max_steps, limit=2**(8 * self.ffi.sizeof("long") - 1) - 1)
 
         if xa is None:
             return batch.integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
@@ -570,12 +644,22 @@ class PythonModel(ModelBase):
     def _evaluate(self, output, t, x, p, r):
         self._require(output)
         fn = getattr(self.module, output.value)
+        takes = self._args[output]
+        p_, r_ = (p if "p" in takes else None), (r if "r" in takes else None)
+        if not all(v is None or type(v) is np.ndarray and v.ndim == 1 for v in (x, p_, r_)):
+            from .targets.batch import _batch_args, _scalar_time, is_batch
+
+            if is_batch(x, p_, r_):  # as the C batch loop: item by item, the first failure raises
+                return self._batch(output, fn, t, x, p_, r_, _batch_args, _scalar_time)
         xa = self._x(x)
         args = [self._t(t), xa]
         if "p" in self._args[output]:
             args.append(self._p(p))
         if "r" in self._args[output]:
             args.append(self._r(r))
+        return self._call(fn, output, args, t, xa)
+
+    def _call(self, fn, output, args, t, xa):
         try:
             return fn(*args)
         except self.module.NotPositiveDefinite:
@@ -584,3 +668,29 @@ class PythonModel(ModelBase):
             self._fail(2, output.value, t, xa)
         except getattr(self.module, "ConstraintSingular", ()):
             self._fail(7, output.value, t, xa)
+
+    def _batch(self, output, fn, t, x, p, r, batch_args, _scalar_time):
+        k, (xa, xs), (pa, ps), (ra, rs) = batch_args(self, x, p, r)
+        if _scalar_time(t):
+            ta, ts = np.array([self._t(t)]), 0
+        else:
+            try:
+                shape = np.shape(t)
+            except ValueError:
+                shape = "ragged"
+            if shape != (k,):
+                raise ArgumentError(f"t must be a number or have shape ({k},); got shape {shape}")
+            ta, ts = _real_vector(t, k, "t", ()), 1
+        info = next(f for f in self.rendered.functions if Output(f.output) is output)
+        out = np.empty((k,) + tuple(info.out_shape))
+        for i in range(k):
+            args = [float(ta[i * ts]), xa[i * (xs > 0)]]
+            if "p" in self._args[output]:
+                args.append(pa[i * (ps > 0)])
+            if "r" in self._args[output]:
+                args.append(ra[i * (rs > 0)])
+            try:
+                out[i] = self._call(fn, output, args, args[0], args[1])
+            except MbgenError as exc:
+                raise type(exc)(f"batch item {i} of {k}: {exc}") from None
+        return out

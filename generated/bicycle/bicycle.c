@@ -4458,6 +4458,9 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             h = t_new - t;
             h_abs = fabs(h);
             inv_hg = 1.0 / (h * 0.25);
+            if (!isfinite(inv_hg)) {  /* a step too small for I/(h gamma) (a subnormal span) */
+                return BICYCLE_STEP_TOO_SMALL;
+            }
             for (i = 0; i < 100; ++i) {
                 G[i] = -J[i];
             }

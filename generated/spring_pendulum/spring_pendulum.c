@@ -426,6 +426,9 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             h = t_new - t;
             h_abs = fabs(h);
             inv_hg = 1.0 / (h * 0.25);
+            if (!isfinite(inv_hg)) {  /* a step too small for I/(h gamma) (a subnormal span) */
+                return SPRING_PENDULUM_STEP_TOO_SMALL;
+            }
             for (i = 0; i < 16; ++i) {
                 G[i] = -J[i];
             }

@@ -720,6 +720,9 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             h = t_new - t;
             h_abs = fabs(h);
             inv_hg = 1.0 / (h * 0.25);
+            if (!isfinite(inv_hg)) {  /* a step too small for I/(h gamma) (a subnormal span) */
+                return STIFF_CHAIN_STEP_TOO_SMALL;
+            }
             for (i = 0; i < 100; ++i) {
                 G[i] = -J[i];
             }

@@ -60,25 +60,47 @@ def _rows(model, value, n: int, what: str, names, k: int | None):
     """``(array (k', n) C-contiguous, stride)``: a 1-D value broadcasts (stride 0)."""
     import numpy as np
 
+    from ..errors import ArgumentError, ArgumentTypeError
+
     try:
         a = np.asarray(value)
     except Exception as exc:  # ragged lists and the like
-        raise ValueError(f"{what} must be an array of shape ({n},) or (k, {n}): {exc}") from None
+        raise ArgumentError(f"{what} must be an array of shape ({n},) or (k, {n}): {exc}") \
+            from None
     if a.dtype.kind not in "iuf":
-        raise TypeError(f"{what} must hold real numbers (float64); got dtype {a.dtype}")
+        raise ArgumentTypeError(f"{what} must hold real numbers (float64); got dtype {a.dtype}")
     if a.ndim == 1 and a.shape == (n,):
         return np.ascontiguousarray(a, dtype=float).reshape(1, n), 0
     if a.ndim == 2 and a.shape[1] == n and (k is None or a.shape[0] == k):
         return np.ascontiguousarray(a, dtype=float), n
     want = f"({n},) or ({k if k is not None else 'k'}, {n})"
-    raise ValueError(f"{what} must have shape {want} for {list(names)}; got shape {a.shape}")
+    raise ArgumentError(f"{what} must have shape {want} for {list(names)}; got shape {a.shape}")
 
 
 def is_batch(x, p=None, r=None) -> bool:
     """Whether a call gets a batch: a 2-D ``x``, ``p`` or ``r``."""
     import numpy as np
 
-    return any(v is not None and np.ndim(v) == 2 for v in (x, p, r))
+    return any(v is not None and _two_d(v) for v in (x, p, r))
+
+
+def _scalar_time(t) -> bool:
+    """Whether a batch call's ``t`` is one number (else it must be one per item)."""
+    import numpy as np
+
+    try:
+        return np.ndim(t) == 0
+    except ValueError:  # ragged: not a number, and the shape check names it
+        return False
+
+
+def _two_d(v) -> bool:
+    import numpy as np
+
+    try:
+        return np.ndim(v) == 2
+    except ValueError:  # ragged nested lists: the array checks name the problem
+        return False
 
 
 def _batch_args(model, x, p, r, x_what="state x"):
@@ -87,10 +109,11 @@ def _batch_args(model, x, p, r, x_what="state x"):
 
     k = None
     for v, n in ((x, model.n_x), (p, model.n_p), (r, model.n_r)):
-        if v is not None and np.ndim(v) == 2:
+        if v is not None and _two_d(v):
             rows = np.shape(v)[0]
             if k is not None and rows != k:
-                raise ValueError(f"batch sizes differ: {k} and {rows} rows")
+                from ..errors import ArgumentError
+                raise ArgumentError(f"batch sizes differ: {k} and {rows} rows")
             k = rows
     xs = _rows(model, x, model.n_x, x_what, model.state_names, k)
     ps = _rows(model, model._p(None) if p is None else p, model.n_p, "parameters p",
@@ -107,13 +130,19 @@ def evaluate(model, info, t, x, p, r):
     from ..errors import MbgenError
 
     k, (xa, xs), (pa, ps), (ra, rs) = _batch_args(model, x, p, r)
-    if np.ndim(t) == 0:
+    if _scalar_time(t):
         ta, ts = np.array([model._t(t)]), 0
     else:
-        ta = np.ascontiguousarray(t, dtype=float)
-        if ta.shape != (k,):
-            raise ValueError(f"t must be a number or have shape ({k},); got shape {ta.shape}")
-        ts = 1
+        from ..errors import ArgumentError
+        from ..runtime import _real_vector
+
+        try:
+            shape = np.shape(t)
+        except ValueError:
+            shape = "ragged"
+        if shape != (k,):
+            raise ArgumentError(f"t must be a number or have shape ({k},); got shape {shape}")
+        ta, ts = _real_vector(t, k, "t", ()), 1
     out = np.empty((k,) + tuple(info.out_shape))
     status = np.zeros(k, dtype=np.intc)
     buf = model.ffi.from_buffer
@@ -144,13 +173,13 @@ def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
 
     import numpy as np
 
-    from ..errors import IntegrationError
+    from ..errors import ArgumentError, IntegrationError
 
     if on_failure not in ("raise", "record"):
-        raise ValueError(f"on_failure must be 'raise' or 'record'; got {on_failure!r}")
+        raise ArgumentError(f"on_failure must be 'raise' or 'record'; got {on_failure!r:.40}")
     k, (xa, xs), (pa, ps), (ra, rs) = _batch_args(model, x0, p, r, "initial states x0")
     if not np.all(np.isfinite(xa)):
-        raise ValueError("initial states x0 must be finite")
+        raise ArgumentError("initial states x0 must be finite")
     ffi, prefix = model.ffi, model.rendered.prefix
     buf = ffi.from_buffer
     opt = ffi.new(f"{prefix}_options *", {"rtol": rtol, "atol": atol, "h0": h0,

@@ -47,7 +47,7 @@ from tqdm import tqdm
 from ..scene import Scene, load_scene
 from .points import (BACKENDS, C_METHODS, DEFAULT_RTOLS, IMPLICIT_METHODS, SOLVE_IVP_METHODS,
                      Config, Point, configurations, plan, rk4_steps)
-from .reference import ATOL_RATIO, Reference, make_reference, pilot, typical_magnitude
+from .reference import ATOL_RATIO, TrueSolution, make_reference, pilot, typical_magnitude
 from .report import CSV_COLUMNS, ERROR_LEVELS, WorkPrecisionReport
 from .runs import run_tasks
 from .solve import Backends
@@ -157,7 +157,7 @@ def _reporter(progress) -> Callable[[str], None]:
     return lambda message: None
 
 
-__all__ = ["work_precision", "WorkPrecisionReport", "Point", "Config", "Reference",
+__all__ = ["work_precision", "WorkPrecisionReport", "Point", "Config", "TrueSolution",
            "configurations", "rk4_steps", "typical_magnitude", "DEFAULT_RTOLS",
            "SOLVE_IVP_METHODS", "IMPLICIT_METHODS", "C_METHODS", "BACKENDS", "ATOL_RATIO",
            "ERROR_LEVELS", "CSV_COLUMNS"]

@@ -18,7 +18,7 @@ import numpy as np
 from ..fileio import write_atomic
 from .plot import plot_report
 from .points import BACKENDS, FAILED, OK, OVER_BUDGET, SKIPPED, Config, Point
-from .reference import Reference
+from .reference import TrueSolution
 
 #: Error levels of the summary (max abs error over the output grid).
 ERROR_LEVELS = (1e-2, 1e-4, 1e-6, 1e-8, 1e-10)
@@ -42,7 +42,7 @@ class WorkPrecisionReport:
         ``atol = rtol * atol_scale``.
     atol_note : str
         How ``atol_scale`` was chosen.
-    reference : Reference
+    reference : TrueSolution
     points : tuple of Point
         Configuration by configuration, tolerance by tolerance.
     repeats : int
@@ -57,7 +57,7 @@ class WorkPrecisionReport:
     rtols: tuple[float, ...]
     atol_scale: float
     atol_note: str
-    reference: Reference
+    reference: TrueSolution
     points: tuple[Point, ...]
     repeats: int
     time_budget: float

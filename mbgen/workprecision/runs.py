@@ -49,8 +49,9 @@ from typing import Callable, Iterator, Sequence
 import numpy as np
 from tqdm import tqdm
 
+from ..errors import MbgenError
 from .points import FAILED, OK, OVER_BUDGET, SKIPPED, Point, Task
-from .reference import Reference
+from .reference import TrueSolution
 from .solve import Backends, Failed, solve
 
 #: Shortest loop (seconds) of runs that counts as one timing of a fast point.
@@ -91,7 +92,7 @@ def _run_c(model, task: Task, t_eval, x0, p) -> _Run:
     start = time.perf_counter()
     try:
         out = model.integrate(task.config.method, t_eval, x0, p, **kw)
-    except Exception as exc:  # IntegrationError and friends: recorded, not raised
+    except MbgenError as exc:  # IntegrationError and friends: recorded (a bug propagates)
         raise Failed(FAILED, f"{type(exc).__name__}: {exc}") from None
     wall = time.perf_counter() - start
     return _Run(out.x, out.n_rhs, out.n_jac, out.n_lu, wall)
@@ -115,7 +116,7 @@ def _errors(x: np.ndarray, ref: np.ndarray) -> dict[str, float]:
 
 
 def _measure(task: Task, probe: Callable[[float], _Run], timed: Callable[[], float],
-             reference: Reference, repeats: int, budget: float) -> Point:
+             reference: TrueSolution, repeats: int, budget: float) -> Point:
     """Probe once (counts, errors, budget), then time ``repeats`` plain runs."""
     try:
         run_ = probe(time.perf_counter() + budget)

@@ -14,6 +14,7 @@ from typing import Callable, Sequence
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from ..errors import MbgenError
 from ..optimize import Output
 from ..pipeline import python_model, run
 from ..reference import LambdifiedModel
@@ -74,7 +75,7 @@ def solve(fun, jac, method: str, t_eval, x0, rtol: float, atol: float, *,
                         t_eval=t_eval if grid else None, **extra)
     except _OverBudget:
         raise Failed(OVER_BUDGET, "stopped at the time budget") from None
-    except Exception as exc:  # a failed point is recorded, whatever went wrong
+    except MbgenError as exc:  # a singular or non-finite RHS: a failed point (a bug propagates)
         raise Failed(FAILED, f"{type(exc).__name__}: {exc}") from None
     if not sol.success:
         raise Failed(FAILED, f"solve_ivp: {sol.message}")
