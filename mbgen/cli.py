@@ -166,8 +166,22 @@ def cmd_simulate(args) -> int:
     print(f"{scene.name}: {args.method} rtol={args.rtol:g} atol={args.atol:g}, "
           f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls, {traj.wall_time:.3f} s")
     print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
+    _print_constraint_start(model, x0, traj)
     print(f"trajectory: {path} ({len(traj.t)} rows)")
     return EXIT_OK
+
+
+def _print_constraint_start(model, x0, traj) -> None:
+    """Constrained models: the completed dependent coordinates and the largest residual."""
+    dependent = getattr(model, "dependent_coordinates", ())
+    if not dependent:
+        return
+    moved = [f"{n} {x0[model.state_names.index(n)]:.6g} -> {traj.x[0][model.state_names.index(n)]:.10g}"
+             for n in dependent]
+    print("consistent start (dependent coordinates solved from the constraints): "
+          + ", ".join(moved))
+    print(f"largest constraint residual |f_h|: {traj.max_residual:.3g}"
+          + ("" if traj.method.startswith("C ") else " (solve_ivp does not project)"))
 
 
 def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
