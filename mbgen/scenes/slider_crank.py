@@ -12,10 +12,11 @@ through ``O`` along n1.  The loop closes where the rod's end meets the piston::
 ``lb > la`` the rod never stands across the guide, so the dependent block of the
 constraint Jacobian, ``[[-1, -lb sin q2], [0, lb cos q2]]`` (rows n1, n2; columns
 ``u3``, ``u2``), stays invertible: ``det = -lb cos q2 != 0``.  The crank is driven by
-the input torque ``T`` (about n3) and the piston pushed back by a gas spring
-``-k (q3 - s0)`` along n1; a viscous damper ``c`` on the crank dissipates.
+the input torque ``T`` (about n3); the piston compresses a gas spring (stiffness
+``k``, natural length ``l0``) against the cylinder head ``H = lh n1``; a viscous
+damper ``c`` on the crank dissipates.
 
-Power balance: ``d(T + V)/dt = T q1' - c q1'^2`` (``V = k (q3 - s0)^2 / 2``).  The
+Power balance: ``d(T + V)/dt = T q1' - c q1'^2`` (``V = k (lh - q3 - l0)^2 / 2``).  The
 multipliers (``constraint_forces``, rows ``pin_x``, ``pin_y``) are the force the
 piston exerts on the rod at the pin, along n1 and n2.
 """
@@ -28,11 +29,11 @@ from mbgen import Model, Output, Scene
 
 
 def build_model() -> Model:
-    """The slider-crank; constants ``la lb ma mb ms k s0 c``, input ``T``."""
+    """The slider-crank; constants ``la lb ma mb ms k lh l0 c``, input ``T``."""
     m = Model("slider_crank")
     q1, q2, q3 = m.coordinates("q1 q2 q3")
     u1, u2, u3 = m.speeds("u1 u2 u3")
-    la, lb, ma, mb, ms, k, s0, c = m.constants("la lb ma mb ms k s0 c")
+    la, lb, ma, mb, ms, k, lh, l0, c = m.constants("la lb ma mb ms k lh l0 c")
     T, = m.inputs("T")
     N = m.newtonian()
     A = m.rotate(N, "A", 3, q1)
@@ -44,7 +45,7 @@ def build_model() -> Model:
     m.body("rod", B, mb, (0, 0, mb * lb**2 / 12), m.point("GB", PA, lb / 2 * B.x))
     m.particle("piston", S, ms)
     m.torque(A, (T - c * u1) * N.z)
-    m.force(S, -k * (q3 - s0) * N.x)
+    m.spring("gas", m.point("H", m.origin, lh * N.x), S, k, l0)
     m.coincident(PB, S, [q3, q2], axes=(1, 2), name="pin")
     return m
 
@@ -64,7 +65,7 @@ def scene() -> Scene:
         model=build_model(),
         outputs=(Output.RHS, Output.ENERGY, Output.CONSTRAINT_FORCES, Output.DOPRI5),
         parameters={"la": la, "lb": lb, "ma": 1.0, "mb": 0.8, "ms": 0.5, "k": 200.0,
-                    "s0": 0.4, "c": 0.05},
+                    "lh": 0.6, "l0": 0.2, "c": 0.05},
         initial_state={"q1": 0.3, "q2": q2, "q3": q3, "u1": 0.0},
         t_span=(0.0, 2.0),
         description="slider-crank driven by the input torque T, closed loop with 1 dof",
