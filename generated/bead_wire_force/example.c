@@ -18,7 +18,8 @@ int main(void)
     const double x0[BEAD_WIRE_FORCE_N_X] = { 0.5, 0.0, -0.8 };
     /* free parameters p = [omega, m] */
     const double p[BEAD_WIRE_FORCE_N_P] = { 2.0, 0.1 };
-    const bead_wire_force_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    const bead_wire_force_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     bead_wire_force_stats stats;
     double t[N_OUT];
     double x[N_OUT * BEAD_WIRE_FORCE_N_X];
@@ -42,5 +43,6 @@ int main(void)
     }
     fprintf(stderr, "%ld steps (%ld rejected), %ld RHS calls, %ld Jacobians\n",
             stats.n_steps, stats.n_rejected, stats.n_rhs, stats.n_jac);
+    fprintf(stderr, "largest constraint residual before projection: %g\n", stats.max_residual);
     return 0;
 }

@@ -18,7 +18,8 @@ int main(void)
     const double x0[FOUR_BAR_N_X] = { 0.5, 0.3570423653981547, 1.4771923848205422, 0.0 };
     /* free parameters p = [la, lb, lc, ld, ma, mb, mc] */
     const double p[FOUR_BAR_N_P] = { 1.0, 2.0, 2.0, 2.0, 1.0, 1.5, 1.2 };
-    const four_bar_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    const four_bar_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     four_bar_stats stats;
     double t[N_OUT];
     double x[N_OUT * FOUR_BAR_N_X];
@@ -42,5 +43,6 @@ int main(void)
     }
     fprintf(stderr, "%ld steps (%ld rejected), %ld RHS calls, %ld Jacobians\n",
             stats.n_steps, stats.n_rejected, stats.n_rhs, stats.n_jac);
+    fprintf(stderr, "largest constraint residual before projection: %g\n", stats.max_residual);
     return 0;
 }

@@ -18,7 +18,8 @@ int main(void)
     const double x0[PARABOLOID_NORMAL_N_X] = { 1.0, 0.0, 0.5, 0.0, 2.5 };
     /* free parameters p = [k, m] */
     const double p[PARABOLOID_NORMAL_N_P] = { 0.5, 1.0 };
-    const paraboloid_normal_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    const paraboloid_normal_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     paraboloid_normal_stats stats;
     double t[N_OUT];
     double x[N_OUT * PARABOLOID_NORMAL_N_X];
@@ -42,5 +43,6 @@ int main(void)
     }
     fprintf(stderr, "%ld steps (%ld rejected), %ld RHS calls, %ld Jacobians\n",
             stats.n_steps, stats.n_rejected, stats.n_rhs, stats.n_jac);
+    fprintf(stderr, "largest constraint residual before projection: %g\n", stats.max_residual);
     return 0;
 }

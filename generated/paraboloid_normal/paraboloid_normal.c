@@ -56,13 +56,7 @@ void paraboloid_normal_default_parameters(double *p)
 static void paraboloid_normal_con_lu_solve(const double *LU, const int *piv, double *b)
 {
     int i, k;
-    for (k = 0; k < 1; ++k) {
-        if (piv[k] != k) {
-            const double tmp = b[k];
-            b[k] = b[piv[k]];
-            b[piv[k]] = tmp;
-        }
-    }
+    (void)piv;   /* one row: nothing to swap (and gcc -O2 cannot see piv[0] == 0) */
     for (i = 1; i < 1; ++i) {
         for (k = 0; k < i; ++k) {
             b[i] -= LU[i * 1 + k] * b[k];

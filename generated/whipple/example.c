@@ -18,7 +18,8 @@ int main(void)
     const double x0[WHIPPLE_N_X] = { 0.0, 0.0, 0.0, 0.0, -0.3141592653589793, 0.0, 0.0, 0.0, 0.5, 0.0, 15.333333333333332 };
     /* free parameters p = [g] */
     const double p[WHIPPLE_N_P] = { 9.81 };
-    const whipple_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    const whipple_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     whipple_stats stats;
     double t[N_OUT];
     double x[N_OUT * WHIPPLE_N_X];
@@ -42,5 +43,6 @@ int main(void)
     }
     fprintf(stderr, "%ld steps (%ld rejected), %ld RHS calls, %ld Jacobians\n",
             stats.n_steps, stats.n_rejected, stats.n_rhs, stats.n_jac);
+    fprintf(stderr, "largest constraint residual before projection: %g\n", stats.max_residual);
     return 0;
 }
