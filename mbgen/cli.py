@@ -151,11 +151,12 @@ def cmd_check(args) -> int:
 def cmd_simulate(args) -> int:
     from .outputs import INTEGRATORS, Output
     from .pipeline import compile
-    from .simulate import simulate, simulate_in_c
+    from .simulate import holonomic_outputs, simulate, simulate_in_c
 
     scene = _scene(args)
     in_c = args.method.lower() in {o.value for o in INTEGRATORS}
     outputs = tuple(scene.outputs) + ((Output(args.method.lower()),) if in_c else ())
+    outputs += holonomic_outputs(scene)   # consistent initial state (constrained scenes)
     model = compile(scene, outputs)
     x0 = scene.x0(model.layout)
     t_end = args.t_end if args.t_end is not None else scene.t_span[1]

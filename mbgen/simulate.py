@@ -64,6 +64,21 @@ class Trajectory:
         return path
 
 
+def holonomic_outputs(scene) -> tuple:
+    """The outputs :func:`consistent_start` needs for ``scene`` (none without configuration
+    constraints): ``(Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN)``."""
+    from .outputs import Output
+
+    model = scene.model
+    stated = getattr(model, "constraints_", None)
+    if stated is not None:
+        has = any(c.kind == "holonomic" for c in stated)
+    else:
+        c = getattr(model, "constraints", None)
+        has = c is not None and c.m_h > 0
+    return (Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN) if has else ()
+
+
 def consistent_start(model: ModelBase, x0, p=None, r=None, t0: float = 0.0) -> np.ndarray:
     """``x0`` with its dependent coordinates solved from the configuration constraints.
 
