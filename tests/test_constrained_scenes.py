@@ -244,3 +244,63 @@ def test_whipple_exact_linearisation_equals_the_benchmark():
     np.testing.assert_allclose(np.sort_complex(ev), np.sort_complex(np.array(
         [-14.07838969, -0.77534188 - 4.46486771j, -0.77534188 + 4.46486771j, -0.32286642])),
         atol=1e-7)
+
+
+# ------------------------------------------------------------------ diagnostics
+def test_stress_four_bar_near_its_dead_point():
+    """The 50-digit reference reduces by the constraints as the generated code does; the dead
+    point is approached (cond grows like 1/delta) and hit (a named SingularConstraintError)."""
+    from mbgen.stress import stress
+
+    report = stress(mbgen.load_scene("four_bar", dead_point=True), size="ci")
+    assert report.ok, report.format()
+    dead = [c for c in report.cases if c.name.startswith("dead point")]
+    assert len(dead) == 4
+    conds = [c.data["cond"] for c in dead[:3]]
+    assert conds[0] < conds[1] < conds[2] and conds[2] > 1e5
+    assert dead[3].reason == "numerically singular: SingularConstraintError"
+    assert all(c.reason == "within bound" for c in report.cases if c.kind == "fp")
+
+
+def test_stress_reference_reduces_like_the_generated_code():
+    """Off the 50-digit reduction's result by a dropped acceleration bias, the fp cases fail."""
+    from mbgen.stress.context import make_context
+    from mbgen.stress.precision import evaluate_point
+
+    ctx = make_context("rolling_disc")
+    x = ctx.x0 + np.linspace(0.1, 0.5, ctx.x0.size)
+    pr = evaluate_point(ctx.model, ctx.hp, 0.0, x, ctx.p0, ctx.values)
+    assert pr.abs_err <= pr.allowed and pr.reference.positive_definite
+    published = np.array(pr.reference.f[5:], dtype=float)
+    q2, u1, u2, u3 = x[1], x[5], x[6], x[7]
+    np.testing.assert_allclose(published, [(6 * u2 * u3 - u3**2 * np.tan(q2) + 4 * np.sin(q2)) / 5,
+                                           -2 * u1 * u3 / 3, u1 * (-2 * u2 + u3 * np.tan(q2))],
+                               rtol=1e-14)
+
+
+def test_work_precision_error_includes_the_constraint_residual():
+    from mbgen.workprecision import work_precision
+
+    report = work_precision("four_bar", rtols=(1e-4, 1e-7), methods=("RK45", "dopri5"),
+                            backends=("c",), repeats=1, t_eval_points=11)
+    assert all(p.ok for p in report.points)
+    for p in report.points:
+        assert np.isfinite(p.err_residual) and p.err_residual > 0
+        assert p.err_max >= p.err_residual
+    loose = [p for p in report.points if p.rtol == 1e-4]
+    tight = [p for p in report.points if p.rtol == 1e-7]
+    assert max(p.err_residual for p in tight) < min(p.err_residual for p in loose)
+    assert "err_residual" in report.to_csv().splitlines()[0]
+
+
+def test_cli_simulate_starts_consistent_and_reports_the_residual(tmp_path, capsys):
+    from mbgen.cli import main
+
+    csv = tmp_path / "fb.csv"
+    assert main(["simulate", "four_bar", "--method", "dopri5", "--csv", str(csv),
+                 "-O", "dead_point=true"]) == 0
+    out = capsys.readouterr().out
+    assert "consistent start" in out and "largest constraint residual" in out
+    rows = np.loadtxt(csv, delimiter=",", skiprows=1)
+    c = result("four_bar", dead_point=True).compiled
+    assert np.max(np.abs(c.holonomic(0, rows[0, 1:]))) < 1e-12

@@ -65,11 +65,12 @@ def build_model() -> Model:
     return m
 
 
-def dead_angle(la: float, lb: float, lc: float, ld: float) -> float:
-    """Extreme crank angle ``q1*`` of a linkage with ``la = ld`` (coupler and rocker in line)."""
-    if not math.isclose(la, ld):
-        raise ValueError("dead_angle assumes la == ld")
-    return 2.0 * math.asin((lb + lc) / (2.0 * la))
+def dead_angle(la: float, lb: float, lc: float, ld: float) -> float | None:
+    """Extreme crank angle ``q1* > 0`` where coupler and rocker lie in line (``|PA D| = lb +
+    lc``, law of cosines in the triangle ``O PA D``), or None when the crank never gets
+    there (``la = ld``: ``q1* = 2 asin((lb + lc) / (2 la))``)."""
+    c = (la**2 + ld**2 - (lb + lc)**2) / (2.0 * la * ld)
+    return math.acos(c) if -1.0 <= c <= 1.0 else None
 
 
 def closed_loop(q1: float, lengths, branch: int = 1) -> tuple[float, float]:
@@ -87,9 +88,9 @@ def closed_loop(q1: float, lengths, branch: int = 1) -> tuple[float, float]:
     dx, dy = ld - ax, -ay
     L = math.hypot(dx, dy)
     a = (lb**2 - lc**2 + L**2) / (2.0 * L)
-    if lb**2 - a**2 < 0:
+    if lb**2 - a**2 < -1e-12 * lb**2:
         raise ValueError(f"the loop cannot close at q1 = {q1}")
-    h = math.sqrt(lb**2 - a**2)
+    h = math.sqrt(max(lb**2 - a**2, 0.0))      # 0 at a dead point (round-off clipped)
     px = ax + (a * dx - branch * h * dy) / L
     py = ay + (a * dy + branch * h * dx) / L
     q2 = math.atan2(py - ay, px - ax) - q1
