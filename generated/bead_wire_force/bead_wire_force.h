@@ -65,16 +65,16 @@ extern "C" {
 #define BEAD_WIRE_FORCE_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of bead_wire_force.h, .c and .py with this value blanked. */
-#define BEAD_WIRE_FORCE_CONTENT_HASH "6b0abb32f462ba10"
+#define BEAD_WIRE_FORCE_CONTENT_HASH "bb83cff51b82235a"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
-#define BEAD_WIRE_FORCE_STACK_CONSTRAINT_FORCES 712
+#define BEAD_WIRE_FORCE_STACK_CONSTRAINT_FORCES 1032
 #define BEAD_WIRE_FORCE_STACK_DEFAULT_PARAMETERS 256
-#define BEAD_WIRE_FORCE_STACK_DOPRI5 1888
-#define BEAD_WIRE_FORCE_STACK_HOLONOMIC 604
-#define BEAD_WIRE_FORCE_STACK_HOLONOMIC_JACOBIAN 596
-#define BEAD_WIRE_FORCE_STACK_RHS 712
+#define BEAD_WIRE_FORCE_STACK_DOPRI5 2208
+#define BEAD_WIRE_FORCE_STACK_HOLONOMIC 924
+#define BEAD_WIRE_FORCE_STACK_HOLONOMIC_JACOBIAN 916
+#define BEAD_WIRE_FORCE_STACK_RHS 1032
 
 int bead_wire_force_rhs(double t, const double *x, const double *p, double *dxdt);
 int bead_wire_force_constraint_forces(double t, const double *x, const double *p, double *lam);

@@ -76,17 +76,17 @@ extern "C" {
 #define PARABOLOID_NORMAL_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of paraboloid_normal.h, .c and .py with this value blanked. */
-#define PARABOLOID_NORMAL_CONTENT_HASH "2c667b2f859752ac"
+#define PARABOLOID_NORMAL_CONTENT_HASH "935048b19f113e71"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
-#define PARABOLOID_NORMAL_STACK_CONSTRAINT_FORCES 784
+#define PARABOLOID_NORMAL_STACK_CONSTRAINT_FORCES 1112
 #define PARABOLOID_NORMAL_STACK_DEFAULT_PARAMETERS 256
-#define PARABOLOID_NORMAL_STACK_DOPRI5 2200
-#define PARABOLOID_NORMAL_STACK_ENERGY 676
-#define PARABOLOID_NORMAL_STACK_HOLONOMIC 628
-#define PARABOLOID_NORMAL_STACK_HOLONOMIC_JACOBIAN 620
-#define PARABOLOID_NORMAL_STACK_RHS 784
+#define PARABOLOID_NORMAL_STACK_DOPRI5 2528
+#define PARABOLOID_NORMAL_STACK_ENERGY 1004
+#define PARABOLOID_NORMAL_STACK_HOLONOMIC 956
+#define PARABOLOID_NORMAL_STACK_HOLONOMIC_JACOBIAN 948
+#define PARABOLOID_NORMAL_STACK_RHS 1112
 
 int paraboloid_normal_rhs(double t, const double *x, const double *p, double *dxdt);
 int paraboloid_normal_energy(double t, const double *x, const double *p, double *energy);

@@ -77,8 +77,14 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
     helper = F + D * 8 + I * 4        # rms, lu_solve, all_finite, integ_start, ...
     ldl = F + _ldl_bytes(kernel)
     bounds: dict[str, int] = {}
+    c = kernel.equations.constraints
+    constraint_solve = 0   # velocity_solve / kkt_factor / kkt_solve, each over con_lu_solve
+    if c is not None:
+        n_all = kernel.layout.n_u + c.m
+        constraint_solve = 2 * F + D * (c.m + n_all + 10) + I * 10
     for v in views:
         callee = max(ldl, helper) if v["solve"] or v["columns"] else helper
+        callee = max(callee, constraint_solve)
         bounds[v["name"]] = F + _function_bytes(v) + callee
     fn = {v["output"]: bounds[v["name"]] for v in views}
     rhs = fn.get("rhs", 0)
