@@ -255,6 +255,8 @@ def cmd_demo(args) -> int:
 def cmd_bench(args) -> int:
     if args.what == "arm":
         return _bench_arm(args)
+    if args.what == "constraints":
+        return _bench_constraints(args)
     if args.stages:
         from .stagetimes import format_stages, stage_times
 
@@ -290,6 +292,22 @@ def cmd_bench(args) -> int:
     csv_path = report.write_csv(folder / "work_precision.csv")
     png_path = report.plot(folder / "work_precision.png")
     print(f"\nwrote {csv_path} and {png_path}")
+    return EXIT_OK
+
+
+def _bench_constraints(args) -> int:
+    from .conbench import constraint_bench, format_bench
+    from .fileio import write_atomic
+
+    bench = constraint_bench(repeats=args.repeats or 7, budget_s=args.budget,
+                             sympy_budget_s=args.sympy_budget, memory_gb=args.memory_gb,
+                             progress=_progress)
+    text = format_bench(bench)
+    print(text)
+    folder = Path(args.output or Path("bench") / "constraints")
+    path = folder / "constraints.txt"
+    write_atomic(path, text + "\n")
+    print(f"\nwrote {path}")
     return EXIT_OK
 
 
@@ -433,8 +451,10 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "bench", help="benchmarks: 'mbgen bench SCENE' (work-precision: error against run time "
                       "of every integrator and back end), 'mbgen bench scaling' (n-link "
-                      "pendulum, mbgen vs sympy) or 'mbgen bench arm' (spatial arm: mbgen vs "
-                      "sympy vs Pinocchio, RHS timed inside C)")
+                      "pendulum, mbgen vs sympy), 'mbgen bench arm' (spatial arm: mbgen vs "
+                      "sympy vs Pinocchio, RHS timed inside C) or 'mbgen bench constraints' "
+                      "(Whipple bicycle: mbgen vs sympy's KanesMethod; four-bar residual "
+                      "against run time)")
     p.add_argument("what", metavar="SCENE|scaling|arm",
                    help="a scene (name or .py file) for the work-precision report, 'scaling' "
                         "or 'arm'")
