@@ -291,6 +291,13 @@ def test_work_precision_error_includes_the_constraint_residual():
     tight = [p for p in report.points if p.rtol == 1e-7]
     assert max(p.err_residual for p in tight) < min(p.err_residual for p in loose)
     assert "err_residual" in report.to_csv().splitlines()[0]
+    # a solution off the constraints is wrong by its residual whatever the reference says
+    from mbgen.workprecision.runs import _errors
+
+    x = np.zeros((3, 4))
+    errors = _errors(x, x + 1e-9, residual=lambda rows: 1e-3)
+    assert errors["err_residual"] == errors["err_max"] == 1e-3
+    assert _errors(x, x + 1e-9)["err_max"] == pytest.approx(1e-9)
 
 
 def test_cli_simulate_starts_consistent_and_reports_the_residual(tmp_path, capsys):
