@@ -184,12 +184,13 @@ def cmd_simulate(args) -> int:
     from .outputs import INTEGRATORS, Output
     from .scene import check_span
     from .pipeline import compile
-    from .simulate import simulate, simulate_in_c
+    from .simulate import holonomic_outputs, simulate, simulate_in_c
 
     scene = _scene(args)
     check_span(scene.t_span[0], scene.t_span[1] if args.t_end is None else args.t_end, "--t-end")
     in_c = args.method.lower() in {o.value for o in INTEGRATORS}
     outputs = tuple(scene.outputs) + ((Output(args.method.lower()),) if in_c else ())
+    outputs += holonomic_outputs(scene)   # consistent initial state (constrained scenes)
     model = compile(scene, outputs)
     x0 = scene.x0(model.layout)
     t_end = args.t_end if args.t_end is not None else scene.t_span[1]
@@ -200,8 +201,22 @@ def cmd_simulate(args) -> int:
     print(f"{scene.name}: {args.method} rtol={args.rtol:g} atol={args.atol:g}, "
           f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls, {traj.wall_time:.3f} s")
     print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
+    _print_constraint_start(model, x0, traj)
     print(f"trajectory: {path} ({len(traj.t)} rows)")
     return EXIT_OK
+
+
+def _print_constraint_start(model, x0, traj) -> None:
+    """Constrained models: the completed dependent coordinates and the largest residual."""
+    dependent = getattr(model, "dependent_coordinates", ())
+    if not dependent:
+        return
+    moved = [f"{n} {x0[model.state_names.index(n)]:.6g} -> {traj.x[0][model.state_names.index(n)]:.10g}"
+             for n in dependent]
+    print("consistent start (dependent coordinates solved from the constraints): "
+          + ", ".join(moved))
+    print(f"largest constraint residual |f_h|: {traj.max_residual:.3g}"
+          + ("" if traj.method.startswith("C ") else " (solve_ivp does not project)"))
 
 
 def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
@@ -274,6 +289,8 @@ def cmd_demo(args) -> int:
 def cmd_bench(args) -> int:
     if args.what == "arm":
         return _bench_arm(args)
+    if args.what == "constraints":
+        return _bench_constraints(args)
     if args.stages:
         from .stagetimes import format_stages, stage_times
 
@@ -309,6 +326,22 @@ def cmd_bench(args) -> int:
     csv_path = report.write_csv(folder / "work_precision.csv")
     png_path = report.plot(folder / "work_precision.png")
     print(f"\nwrote {csv_path} and {png_path}")
+    return EXIT_OK
+
+
+def _bench_constraints(args) -> int:
+    from .conbench import constraint_bench, format_bench
+    from .fileio import write_atomic
+
+    bench = constraint_bench(repeats=args.repeats or 7, budget_s=args.budget,
+                             sympy_budget_s=args.sympy_budget, memory_gb=args.memory_gb,
+                             progress=_progress)
+    text = format_bench(bench)
+    print(text)
+    folder = Path(args.output or Path("bench") / "constraints")
+    path = folder / "constraints.txt"
+    write_atomic(path, text + "\n")
+    print(f"\nwrote {path}")
     return EXIT_OK
 
 
@@ -458,8 +491,10 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "bench", help="benchmarks: 'mbgen bench SCENE' (work-precision: error against run time "
                       "of every integrator and back end), 'mbgen bench scaling' (n-link "
-                      "pendulum, mbgen vs sympy) or 'mbgen bench arm' (spatial arm: mbgen vs "
-                      "sympy vs Pinocchio, RHS timed inside C)")
+                      "pendulum, mbgen vs sympy), 'mbgen bench arm' (spatial arm: mbgen vs "
+                      "sympy vs Pinocchio, RHS timed inside C) or 'mbgen bench constraints' "
+                      "(Whipple bicycle: mbgen vs sympy's KanesMethod; four-bar residual "
+                      "against run time)")
     p.add_argument("what", metavar="SCENE|scaling|arm",
                    help="a scene (name or .py file) for the work-precision report, 'scaling' "
                         "or 'arm'")

@@ -55,7 +55,13 @@ def render_example(scene: Scene, result: PipelineResult) -> str | None:
         parameter_names=list(L.parameter_names), parameters=[_c(v) for v in p],
         input_names=list(L.input_names), inputs=[_c(v) for v in r],
         rtol=_c(options["rtol"]), atol=_c(options["atol"]), h0=_c(options["h"] or 0.0),
-        call_args=args)
+        call_args=args, projects=_projects(result))
+
+
+def _projects(result: PipelineResult) -> bool:
+    """Whether the integrators project onto configuration constraints (an options field)."""
+    c = result.kernel.equations.constraints
+    return c is not None and c.m_h > 0
 
 
 def example_integration(scene: Scene, result: PipelineResult):

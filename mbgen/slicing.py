@@ -93,7 +93,13 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
         reactions = replace(reactions, matrix=bake_matrix(reactions.matrix))
     layout = Layout(L.coordinates, L.speeds,
                     tuple(s for s in L.parameters if s not in sub),
-                    tuple(s for s in L.inputs if s not in sub), L.time)
+                    tuple(s for s in L.inputs if s not in sub), L.time, L.dependent_speeds)
+    constraints = equations.constraints
+    if constraints is not None:
+        constraints = replace(constraints, **{
+            f: bake_matrix(getattr(constraints, f))
+            for f in ("holonomic", "holonomic_jacobian", "velocity_matrix", "velocity_bias",
+                      "acceleration_bias")})
     return replace(
         equations,
         layout=layout,
@@ -109,4 +115,5 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
         accelerations=(None if equations.accelerations is None
                        else bake_matrix(equations.accelerations)),
         reactions=reactions,
+        constraints=constraints,
     )

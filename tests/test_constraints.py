@@ -23,30 +23,16 @@ from sympy.physics import mechanics as me
 import mbgen
 from mbgen import Model, Output
 from mbgen.derive import Method
+from mbgen.scenes.rolling_disc import build_model as build_rolling_disc
 
 DISC = dict(r=1.0, m=1.0, g=1.0)
 
 
 def rolling_disc_model():
     """sympy's rolling disc (yaw, lean, spin; body rates in the lean frame) on a plane, with the
-    contact point's position q4, q5 and its no-slip constraint stated."""
-    m = Model("disc_ns")
-    q1, q2, q3, q4, q5 = m.coordinates("q1 q2 q3 q4 q5")
-    u1, u2, u3, u4, u5 = m.speeds("u1 u2 u3 u4 u5")
-    r, mass, g = m.constants("r m g")
-    N = m.newtonian()
-    Y = m.rotate(N, "Y", 3, q1)
-    L = m.rotate(Y, "L", 1, q2)
-    R = m.rotate(L, "R", 2, q3)
-    m.angular_velocity(R, u1 * L.x + u2 * L.y + u3 * L.z)
-    C = m.point("C", m.origin, q4 * N.x + q5 * N.y)
-    D = m.point("D", C, r * L.z)
-    inertia = sm.Matrix([[mass * r**2 / 4, 0, 0], [0, mass * r**2 / 2, 0],
-                         [0, 0, mass * r**2 / 4]])
-    disc = m.body("disc", R, mass, inertia, D)
-    m.gravity(-g * N.z)
-    m.no_slip(C, disc, [u4, u5], axes=(1, 2))
-    return m
+    contact point's position q4, q5 and its no-slip constraint stated (the built-in scene
+    ``rolling_disc``'s model)."""
+    return build_rolling_disc("disc_ns")
 
 
 @cache

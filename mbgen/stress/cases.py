@@ -52,6 +52,9 @@ def case_specs(ctx: Context) -> list[CaseSpec]:
     specs += [CaseSpec("fp", f"random {i}", fp_cases, (i,)) for i in range(1, sz.random_states + 1)]
     specs += [CaseSpec("extreme", v.name, extreme_case, (v,)) for v in extreme_variations(ctx)]
     for path in SINGULAR_PATHS.get(ctx.scene.name, ()):
+        if path.applies is not None and not path.applies(ctx.values):
+            ctx.notes.append(f"{path.name}: not reached with these parameters")
+            continue
         specs += [CaseSpec("singular", f"{path.name} {fmt_sci(d)}", singular_case, (path, d))
                   for d in sz.offsets]
     specs += [CaseSpec("singular", f"scan {n}", scan_case, (i,))

@@ -118,6 +118,14 @@ def _short_simulation(ctx: Context, v: Variation) -> Case:
     bound = f"Radau ok; DOP853 agrees to {SIM_AGREE:g} or budget" + \
         (f"; drift <= {DRIFT_BOUND:g}" if conservative else "")
     name = f"{v.name} sim"
+    if rad.status == "failed" and "SingularConstraintError" in rad.message:
+        # the motion reached a configuration where the constraints do not determine the
+        # dependent speeds (a four-bar's dead point): the coordinates end there, and the
+        # model says so by name
+        return Case("extreme", name, fig + f", stopped at t = {fmt_g(rad.t_reached)}",
+                    bound + "; or a named singular configuration", True,
+                    "reached a singular configuration: SingularConstraintError", data,
+                    time.perf_counter() - start)
     if rad.status != "done":
         return Case("extreme", name, fig, bound, False, f"Radau {rad.status}: {rad.message}",
                     data, time.perf_counter() - start)

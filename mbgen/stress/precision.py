@@ -49,7 +49,9 @@ remains for formulas that still cancel (user models).
 Singular and non-finite references
 ----------------------------------
 Where ``C eps cond(M) >= 1`` the mass matrix is *numerically singular*: both a
-finite result and :class:`~mbgen.errors.SingularMassMatrixError` are accepted.
+finite result and :class:`~mbgen.errors.SingularMassMatrixError` are accepted
+(for constrained models ``cond`` includes the dependent block of the constraint
+Jacobian, and :class:`~mbgen.errors.SingularConstraintError` is accepted too).
 Where the 50-digit ``M`` is not positive definite, the compiled model must raise
 ``SingularMassMatrixError`` (and a C integrator must stop with status
 ``NOT_POSITIVE_DEFINITE``, see :mod:`mbgen.stress.extreme`); where the 50-digit
@@ -229,8 +231,9 @@ def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, 
         return False, fig, want, "a finite result where the reference is not finite"
     if pr.f is None:
         fig = f"cond(M) {fmt_g(ref.cond)}"
-        if numerically_singular and pr.error == "SingularMassMatrixError":
-            return True, fig, "finite, or SingularMassMatrixError when C eps cond(M) >= 1", \
+        if numerically_singular and pr.error in ("SingularMassMatrixError",
+                                                 "SingularConstraintError"):
+            return True, fig, "finite, or a singular-matrix error when C eps cond(M) >= 1", \
                 f"numerically singular: {pr.error}"
         huge = max(abs(float(v)) for v in ref.f) > 1e300
         if huge and pr.error == "NonFiniteResultError":

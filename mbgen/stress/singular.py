@@ -33,6 +33,26 @@ class SingularPath:
     name: str
     state: Callable[[Mapping[str, float], Mapping[str, float], float], dict]
     note: str = ""
+    applies: Callable[[Mapping[str, float]], bool] | None = None   # by parameter values
+
+
+def _four_bar_lengths(values):
+    return {k: values[k] for k in ("la", "lb", "lc", "ld")}
+
+
+def _four_bar_dead(x, values, d):
+    from ..scenes.four_bar import closed_loop, dead_angle
+
+    lengths = _four_bar_lengths(values)
+    q1 = dead_angle(**lengths) - d
+    q2, q3 = closed_loop(q1, lengths)
+    return {"q1": q1, "q2": q2, "q3": q3}
+
+
+def _four_bar_has_dead_point(values) -> bool:
+    from ..scenes.four_bar import dead_angle
+
+    return dead_angle(**_four_bar_lengths(values)) is not None
 
 
 def _chain_aligned(x, values, d):
@@ -56,6 +76,9 @@ SINGULAR_PATHS: dict[str, tuple[SingularPath, ...]] = {
                                      "M = diag(m (l + s)^2, m); spring direction undefined"),),
     "stiff_chain": (SingularPath("masses meet x2->x1", lambda x, v, d: {"x2": x["x1"] + d},
                                  "line element direction (x2 - x1)/|x2 - x1| undefined"),),
+    "four_bar": (SingularPath("dead point q1->q1*", _four_bar_dead,
+                              "coupler and rocker in line: det A_r = lb lc sin(q1 + q2 - q3)",
+                              _four_bar_has_dead_point),),
     "n_link_cart": (SingularPath("links aligned q_i->q_1", _chain_aligned,
                                  "absolute angles: M stays positive definite"),),
 }

@@ -25,7 +25,15 @@ asks for it, else ``dopri5``) through the step API: ``rtol`` is the
 experiment's tolerance (``fmi2SetupExperiment``; default the scene's
 ``DefaultExperiment``, 1e-6), ``atol = 1e-3 rtol``; inputs are held constant
 over a communication step.  Model exchange exposes the RHS to the importer's
-integrator (no events).  User text reaches the XML only through
+integrator (no events, except for configuration constraints, below).
+
+Configuration constraints: co-simulation projects after every step (the step
+API).  Model exchange cannot, as the importer's integrator owns the state: so
+``fmi2CompletedIntegratorStep`` asks for a step event once the residual
+``max|f_h|`` passes :data:`PROJECT_TOL` ``(1 + max|q_r|)``, and
+``fmi2NewDiscreteStates`` projects the dependent coordinates back
+(``valuesOfContinuousStatesChanged``).  Both modes project the initial state in
+``fmi2ExitInitializationMode``.  User text reaches the XML only through
 :func:`mbgen.escape.xml_attr`.
 
 Why no third-party FMI package: FMPy ships the standard headers but is an
@@ -50,10 +58,12 @@ from .._version import __version__
 from ..errors import BuildError, ModelError
 from ..escape import xml_attr
 from ..outputs import Output
-from ..render import INTEGRATOR_STATUS_CODES, STATUS_CODES, environment
+from ..render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES, environment
 from . import Targets
 from .step import adaptive_method
 
+#: Model exchange: residual (relative to 1 + max|q_r|) above which a step event projects.
+PROJECT_TOL = 1e-9
 #: Outputs that become FMU output variables (the others are derivatives or integrators).
 FMU_OUTPUTS = (Output.ENERGY, Output.POSITIONS, Output.VELOCITIES, Output.MASS_MATRIX,
                Output.FORCING)
@@ -150,13 +160,22 @@ def fmu_files(scene, result) -> dict[str, str]:
     description = env.get_template("modelDescription.xml.j2").render(ctx)
     guid = _guid(rendered.digest() + description)
     description = description.replace('guid="GUID"', f'guid="{guid}"')
-    codes = [(n, v, t.replace('"', "'")) for n, v, t in STATUS_CODES + INTEGRATOR_STATUS_CODES]
+    codes = [(n, v, t.replace('"', "'")) for n, v, t in STATUS_CODES + INTEGRATOR_STATUS_CODES
+             + CONSTRAINT_STATUS_CODES]
+    c = kernel.equations.constraints
+    project = None
+    if c is not None and c.m_h:
+        project = dict(m=c.m_h, dep=[L.state_names.index(str(q)) for q in
+                                     c.dependent_coordinates],
+                       holonomic=infos[Output.HOLONOMIC].c_name,
+                       args="".join(f", m->{a}" for a in infos[Output.HOLONOMIC].args[2:]))
     glue = env.get_template("fmu.c.j2").render(dict(
         version=__version__, prefix=prefix, upper=prefix.upper(), guid=guid, method=method,
         n_x=n_x, n_p=n_p, n_r=n_r, vr=vr, outputs=outputs, x0=[_c(v) for v in x0],
-        p0=[_c(v) for v in p0], rtol="1e-06", codes=codes,
+        p0=[_c(v) for v in p0], rtol="1e-06", codes=codes, project_tol=_c(PROJECT_TOL),
         rhs_args="".join(f", c->{a}" for a in infos[Output.RHS].args[2:]),
-        step_args="".join(f", m->{a}" for a, n in (("p", n_p), ("r", n_r)) if n)))
+        step_args="".join(f", m->{a}" for a, n in (("p", n_p), ("r", n_r)) if n),
+        project=project))
     files = {"modelDescription.xml": description,
              f"sources/{prefix}_fmi2.h": env.get_template("fmi2.h.j2").render(
                  version=__version__, prefix=prefix, upper=prefix.upper()),

@@ -77,8 +77,14 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
     helper = F + D * 8 + I * 4        # rms, lu_solve, all_finite, integ_start, ...
     ldl = F + _ldl_bytes(kernel)
     bounds: dict[str, int] = {}
+    c = kernel.equations.constraints
+    constraint_solve = 0   # velocity_solve / kkt_factor / kkt_solve, each over con_lu_solve
+    if c is not None:
+        n_all = kernel.layout.n_u + c.m
+        constraint_solve = 2 * F + D * (c.m + n_all + 10) + I * 10
     for v in views:
         callee = max(ldl, helper) if v["solve"] or v["columns"] else helper
+        callee = max(callee, constraint_solve)
         bounds[v["name"]] = F + _function_bytes(v) + callee
     fn = {v["output"]: bounds[v["name"]] for v in views}
     rhs = fn.get("rhs", 0)
@@ -86,6 +92,13 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
     initial = F + D * (3 * n + 8) + I * 2 + max(rhs, helper)
     stats = 5 * D + D
     integ = {o.value for o in kernel.integrators}
+    c = kernel.equations.constraints
+    project = 0                       # <prefix>_project: Newton on the dependent coordinates
+    if c is not None and c.m_h and integ:
+        m, n_q = c.m_h, kernel.layout.n_q
+        project = F + D * (3 * m + m * n_q + m * m + 3) + I * 6 + max(
+            fn.get("holonomic", 0), fn.get("holonomic_jacobian", 0), helper)
+    rhs = max(rhs, project)           # called where the RHS is: after a step
     if "dopri5" in integ:
         own = D * (12 * n + 7 + 14) + stats + I * 4
         bounds[f"{prefix}_dopri5"] = F + own + max(rhs, initial, helper)
@@ -100,10 +113,12 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
         calls = max(rhs, fn.get("jacobian", 0), fn.get("time_derivative", 0), lu, initial,
                     helper)
         bounds[f"{prefix}_rosenbrock"] = F + own + calls
+    if step_methods and project:
+        bounds[f"{prefix}_project_state"] = F + D * 14 + I * 2 + project
     for m in step_methods:
         bounds[f"{prefix}_{m}_init"] = F + D * 2 + helper
         own = D * 24 + I * 6
-        calls = max(rhs, helper)
+        calls = max(rhs, helper, F + D * 14 + I * 2 + project if project else 0)
         if m != "rk4":
             calls = max(calls, F + D * 8 + I * 2 + max(rhs, helper))
         if m == "rosenbrock":

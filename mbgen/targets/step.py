@@ -31,6 +31,15 @@ With the same tolerances, ``dopri5_step(mem, T)`` from ``t = 0`` takes exactly
 the steps of ``<prefix>_dopri5`` over ``[0, T]`` (and gives the same bits);
 likewise for Rosenbrock.  On failure the status is returned and ``mem->t``,
 ``mem->x`` keep the last accepted state.
+
+Configuration constraints: after every accepted step the dependent coordinates
+are projected back onto ``f_h(q, t) = 0`` by the integrators' projection
+(Newton, ``PROJECTION_FAILED`` when it does not converge), and the largest
+residual met before projecting is kept in ``mem->max_residual``; as in the
+whole-trajectory integrators, the adaptive methods evaluate the next step's
+first stage at the projected state.  The dependent speeds are not states (the
+RHS computes them), so the state stays consistent step after step.  The
+projection needs the integrators rendered (a scene with an integrator output).
 """
 
 from __future__ import annotations
@@ -75,6 +84,13 @@ def step_context(kernel, prefix: str) -> dict:
         if non_autonomous and Output.TIME_DERIVATIVE not in functions:
             raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs df/dt; "
                              f"add Output.TIME_DERIVATIVE")
+    from ..integrators import _projection
+
+    project = _projection(kernel)
+    if project and not kernel.integrators:
+        raise ModelError(f"the step API of {kernel.equations.name!r} projects onto its "
+                         f"configuration constraints with the integrators' projection; add an "
+                         f"integrator output (e.g. Output.DOPRI5)")
     params = "".join(f", const double *{a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
     args = "".join(f", {a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
     protos = {}
@@ -94,6 +110,7 @@ def step_context(kernel, prefix: str) -> dict:
         n=max(L.n_x, 1),
         max_steps=DEFAULT_MAX_STEPS,
         non_autonomous=non_autonomous,
+        project=project,
         dopri5=_dopri5_view() if "dopri5" in methods else None,
         rk4=_rk4_view(),
         rosenbrock=_rosenbrock_view(ROSENBROCK) if "rosenbrock" in methods else None,
@@ -135,9 +152,10 @@ class Stepper:
     def _check(self, status: int, what: str) -> None:
         if status:
             from ..errors import IntegrationError
-            from ..render import INTEGRATOR_STATUS_CODES, STATUS_CODES
+            from ..render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
 
-            names = {v: n for n, v, _ in STATUS_CODES + INTEGRATOR_STATUS_CODES}
+            names = {v: n for n, v, _ in STATUS_CODES + INTEGRATOR_STATUS_CODES
+                     + CONSTRAINT_STATUS_CODES}
             raise IntegrationError(f"{self.model.name}_{self.method}_{what} failed with status "
                                    f"{status} ({names.get(status, 'UNKNOWN')}) at t = {self.t!r}",
                                    status, self.t)
@@ -149,6 +167,11 @@ class Stepper:
     @property
     def x(self):
         return self._np.array(list(self.memory.x)[: self.model.n_x])
+
+    @property
+    def max_residual(self) -> float:
+        """Largest constraint residual met before projecting (NaN without projection)."""
+        return float(getattr(self.memory, "max_residual", float("nan")))
 
     @property
     def h(self) -> float:

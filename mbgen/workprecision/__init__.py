@@ -45,6 +45,7 @@ from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from ..scene import Scene, load_scene
+from ..simulate import consistent_start
 from .points import (BACKENDS, C_METHODS, DEFAULT_RTOLS, IMPLICIT_METHODS, SOLVE_IVP_METHODS,
                      Config, Point, configurations, plan, rk4_steps)
 from .reference import ATOL_RATIO, TrueSolution, make_reference, pilot, typical_magnitude
@@ -111,7 +112,7 @@ def work_precision(scene: Scene | str, *, rtols: Sequence[float] = DEFAULT_RTOLS
         say(f"{scene.name}: generate and compile")
         c_methods = [m for m in methods if m in C_METHODS] if "c" in backends else []
         b = Backends.build(scene, backends, c_methods)
-        x0 = scene.x0(b.compiled.layout)
+        x0 = consistent_start(b.compiled, scene.x0(b.compiled.layout), b.p)
         t_eval = np.linspace(*map(float, scene.t_span), t_eval_points)
         b.warm_up(x0, t_eval[0])
         say("pilot solve")

@@ -64,6 +64,11 @@ class Point:
         Why the point is not ok (empty when it is).
     err_final, err_final_rel, err_max : float
         Errors against the reference (:mod:`mbgen.workprecision.runs`); NaN unless ok.
+        For a model with configuration constraints ``err_max`` includes the
+        constraint residual (the larger of the two).
+    err_residual : float
+        Largest ``|f_h(q, t)|`` over the output times (NaN without configuration
+        constraints, or unless ok).
     time_s : float
         Median wall time of the timed runs, seconds; NaN unless ok.
     nfev, njev, nlu : int or None
@@ -91,6 +96,7 @@ class Point:
     nlu: int | None = None
     callback_s: float | None = None
     probe_s: float | None = None
+    err_residual: float = math.nan
 
     @property
     def config(self) -> Config:

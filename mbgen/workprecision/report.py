@@ -24,7 +24,8 @@ from .reference import TrueSolution
 ERROR_LEVELS = (1e-2, 1e-4, 1e-6, 1e-8, 1e-10)
 #: Columns of :meth:`WorkPrecisionReport.to_csv`, one row per point.
 CSV_COLUMNS = ("method", "backend", "jac", "rtol", "atol", "h", "err_final", "err_max", "time_s",
-               "nfev", "njev", "nlu", "status", "message", "err_final_rel", "overhead")
+               "nfev", "njev", "nlu", "status", "message", "err_final_rel", "overhead",
+               "err_residual")
 
 
 @dataclass(frozen=True)

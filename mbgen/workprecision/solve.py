@@ -20,6 +20,7 @@ from ..pipeline import python_model, run
 from ..reference import LambdifiedModel
 from ..runtime import CompiledModel
 from ..scene import Scene
+from ..simulate import holonomic_outputs
 from .points import FAILED, OVER_BUDGET
 
 
@@ -93,7 +94,7 @@ class Backends:
     @classmethod
     def build(cls, scene: Scene, backends: Sequence[str], c_methods: Sequence[str]) -> "Backends":
         """Generate and compile once; every back end takes the compiled model's arrays."""
-        expression_outputs = (Output.RHS, Output.JACOBIAN)
+        expression_outputs = (Output.RHS, Output.JACOBIAN) + holonomic_outputs(scene)
         result = run(scene, (*expression_outputs, *c_methods))
         models = {"c": result.compiled}
         if "python" in backends:
