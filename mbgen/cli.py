@@ -167,6 +167,10 @@ def cmd_simulate(args) -> int:
           f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls, {traj.wall_time:.3f} s")
     print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
     print(f"trajectory: {path} ({len(traj.t)} rows)")
+    if args.plot:
+        from .plots import plot_simulation
+
+        print(f"plot: {plot_simulation(traj, args.plot, scene=scene)}")
     return EXIT_OK
 
 
@@ -408,6 +412,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--atol", type=float, default=1e-12)
     p.add_argument("--points", type=int, default=201, help="output times (default 201)")
     p.add_argument("--csv", metavar="PATH", help="trajectory file (default SCENE.csv)")
+    p.add_argument("--plot", metavar="FILE",
+                   help="also write a PNG: states against time, energy drift when the scene "
+                        "conserves energy, constraint residual when it has constraints")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("demo", help="the main job on the pendulum on a rotating disc")
