@@ -174,6 +174,16 @@ def cmd_simulate(args) -> int:
     return EXIT_OK
 
 
+def cmd_animate(args) -> int:
+    from .animate import animate_scene
+
+    scene = _scene(args)
+    path = animate_scene(scene, args.output or f"{scene.name}.html", frames=args.frames,
+                         t_end=args.t_end, fps=args.fps)
+    print(f"{scene.name}: {args.frames} frames -> {path}")
+    return EXIT_OK
+
+
 def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
     """Median over ``repeats`` of the mean time of ``calls`` calls, in microseconds."""
     samples = []
@@ -416,6 +426,16 @@ def parser() -> argparse.ArgumentParser:
                    help="also write a PNG: states against time, energy drift when the scene "
                         "conserves energy, constraint residual when it has constraints")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("animate", help="3-D animation of the scene's points and bodies "
+                                       "(.html with play controls, or .gif)")
+    scene_args(p)
+    p.add_argument("-o", "--output", metavar="FILE",
+                   help="FILE.html or FILE.gif (default SCENE.html)")
+    p.add_argument("--frames", type=int, default=100, help="frames over t_span (default 100)")
+    p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
+    p.add_argument("--fps", type=float, default=20.0, help="playback frames per second")
+    p.set_defaults(func=cmd_animate)
 
     p = sub.add_parser("demo", help="the main job on the pendulum on a rotating disc")
     p.add_argument("-o", "--output", default="mbgen-demo", metavar="DIR",
