@@ -318,6 +318,8 @@ def cmd_stress(args) -> int:
 
     report = stress(_scene(args), size="full" if args.full else "ci", progress=_progress)
     print(report.format())
+    if args.output:
+        print(f"wrote {report.write(args.output)}")
     return EXIT_OK if report.ok else EXIT_CHECK
 
 
@@ -492,6 +494,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--full", action="store_true",
                    help="the whole grid (stiffness 1e4..1e8, ratios 1e-6..1e6, long runs); "
                         "default: the CI size")
+    p.add_argument("-o", "--output", metavar="FILE",
+                   help="also write the report as FILE.csv or FILE.json")
     p.set_defaults(func=cmd_stress)
 
     p = sub.add_parser("fmu", help="write an FMI 2.0 FMU (model exchange and co-simulation)")
