@@ -17,7 +17,7 @@ whole animation.  ``.html`` writes a self-contained page (matplotlib's
 shows it, none is needed to write it); ``.gif`` writes an animated GIF with
 Pillow (a matplotlib dependency).
 
-matplotlib is imported lazily (``pip install 'mbgen[bench]'``).
+matplotlib is imported lazily (``pip install 'mbgen[plot]'``).
 """
 
 from __future__ import annotations
@@ -66,6 +66,7 @@ def animate_scene(scene, path, *, frames: int = 100, t_end: float | None = None,
     """
     from .model import Model
 
+    require_matplotlib()   # before the simulation, not after
     path = Path(path)
     if path.suffix.lower() not in FORMATS:
         raise SceneError(f"animation file {str(path)!r}: use a name ending in "

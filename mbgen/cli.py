@@ -271,6 +271,12 @@ def cmd_bench(args) -> int:
         rows = scaling(ns, sympy_max_n=args.sympy_max_n, repeats=args.repeats,
                        progress=_progress)
         print(format_scaling(rows))
+        from .bench import plot_scaling, write_scaling_csv
+
+        folder = Path(args.output or Path("bench") / "scaling")
+        csv_path = write_scaling_csv(rows, folder / "scaling.csv")
+        png_path = plot_scaling(rows, folder / "scaling.png")
+        print(f"\nwrote {csv_path} and {png_path}")
         return EXIT_OK
     from .scene import load_scene
     from .workprecision import DEFAULT_RTOLS, work_precision
@@ -455,7 +461,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
                    help="scene option, e.g. -O stiffness=1e6 (repeatable)")
     p.add_argument("-o", "--output", metavar="DIR",
-                   help="folder for work_precision.csv and .png (default bench/SCENE)")
+                   help="folder for work_precision.csv and .png (default bench/SCENE); "
+                        "scaling: scaling.csv and .png (default bench/scaling)")
     p.add_argument("--rtols", metavar="LIST", help="relative tolerances (default 1e-3,...,1e-10)")
     p.add_argument("--methods", metavar="LIST",
                    help="RK45,DOP853,Radau,BDF,LSODA,dopri5,rosenbrock,rk4 (default all)")
@@ -551,6 +558,11 @@ def main(argv=None) -> int:
     except (SceneError, ModelError) as exc:
         print(f"mbgen: error: {exc}", file=sys.stderr)
         return EXIT_MODEL
+    except ImportError as exc:  # plots.MissingExtraError: an optional dependency is missing
+        if not isinstance(exc, MbgenError):
+            raise
+        print(f"mbgen: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     except BuildError as exc:
         print(f"mbgen: compiler error: {exc}", file=sys.stderr)
         return EXIT_BUILD

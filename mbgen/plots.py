@@ -17,7 +17,8 @@ compiled model), so the caller's model needs neither.  States are matched by
 name.
 
 matplotlib is imported here, lazily: generation and checking do not need it
-(it comes with ``pip install 'mbgen[bench]'``; :func:`require_matplotlib`).
+(it comes with ``pip install 'mbgen[plot]'``, and with the ``bench`` and ``test``
+extras; :func:`require_matplotlib`).
 """
 
 from __future__ import annotations
@@ -30,16 +31,20 @@ import numpy as np
 from .errors import MbgenError
 from .fileio import atomic_path
 
-#: The extra that installs the plotting and benchmark dependencies.
-EXTRA = "bench"
+#: The extra that installs matplotlib (``bench`` and ``test`` have it too).
+EXTRA = "plot"
+
+
+class MissingExtraError(MbgenError, ImportError):
+    """An optional dependency is not installed; the message names the extra that has it."""
 
 
 def require_matplotlib():
-    """Import matplotlib (Agg backend) or raise a named error naming the extra."""
+    """Import matplotlib or raise :class:`MissingExtraError` naming the extra."""
     try:
         import matplotlib
     except ImportError:
-        raise MbgenError(f"pictures need matplotlib, which is not installed; install it with "
+        raise MissingExtraError(f"pictures need matplotlib, which is not installed; install it with "
                          f"pip install 'mbgen[{EXTRA}]' (or pip install matplotlib)") from None
     return matplotlib
 
@@ -166,6 +171,7 @@ def plot_simulation(result, path, *, scene=None, names=None,
     Path
         ``path``.
     """
+    require_matplotlib()
     t, x, names = trajectory_arrays(result, names)
     extra = diagnostics(scene, t, x, names, parameters) if scene is not None else {"notes": []}
     n_q = _n_coordinates(scene, names)

@@ -8,6 +8,9 @@ from typing import Mapping
 
 import numpy as np
 
+#: Width of :meth:`StressReport.format`.
+LINE_WIDTH = 120
+
 
 @dataclass(frozen=True)
 class Case:
@@ -64,7 +67,7 @@ class Case:
     def verdict(self) -> str:
         if self.ok:
             stopped = self.reason.startswith("budget") or self.data.get("budget") == 1.0
-            return "ok (stopped at budget)" if stopped else "ok"
+            return "ok, budget" if stopped else "ok"
         return f"FAIL {self.failure}"
 
 
@@ -126,8 +129,10 @@ class StressReport:
         gaps = 2 * (len(head) - 1)
         verdict_w = max(len(r[3]) for r in rows + [head])
         natural = [max(len(r[i]) for r in rows + [head]) for i in range(3)]
+        longest_word = [max(len(w) for r in rows + [head] for w in r[i].split() or [""])
+                        for i in range(3)]
         room = max(width - gaps - verdict_w, 30)
-        shares = _shares(natural, room)
+        shares = _shares(natural, longest_word, room)
         widths = shares + [verdict_w]
 
         def wrap(cell: str, w: int) -> list[str]:
@@ -227,17 +232,17 @@ class StressReport:
         return path
 
 
-#: Width of :meth:`StressReport.format`.
-LINE_WIDTH = 120
-
-
-def _shares(natural: list[int], room: int) -> list[int]:
-    """Column widths that fit ``room``: natural widths when they fit, else shrink the widest."""
+def _shares(natural: list[int], least: list[int], room: int) -> list[int]:
+    """Column widths that fit ``room``: natural widths when they fit, else shrink the widest
+    column that is still wider than its longest word (a word is never split)."""
     widths = list(natural)
     while sum(widths) > room:
-        i = widths.index(max(widths))
+        shrinkable = [i for i, w in enumerate(widths) if w > least[i]]
+        if not shrinkable:
+            break
+        i = max(shrinkable, key=lambda j: widths[j])
         widths[i] -= 1
-    return [max(w, 8) for w in widths]
+    return widths
 
 
 def fmt_sci(v: float) -> str:

@@ -99,6 +99,8 @@ def stiff_case(ctx: Context, k: float, method: str) -> list[Case]:
         ok = not implicit
         reason = (f"budget: {r.message} reached at t={r.t_reached:.3g} of "
                   f"{ref.t_reached if ref.status == 'done' else float('nan'):.3g}")
+    elif ref.status == "budget":
+        ok, reason = False, f"budget: no Radau reference (Radau stopped at its {ref.message} budget)"
     elif ref.status != "done":
         ok, reason = False, "no Radau reference"
     else:
