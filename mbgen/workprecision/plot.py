@@ -12,9 +12,12 @@ Jacobian is 27 curves):
 * every ok point is labelled with its tolerance exponent (``6`` for rtol
   1e-6; ``rk4`` points with the row their fixed step is laid on);
 * points that did not produce a solution are drawn in a strip at the top of
-  their panel, at the time they ran: ``x`` failed (integrator or model error),
-  ``>`` stopped at the time budget (drawn at the budget); the title counts
-  them, and skipped points (tighter tolerances after an over-budget one).
+  their panel, one mark per configuration and outcome, labelled with the
+  configuration and its tolerances: ``x`` failed (integrator or model error;
+  at the run time of its probe when known, else at the budget), ``>``
+  stopped at the time budget (drawn at the budget); the panel titles count
+  them, the figure title also counts the skipped points (tighter tolerances
+  after an over-budget one).
 
 Colour: method; line style: back end; filled marker: with Jacobian.  The
 dotted horizontal line is the reference floor (the disagreement of the two
@@ -77,10 +80,10 @@ def plot_report(report, path) -> Path:
     colours = {m: f"C{i}" for i, m in enumerate(SOLVE_IVP_METHODS + C_METHODS)}
     styles = {"c": "-", "python": "--", "lambdify": ":"}
     front = pareto_front(report.points)
-    handles = {}
+    handles, extras = {}, {}
     for ax, (title, methods) in zip(axes, families):
         strip = blended_transform_factory(ax.transData, ax.transAxes)
-        n_bad = 0
+        n_bad = n_marks = 0
         for config in report.configurations():
             if config.method not in methods:
                 continue
@@ -97,28 +100,31 @@ def plot_report(report, path) -> Path:
                 for p in ok:
                     ax.annotate(tolerance_label(p), (p.time_s, p.err_max), xytext=(3, 2),
                                 textcoords="offset points", fontsize=6, color=colour)
-            for p in curve:
-                if p.status == OVER_BUDGET:
-                    x, marker = report.time_budget, ">"
-                elif p.status == FAILED:
-                    x, marker = (p.probe_s or report.time_budget), "x"
-                else:
+            for status, marker in ((OVER_BUDGET, ">"), (FAILED, "x")):
+                bad = [p for p in curve if p.status == status]
+                if not bad:
                     continue
-                n_bad += 1
-                ax.plot([x], [0.97], marker=marker, color=colour, markersize=7,
+                # one mark per configuration and outcome, staggered down the strip
+                x = report.time_budget if status == OVER_BUDGET else \
+                    min(p.probe_s or report.time_budget for p in bad)
+                y = 0.97 - 0.035 * (n_marks % 8)
+                n_marks += 1
+                n_bad += len(bad)
+                ax.plot([x], [y], marker=marker, color=colour, markersize=7,
                         linestyle="", transform=strip, clip_on=False)
-                ax.annotate(tolerance_label(p), (x, 0.97), xycoords=strip, xytext=(4, -9),
+                ax.annotate(f"{config.label}: {','.join(tolerance_label(p) for p in bad)}",
+                            (x, y), xycoords=strip, xytext=(-6, -3), ha="right",
                             textcoords="offset points", fontsize=6, color=colour)
         if front:
             pf, = ax.plot([p.time_s for p in front], [p.err_max for p in front], color="0.5",
                           linewidth=5, alpha=0.3, zorder=0, solid_capstyle="round",
                           label="Pareto front (all panels)")
-            handles[pf.get_label()] = pf
+            extras[pf.get_label()] = pf
         if report.reference.disagreement > 0:
             floor = ax.axhline(report.reference.disagreement, color="0.4",
                                linestyle=(0, (1, 3)),
                                label=f"reference floor {report.reference.disagreement:.1e}")
-            handles[floor.get_label()] = floor
+            extras[floor.get_label()] = floor
         ax.set_title(f"{title}" + (f"  ({n_bad} not ok, top strip)" if n_bad else ""),
                      fontsize=10)
         ax.set_xscale("log")
@@ -128,6 +134,7 @@ def plot_report(report, path) -> Path:
     axes[0].set_ylabel("max abs error over the output times")
     from matplotlib.lines import Line2D
 
+    handles.update(extras)
     handles["failed"] = Line2D([], [], marker="x", color="0.2", linestyle="",
                                label="x  failed (top strip, at its run time)")
     handles["over"] = Line2D([], [], marker=">", color="0.2", linestyle="",
