@@ -127,6 +127,10 @@ def plot_report(report, path) -> Path:
             extras[floor.get_label()] = floor
         ax.set_title(f"{title}" + (f"  ({n_bad} not ok, top strip)" if n_bad else ""),
                      fontsize=10)
+        drawn = [p for p in report.points if p.method in methods and p.ok and p.err_max > 0]
+        if not drawn and not front:   # nothing to scale the axes by: show the budget's decade
+            ax.set_xlim(report.time_budget / 1e3, report.time_budget * 10)
+            ax.set_ylim(1e-12, 1.0)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.grid(True, which="major", alpha=0.4)
