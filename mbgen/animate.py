@@ -9,7 +9,9 @@ solve_ivp's DOP853), and draws each frame:
   (``model.point(name, parent, offset)``: the tree of offsets, which for a
   chain of links is the links themselves);
 * particles and the mass centres of rigid bodies as larger dots, labelled;
-* the path of every particle and mass centre so far, faint.
+* the path of every particle and mass centre so far, faint;
+* every rigid body's axes at its mass centre (x red, y green, z blue), from
+  the direction cosines ``N.dcm(B)`` of its frame along the run.
 
 The axes are equal (a metre is a metre in every direction) and fixed over the
 whole animation.  ``.html`` writes a self-contained page (matplotlib's
@@ -78,23 +80,25 @@ def animate_scene(scene, path, *, frames: int = 100, t_end: float | None = None,
         raise SceneError(f"scene {scene.name!r} holds equations, not a Model: it has no points "
                          f"to draw (animate a scene built with mbgen.Model)")
     names = [p.name for p in model.points if p is not model.origin]
-    if not names:
-        raise SceneError(f"scene {scene.name!r} has no points to draw besides the origin; "
-                         f"place points with model.point()")
-    t, positions = _simulate_positions(scene, names, int(frames), t_end)
-    _write(scene, model, names, t, positions, path, fps)
+    if not names and not model.bodies:
+        raise SceneError(f"scene {scene.name!r} has no points besides the origin and no rigid "
+                         f"bodies to draw; place points with model.point()")
+    t, positions, states = _simulate_positions(scene, names, int(frames), t_end)
+    triads = _body_axes(scene, model, t, states)
+    _write(scene, model, names, t, positions, triads, path, fps)
     return path
 
 
 def _simulate_positions(scene, names, frames, t_end):
-    """Times ``(k,)`` and positions ``(k, n_points, 3)`` of the named points."""
+    """Times ``(k,)``, positions ``(k, n_points, 3)`` of the named points, and the states
+    ``{name: (k,)}``."""
     from .optimize import Output
     from .pipeline import run
     from .simulate import simulate, simulate_in_c
 
     integrators = [o for o in scene.outputs if Output(o).is_integrator]
     method = Output(integrators[0]) if integrators else None
-    outputs = (Output.POSITIONS,) + ((method,) if method else (Output.RHS,))
+    outputs = ((Output.POSITIONS,) if names else ()) + ((method,) if method else (Output.RHS,))
     result = run(replace(scene, points=tuple(names)), outputs)
     model = result.compiled
     order = [pk.name for pk in result.baked.points]
@@ -108,11 +112,40 @@ def _simulate_positions(scene, names, frames, t_end):
                              n_out=frames, p=p)
     else:
         traj = simulate(model, x0, span, p=p, rtol=1e-8, atol=1e-10, n_out=frames)
+    states = dict(zip(model.state_names, traj.x.T))
+    if not names:
+        return traj.t, np.zeros((traj.t.size, 0, 3)), states
     pos = np.array([model.positions(float(ti), xi, p) for ti, xi in zip(traj.t, traj.x)])
-    return traj.t, pos[:, [order.index(n) for n in names], :]
+    return traj.t, pos[:, [order.index(n) for n in names], :], states
 
 
-def _write(scene, model, names, t, positions, path: Path, fps: float) -> None:
+def _body_axes(scene, model, t, states) -> list:
+    """Per rigid body ``(name, centre point, R)`` with ``R`` of shape ``(k, 3, 3)``: the body's
+    unit vectors (columns) in Newtonian components, ``N.dcm(B)`` evaluated along the run.
+
+    The direction cosines of a frame depend only on the coordinates, constants and time
+    (small expressions of the model's rotation chain, not derived quantities).
+    """
+    import sympy as sm
+
+    from .model import t as time_symbol
+
+    values = {**scene.parameters, **scene.fixed}
+    coords = list(model.coordinates_)
+    consts = [c for c in model.constants_ if str(c) in values]
+    out = []
+    for body in model.bodies:
+        R = model.N.dcm(body.frame)
+        fn = sm.lambdify([coords, consts, time_symbol], R, modules="numpy")
+        args = [float(values[str(c)]) for c in consts]
+        q = np.array([states[str(c.func)] for c in coords]) if coords else np.zeros((0, t.size))
+        mats = np.array([np.asarray(fn(list(q[:, k]), args, float(t[k])), dtype=float)
+                         for k in range(t.size)])
+        out.append((body.name, body.center, mats))
+    return out
+
+
+def _write(scene, model, names, t, positions, triads, path: Path, fps: float) -> None:
     require_matplotlib()
     from matplotlib.animation import FuncAnimation
 
@@ -130,9 +163,16 @@ def _write(scene, model, names, t, positions, path: Path, fps: float) -> None:
              [(b.name, b.center) for b in model.bodies]
     masses = [(label, pt) for label, pt in masses if pt is model.origin or pt.name in index]
 
+    extent = np.concatenate([positions.reshape(-1, 3), np.zeros((1, 3))])
+    size = float((extent.max(axis=0) - extent.min(axis=0)).max())
+    axis_length = 0.25 * size if size > 0 else 1.0
+    tips = [np.array([where(k, centre) for k in range(len(t))])[:, :, None] +
+            axis_length * R for _, centre, R in triads]      # (k, 3 components, 3 axes)
+
     fig = figure(6.4, 6.0)
     ax = fig.add_subplot(projection="3d")
-    every = np.concatenate([positions.reshape(-1, 3), origin[None]])
+    every = np.concatenate([positions.reshape(-1, 3), origin[None]] +
+                           [tip.transpose(0, 2, 1).reshape(-1, 3) for tip in tips])
     lo, hi = every.min(axis=0), every.max(axis=0)
     centre, half = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-9) * 1.1
     ax.set_xlim(centre[0] - half, centre[0] + half)
@@ -148,6 +188,8 @@ def _write(scene, model, names, t, positions, path: Path, fps: float) -> None:
     heavy = ax.plot([], [], [], linestyle="", marker="o", markersize=9, color="C0")[0]
     trails = [ax.plot([], [], [], color="C0", alpha=0.3, linewidth=0.8)[0] for _ in masses]
     labels = [ax.text(0, 0, 0, label, fontsize=8) for label, _ in masses]
+    axes_lines = [[ax.plot([], [], [], color=c, linewidth=2)[0] for c in ("C3", "C2", "C0")]
+                  for _ in triads]
     title = ax.set_title("")
 
     def draw(k):
@@ -163,8 +205,13 @@ def _write(scene, model, names, t, positions, path: Path, fps: float) -> None:
                 path_so_far = np.array([where(j, pt) for j in range(k + 1)])
                 trail.set_data_3d(path_so_far[:, 0], path_so_far[:, 1], path_so_far[:, 2])
                 label.set_position_3d(path_so_far[-1])
+        for body_lines, tip, (_, centre, _) in zip(axes_lines, tips, triads):
+            c = where(k, centre)
+            for j, line in enumerate(body_lines):
+                line.set_data_3d([c[0], tip[k, 0, j]], [c[1], tip[k, 1, j]],
+                                 [c[2], tip[k, 2, j]])
         title.set_text(f"{scene.name}   t = {t[k]:.3f}")
-        return [*lines, dots, heavy, *trails, *labels, title]
+        return [*lines, dots, heavy, *trails, *labels, *sum(axes_lines, []), title]
 
     anim = FuncAnimation(fig, draw, frames=len(t), interval=1000.0 / fps, blit=False)
     with atomic_path(path) as tmp:

@@ -108,10 +108,29 @@ def test_animated_positions_follow_the_model():
     from mbgen.animate import _simulate_positions
 
     scene = load_scene("disc_pendulum")
-    t, pos = _simulate_positions(scene, ["E", "P"], 5, 2.0)
+    t, pos, _ = _simulate_positions(scene, ["E", "P"], 5, 2.0)
     assert pos.shape == (5, 2, 3) and np.isclose(t[-1], 2.0)
     np.testing.assert_allclose(np.linalg.norm(pos[:, 1] - pos[:, 0], axis=1), 4.0, rtol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(pos[:, 0, :2], axis=1), 1.0, rtol=1e-12)  # s = 1
+
+
+def test_body_axes_are_the_frames_direction_cosines(tmp_path):
+    """torque_free has no points but a body: its axes are drawn from N.dcm(B) = Rx Ry Rz."""
+    from mbgen.animate import _body_axes, _simulate_positions
+
+    scene = load_scene("torque_free")
+    t, pos, states = _simulate_positions(scene, [], 3, 1.0)
+    (name, centre, R), = _body_axes(scene, scene.model, t, states)
+    assert name == "body" and pos.shape == (3, 0, 3) and R.shape == (3, 3, 3)
+    q1, q2, q3 = (states[n][0] for n in ("q1", "q2", "q3"))
+    c, s_ = np.cos, np.sin
+    rx = np.array([[1, 0, 0], [0, c(q1), -s_(q1)], [0, s_(q1), c(q1)]])
+    ry = np.array([[c(q2), 0, s_(q2)], [0, 1, 0], [-s_(q2), 0, c(q2)]])
+    rz = np.array([[c(q3), -s_(q3), 0], [s_(q3), c(q3), 0], [0, 0, 1]])
+    np.testing.assert_allclose(R[0], rx @ ry @ rz, atol=1e-14)
+    for m in R:
+        np.testing.assert_allclose(m.T @ m, np.eye(3), atol=1e-13)
+    assert main(["animate", "torque_free", "-o", str(tmp_path / "tf.gif"), "--frames", "3"]) == 0
 
 
 def test_animate_refuses_what_it_cannot_draw(tmp_path, capsys):
