@@ -577,6 +577,9 @@ def write_csv(rows: Sequence[ArmRow], path: Path) -> Path:
 
 def plot(rows: Sequence[ArmRow], path: Path) -> Path:
     """Log-log plot: per-call RHS times (left) and operations after CSE (right) against n."""
+    from .plots import require_matplotlib
+
+    require_matplotlib()   # a named error when the bench extra is not installed
     import matplotlib
     import matplotlib.ticker
 

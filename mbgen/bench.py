@@ -338,3 +338,75 @@ def format_scaling(rows: Sequence[ScalingRow]) -> str:
     body = [line(fmt(r) for _, _, fmt in _COLUMNS) for r in rows]
     return "\n".join([header, "-" * len(header), *body, "", LEGEND,
                       "BLAS threads pinned to 1 (threadpoolctl)."])
+
+
+#: Columns of :func:`write_scaling_csv`, the fields of :class:`ScalingRow`.
+CSV_FIELDS = ("n", "derive_s", "cse_s", "render_s", "compile_s", "rhs_s", "ops_before",
+              "ops_after", "sympy_derive_s", "sympy_cse_s", "sympy_rhs_s", "sympy_ops_before",
+              "sympy_ops_after", "rhs_max_abs_diff")
+
+
+def write_scaling_csv(rows: Sequence[ScalingRow], path):
+    """Write the rows as CSV (one line per ``n``, :data:`CSV_FIELDS`; empty: sympy skipped)."""
+    import csv
+    import io
+    from pathlib import Path
+
+    from .fileio import write_atomic
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(CSV_FIELDS)
+    for r in rows:
+        w.writerow(["" if getattr(r, f) is None else repr(getattr(r, f)) for f in CSV_FIELDS])
+    path = Path(path)
+    write_atomic(path, buf.getvalue())
+    return path
+
+
+def plot_scaling(rows: Sequence[ScalingRow], path):
+    """Log-log PNG against ``n``: symbolic stages (s), one RHS call (µs), operations after CSE.
+
+    mbgen solid, sympy dashed; every point is a measured row (sympy's only
+    where it ran).
+    """
+    from .plots import figure, save_png
+
+    ns = [r.n for r in rows]
+    fig = figure(13.0, 4.4)
+    ax_time, ax_rhs, ax_ops = fig.subplots(1, 3)
+
+    def series(ax, values, **style):
+        pts = [(n, v) for n, v in zip(ns, values) if v is not None and v > 0]
+        if pts:
+            ax.plot(*zip(*pts), marker="o", markersize=4, **style)
+
+    for label, ours, theirs, colour in (
+            ("derive", [r.derive_s for r in rows], [r.sympy_derive_s for r in rows], "C0"),
+            ("CSE", [r.cse_s for r in rows], [r.sympy_cse_s for r in rows], "C1")):
+        series(ax_time, ours, color=colour, label=f"mbgen {label}")
+        series(ax_time, theirs, color=colour, linestyle="--", label=f"sympy {label}")
+    series(ax_time, [r.render_s for r in rows], color="C2", label="mbgen render")
+    series(ax_time, [r.compile_s for r in rows], color="C3", label="mbgen compile (C)")
+    series(ax_rhs, [r.rhs_s * 1e6 for r in rows], color="C0", label="mbgen (compiled C)")
+    series(ax_rhs, [None if r.sympy_rhs_s is None else r.sympy_rhs_s * 1e6 for r in rows],
+           color="C0", linestyle="--", label="sympy (lambdify + solve)")
+    series(ax_ops, [r.ops_after for r in rows], color="C0", label="mbgen after CSE")
+    series(ax_ops, [r.ops_before for r in rows], color="C0", linestyle=":",
+           label="mbgen before CSE")
+    series(ax_ops, [r.sympy_ops_after for r in rows], color="C1", linestyle="--",
+           label="sympy after cse")
+    for ax, title, unit in ((ax_time, "symbolic stages", "seconds (one run each)"),
+                            (ax_rhs, "one RHS call", "µs per call (median)"),
+                            (ax_ops, "operations", "arithmetic operations")):
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.set_xlabel("n (links of the pendulum on a cart)")
+        ax.set_ylabel(unit)
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, which="major", alpha=0.4)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, frameon=False)
+    fig.suptitle("mbgen vs sympy KanesMethod + cse on the n-link pendulum on a cart "
+                 "(solid: mbgen, dashed: sympy)", fontsize=10)
+    return save_png(fig, path, dpi=110)

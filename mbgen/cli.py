@@ -203,6 +203,20 @@ def cmd_simulate(args) -> int:
     print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
     _print_constraint_start(model, x0, traj)
     print(f"trajectory: {path} ({len(traj.t)} rows)")
+    if args.plot:
+        from .plots import plot_simulation
+
+        print(f"plot: {plot_simulation(traj, args.plot, scene=scene)}")
+    return EXIT_OK
+
+
+def cmd_animate(args) -> int:
+    from .animate import animate_scene
+
+    scene = _scene(args)
+    path = animate_scene(scene, args.output or f"{scene.name}.html", frames=args.frames,
+                         t_end=args.t_end, fps=args.fps)
+    print(f"{scene.name}: {args.frames} frames -> {path}")
     return EXIT_OK
 
 
@@ -308,6 +322,12 @@ def cmd_bench(args) -> int:
         rows = scaling(ns, sympy_max_n=args.sympy_max_n, repeats=args.repeats,
                        progress=_progress)
         print(format_scaling(rows))
+        from .bench import plot_scaling, write_scaling_csv
+
+        folder = Path(args.output or Path("bench") / "scaling")
+        csv_path = write_scaling_csv(rows, folder / "scaling.csv")
+        png_path = plot_scaling(rows, folder / "scaling.png")
+        print(f"\nwrote {csv_path} and {png_path}")
         return EXIT_OK
     from .scene import load_scene
     from .workprecision import DEFAULT_RTOLS, work_precision
@@ -371,6 +391,8 @@ def cmd_stress(args) -> int:
 
     report = stress(_scene(args), size="full" if args.full else "ci", progress=_progress)
     print(report.format())
+    if args.output:
+        print(f"wrote {report.write(args.output)}")
     return EXIT_OK if report.ok else EXIT_CHECK
 
 
@@ -481,7 +503,20 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--atol", type=float, default=1e-12)
     p.add_argument("--points", type=int, default=201, help="output times (default 201)")
     p.add_argument("--csv", metavar="PATH", help="trajectory file (default SCENE.csv)")
+    p.add_argument("--plot", metavar="FILE",
+                   help="also write a PNG: states against time, energy drift when the scene "
+                        "conserves energy, constraint residual when it has constraints")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("animate", help="3-D animation of the scene's points and bodies "
+                                       "(.html with play controls, or .gif)")
+    scene_args(p)
+    p.add_argument("-o", "--output", metavar="FILE",
+                   help="FILE.html or FILE.gif (default SCENE.html)")
+    p.add_argument("--frames", type=int, default=100, help="frames over t_span (default 100)")
+    p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
+    p.add_argument("--fps", type=float, default=20.0, help="playback frames per second")
+    p.set_defaults(func=cmd_animate)
 
     p = sub.add_parser("demo", help="the main job on the pendulum on a rotating disc")
     p.add_argument("-o", "--output", default="mbgen-demo", metavar="DIR",
@@ -501,7 +536,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
                    help="scene option, e.g. -O stiffness=1e6 (repeatable)")
     p.add_argument("-o", "--output", metavar="DIR",
-                   help="folder for work_precision.csv and .png (default bench/SCENE)")
+                   help="folder for work_precision.csv and .png (default bench/SCENE); "
+                        "scaling: scaling.csv and .png (default bench/scaling)")
     p.add_argument("--rtols", metavar="LIST", help="relative tolerances (default 1e-3,...,1e-10)")
     p.add_argument("--methods", metavar="LIST",
                    help="RK45,DOP853,Radau,BDF,LSODA,dopri5,rosenbrock,rk4 (default all)")
@@ -540,6 +576,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--full", action="store_true",
                    help="the whole grid (stiffness 1e4..1e8, ratios 1e-6..1e6, long runs); "
                         "default: the CI size")
+    p.add_argument("-o", "--output", metavar="FILE",
+                   help="also write the report as FILE.csv or FILE.json")
     p.set_defaults(func=cmd_stress)
 
     p = sub.add_parser("fmu", help="write an FMI 2.0 FMU (model exchange and co-simulation)")
@@ -600,6 +638,11 @@ def main(argv=None) -> int:
     except (SceneError, ModelError) as exc:
         print(f"mbgen: error: {exc}", file=sys.stderr)
         return EXIT_MODEL
+    except ImportError as exc:  # plots.MissingExtraError: an optional dependency is missing
+        if not isinstance(exc, MbgenError):
+            raise
+        print(f"mbgen: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     except BuildError as exc:
         print(f"mbgen: compiler error: {exc}", file=sys.stderr)
         return EXIT_BUILD

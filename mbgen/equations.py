@@ -236,3 +236,9 @@ class Equations:
     def forcing_full(self) -> sm.ImmutableMatrix:
         """``[G; F]`` of length ``n_x``."""
         return sm.ImmutableMatrix(sm.Matrix.vstack(sm.Matrix(self.kinematics), sm.Matrix(self.forcing)))
+
+    def _repr_html_(self) -> str:
+        """Notebook summary: sizes, symbols, operation counts; never the matrices."""
+        from .summary import equations_html
+
+        return equations_html(self)

@@ -860,3 +860,9 @@ class Model:
                 f"{len(self.frames)} frames, {len(self.points)} points, "
                 f"{len(self.particles)} particles, {len(self.bodies)} bodies, "
                 f"{len(self.loads)} loads)")
+
+    def _repr_html_(self) -> str:
+        """Notebook summary: sizes and names, never expressions (:mod:`mbgen.summary`)."""
+        from .summary import model_html
+
+        return model_html(self)

@@ -625,6 +625,12 @@ class CompiledModel(ModelBase):
                            int(stats.n_lu), wall,
                            float(stats.max_residual) if projects else float("nan"))
 
+    def _repr_html_(self) -> str:
+        """Notebook summary: ABI sizes and names, outputs, operation counts."""
+        from .summary import compiled_html
+
+        return compiled_html(self)
+
 
 class PythonModel(ModelBase):
     """The generated Python module (``<prefix>.py``) behind the same interface."""

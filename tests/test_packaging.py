@@ -17,3 +17,4 @@ def test_wheel_contains_templates_and_scenes(tmp_path):
         assert f"mbgen/_templates/{template.name}" in names
     assert "mbgen/scenes/disc_pendulum.py" in names
     assert "mbgen/derive/kane.py" in names
+    assert "mbgen/py.typed" in names  # PEP 561 marker (package-data)

@@ -113,7 +113,7 @@ def _short_simulation(ctx: Context, v: Variation) -> Case:
     dop = scipy_run("DOP853", f, None, span, v.x, rtol=SIM_RTOL, atol=atol,
                     max_steps=sz.step_budget, wall_budget=sz.wall_budget, record=False)
     data = {"horizon": horizon, "radau_steps": rad.steps, "dop853_steps": dop.steps}
-    fig = f"{fmt_g(horizon)} s: Radau {rad.steps} steps, DOP853 {dop.steps}"
+    fig = f"horizon {fmt_g(horizon)} s: Radau {rad.steps} steps, DOP853 {dop.steps} steps"
     conservative = ctx.scene.conserves_energy and Output.ENERGY in model.outputs
     bound = f"Radau ok; DOP853 agrees to {SIM_AGREE:g} or budget" + \
         (f"; drift <= {DRIFT_BOUND:g}" if conservative else "")

@@ -6,7 +6,6 @@ drift bounds read.
 
 from __future__ import annotations
 
-import re
 import time
 from dataclasses import dataclass
 
@@ -97,9 +96,8 @@ def c_run(model, method: str, t_out, x0, p, *, rtol: float, atol: float, max_ste
     except IntegrationError as exc:
         status = "budget" if exc.status == STATUS_MAX_STEPS else "failed"
         t_end = exc.t if exc.t is not None else float(t_out[0])
-        code = re.search(r"_([A-Z_]+):", str(exc))
         msg = f"{max_steps} steps" if status == "budget" else \
-            f"status {exc.status} {code.group(1) if code else ''} at t={t_end:.3g}"
+            f"status {exc.status} {status_name(model, exc.status)} at t={t_end:.3g}"
         return Run(f"C {method}", status, msg, np.array([t_out[0], t_end]),
                    np.array([x0, np.full(len(x0), np.nan)]), max_steps if status == "budget"
                    else 0, 0, 0, 0, time.perf_counter() - start)
@@ -110,10 +108,20 @@ def c_run(model, method: str, t_out, x0, p, *, rtol: float, atol: float, max_ste
                time.perf_counter() - start)
 
 
+def status_name(model, status: int) -> str:
+    """The name of a C status code as the generated header spells it, ``<PREFIX>_<CODE>``
+    (e.g. ``SPRING_PENDULUM_MAX_STEPS``)."""
+    from ..render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
+
+    codes = {v: n for n, v, _ in STATUS_CODES + INTEGRATOR_STATUS_CODES + CONSTRAINT_STATUS_CODES}
+    prefix = getattr(getattr(model, "rendered", None), "prefix", None) or model.name
+    return f"{prefix.upper()}_{codes.get(status, 'UNKNOWN')}"
+
+
 def run_figure(r: Run) -> str:
-    fig = f"{r.steps} steps, {r.nfev} f"
+    fig = f"{r.steps} steps, {r.nfev} RHS calls"
     if r.njev:
-        fig += f", {r.njev} J, {r.nlu} LU"
+        fig += f", {r.njev} Jacobians, {r.nlu} LU"
     return fig + f", {r.seconds:.2f} s"
 
 

@@ -124,7 +124,7 @@ def scan_case(ctx: Context, index: int) -> list[Case]:
     fig = f"max cond(M) {fmt_g(worst)}" + (f" at {name}={worst_x[index]:.3g}"
                                             if worst_x is not None else "")
     if errors:
-        fig += "; " + ", ".join(f"{k} x{n}" for k, n in errors.items())
+        fig += "; errors: " + ", ".join(f"{k} at {n} points" for k, n in errors.items())
     bound = "finite or a named mbgen error"
     cases = [Case("singular", f"scan {name} ({len(grid)} pts)", fig, bound, not unexpected,
                   unexpected[0] if unexpected else "no NaN, no unnamed error",

@@ -87,7 +87,8 @@ def stiff_case(ctx: Context, k: float, method: str) -> list[Case]:
         base = runs[IMPLICIT[method]]
         ratio = r.steps / max(base.steps, 1)
         data["ratio"] = ratio
-        fig += f"; {'>=' if r.status == 'budget' else ''}{ratio:.3g}x {IMPLICIT[method]}"
+        fig += (f"; steps {'>=' if r.status == 'budget' else ''}{ratio:.3g}x those of "
+                f"{IMPLICIT[method]}")
     if implicit:
         bound = f"succeeds; |x_T - x_T(Radau)| <= {tol:g} max(1,|x|)"
     else:
@@ -98,6 +99,8 @@ def stiff_case(ctx: Context, k: float, method: str) -> list[Case]:
         ok = not implicit
         reason = (f"budget: {r.message} reached at t={r.t_reached:.3g} of "
                   f"{ref.t_reached if ref.status == 'done' else float('nan'):.3g}")
+    elif ref.status == "budget":
+        ok, reason = False, f"budget: no Radau reference (Radau stopped at its {ref.message} budget)"
     elif ref.status != "done":
         ok, reason = False, "no Radau reference"
     else:
@@ -127,7 +130,7 @@ def stiff_scaling_case(ctx: Context, method: str) -> list[Case]:
     for k in ks:
         runs = _stiff_runs(ctx, k)
         ratios.append(runs[method].steps / max(runs[IMPLICIT[method]].steps, 1))
-    fig = ", ".join(f"{r:.3g}x@{fmt_sci(k)}" for r, k in zip(ratios, ks))
+    fig = "step ratio " + ", ".join(f"{r:.3g}x at k={fmt_sci(k)}" for r, k in zip(ratios, ks))
     bound = f">= {RATIO_BOUND:g}x at k={fmt_sci(ks[-1])}, not below k={fmt_sci(ks[0])}"
     ok = ratios[-1] >= RATIO_BOUND and ratios[-1] >= ratios[0]
     reason = "explicit cost grows with stiffness" if ok else \

@@ -48,7 +48,9 @@ from ..scene import Scene, load_scene
 from ..simulate import consistent_start
 from .points import (BACKENDS, C_METHODS, DEFAULT_RTOLS, IMPLICIT_METHODS, SOLVE_IVP_METHODS,
                      Config, Point, configurations, plan, rk4_steps)
-from .reference import ATOL_RATIO, TrueSolution, make_reference, pilot, typical_magnitude
+from .reference import (ATOL_RATIO, REFERENCE_BUDGET_FACTOR, REFERENCE_BUDGET_MIN_S,
+                        STIFF_STEPS, TrueSolution,
+                        make_reference, pilot, stiffness_steps, typical_magnitude)
 from .report import CSV_COLUMNS, ERROR_LEVELS, WorkPrecisionReport
 from .runs import run_tasks
 from .solve import Backends
@@ -86,7 +88,9 @@ def work_precision(scene: Scene | str, *, rtols: Sequence[float] = DEFAULT_RTOLS
     time_budget : float
         Seconds one solve may take; longer ones are stopped and recorded as
         ``"over budget"``, and the tighter tolerances of that configuration
-        are skipped.
+        are skipped.  The pilot and each reference solve may take
+        ``REFERENCE_BUDGET_FACTOR`` (5) times as long, and at least
+        ``REFERENCE_BUDGET_MIN_S`` (60 s) (:mod:`mbgen.workprecision.reference`).
     progress : bool or callable, optional
         True: a tqdm bar on stderr; a callable gets one line of text per
         point (and per set-up stage).
@@ -115,17 +119,26 @@ def work_precision(scene: Scene | str, *, rtols: Sequence[float] = DEFAULT_RTOLS
         x0 = consistent_start(b.compiled, scene.x0(b.compiled.layout), b.p)
         t_eval = np.linspace(*map(float, scene.t_span), t_eval_points)
         b.warm_up(x0, t_eval[0])
+        stiff_steps = stiffness_steps(b, t_eval, x0)
+        stiff = stiff_steps > STIFF_STEPS
+        budget_s = max(REFERENCE_BUDGET_FACTOR * time_budget, REFERENCE_BUDGET_MIN_S)
+        if stiff:
+            say(f"stiff: an explicit method needs at least {stiff_steps:.2g} steps "
+                f"(stability bound); implicit pilot and reference")
         say("pilot solve")
         loosest = max(rtols)
         pilot_scale = atol_scale or ATOL_RATIO * typical_magnitude(x0[None])
-        steps, pilot_x, pilot_method = pilot(b, t_eval, x0, loosest, loosest * pilot_scale)
+        bar = progress is True
+        steps, pilot_x, pilot_method = pilot(b, t_eval, x0, loosest, loosest * pilot_scale,
+                                             stiff=stiff, budget_s=budget_s, bar=bar)
         magnitude = typical_magnitude(pilot_x)
         atol_note = (f"atol = rtol x {atol_scale:g} (given)" if atol_scale else
                      f"atol = rtol x {ATOL_RATIO * magnitude:.3g} ({ATOL_RATIO:g} x typical "
                      f"state magnitude {magnitude:.3g}: median over states of max |x_i|, "
                      f"{pilot_method} pilot)")
         atol_scale = atol_scale or ATOL_RATIO * magnitude
-        reference = make_reference(scene, b, t_eval, x0, atol_scale, say)
+        reference = make_reference(scene, b, t_eval, x0, atol_scale, say, stiff=stiff,
+                                   budget_s=budget_s, bar=bar)
         hs = rk4_steps(rtols, steps, t_eval)
         tasks = plan(configurations(methods, backends), rtols, atol_scale, hs)
         points = run_tasks(tasks, b, t_eval, x0, reference, repeats, time_budget, progress)

@@ -39,18 +39,21 @@ class _OverBudget(Exception):
 class _Meter:
     """Wraps callables: counts calls, sums the seconds inside them, enforces a deadline."""
 
-    def __init__(self, deadline: float):
+    def __init__(self, deadline: float, on_time: Callable[[float], None] | None = None):
         self.deadline = deadline
         self.seconds = 0.0
         self.calls = {"fun": 0, "jac": 0}
+        self.on_time = on_time
 
     def wrap(self, fn: Callable, kind: str) -> Callable:
-        clock, calls = time.perf_counter, self.calls
+        clock, calls, on_time = time.perf_counter, self.calls, self.on_time
 
         def wrapped(t, x):
             start = clock()
             if start > self.deadline:
                 raise _OverBudget
+            if on_time is not None:
+                on_time(t)
             out = fn(t, x)
             self.seconds += clock() - start
             calls[kind] += 1
@@ -60,13 +63,16 @@ class _Meter:
 
 
 def solve(fun, jac, method: str, t_eval, x0, rtol: float, atol: float, *,
-          deadline: float | None = None, grid: bool = True):
+          deadline: float | None = None, grid: bool = True,
+          on_time: Callable[[float], None] | None = None):
     """``(solution, meter)`` of one ``solve_ivp`` call; instrumented when ``deadline`` is set.
 
     ``grid=False`` keeps every step in ``solution.t`` instead of evaluating at
-    ``t_eval``.  Raises :class:`Failed` on any failure.
+    ``t_eval``.  ``on_time(t)`` (with a deadline) is called at every RHS or
+    Jacobian call: the time the solver has reached, for a progress bar.
+    Raises :class:`Failed` on any failure.
     """
-    meter = None if deadline is None else _Meter(deadline)
+    meter = None if deadline is None else _Meter(deadline, on_time)
     f = fun if meter is None else meter.wrap(fun, "fun")
     extra = {}
     if jac is not None:
