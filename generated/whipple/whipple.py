@@ -10,9 +10,11 @@ state x = ['x', 'y', 'yaw', 'roll', 'pitch', 'steer', 'theta_r', 'theta_f', 'w_r
 parameters p = ['g']
 inputs r = []
 
-Each function takes the arrays named in its signature and returns a new
+Each function takes the NumPy arrays named in its signature and returns a new
 NumPy array; it raises NotPositiveDefinite (an ArithmeticError) when the mass
-matrix cannot be factorised and NonFinite when an output is NaN or infinite.
+matrix cannot be factorised and NonFinite when an output is NaN or infinite,
+at the same inputs as the C: where Python's float arithmetic raises (x/0,
+sqrt(-1), exp(1000)), the function is evaluated again with IEEE 754 semantics.
 """
 
 import math
@@ -34,6 +36,29 @@ class NotPositiveDefinite(ArithmeticError):
 
 class NonFinite(ArithmeticError):
     """An output is NaN or infinite."""
+
+
+class _IEEE:
+    """The math functions with C semantics: NaN and infinities instead of exceptions.
+
+    Used with NumPy scalars under np.errstate(all="ignore") when Python's floats
+    raise (ZeroDivisionError, ValueError: math domain error, OverflowError).
+    """
+
+    pi, e, tau, inf, nan = math.pi, math.e, math.tau, math.inf, math.nan
+    sqrt, exp, log, log2, log10, log1p, expm1 = (np.sqrt, np.exp, np.log, np.log2, np.log10,
+                                                 np.log1p, np.expm1)
+    sin, cos, tan, asin, acos, atan, atan2 = (np.sin, np.cos, np.tan, np.arcsin, np.arccos,
+                                              np.arctan, np.arctan2)
+    sinh, cosh, tanh, asinh, acosh, atanh = (np.sinh, np.cosh, np.tanh, np.arcsinh, np.arccosh,
+                                             np.arctanh)
+    pow, fabs, copysign, hypot, floor, ceil, fmod = (np.power, np.fabs, np.copysign, np.hypot,
+                                                     np.floor, np.ceil, np.fmod)
+    isfinite, isnan, isinf = np.isfinite, np.isnan, np.isinf
+
+
+#: What Python's float arithmetic raises where C's gives NaN or infinity.
+_RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
 def _ldl(M):
@@ -173,6 +198,15 @@ def rhs(t, x, p):
 
     Returns a new array of shape 11; 3161 operations (56675 before CSE).
     """
+    try:
+        return _rhs(math, float(t), x.tolist(), p.tolist())
+    except _RAISES:
+        with np.errstate(all="ignore"):
+            return _rhs(_IEEE, np.float64(t),
+                                    *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+
+
+def _rhs(math, t, x, p):
     yaw = x[2]
     roll = x[3]
     pitch = x[4]
@@ -1096,6 +1130,15 @@ def energy(t, x, p):
 
     Returns a new array of shape 2; 750 operations (5650 before CSE).
     """
+    try:
+        return _energy(math, float(t), x.tolist(), p.tolist())
+    except _RAISES:
+        with np.errstate(all="ignore"):
+            return _energy(_IEEE, np.float64(t),
+                                    *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+
+
+def _energy(math, t, x, p):
     yaw = x[2]
     roll = x[3]
     pitch = x[4]
@@ -1540,6 +1583,15 @@ def constraint_forces(t, x, p):
 
     Returns a new array of shape 5; 3161 operations (56675 before CSE).
     """
+    try:
+        return _constraint_forces(math, float(t), x.tolist(), p.tolist())
+    except _RAISES:
+        with np.errstate(all="ignore"):
+            return _constraint_forces(_IEEE, np.float64(t),
+                                    *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+
+
+def _constraint_forces(math, t, x, p):
     yaw = x[2]
     roll = x[3]
     pitch = x[4]
@@ -2459,6 +2511,15 @@ def holonomic(t, x, p):
 
     Returns a new array of shape 1; 33 operations (72 before CSE).
     """
+    try:
+        return _holonomic(math, float(t), x.tolist(), p.tolist())
+    except _RAISES:
+        with np.errstate(all="ignore"):
+            return _holonomic(_IEEE, np.float64(t),
+                                    *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+
+
+def _holonomic(math, t, x, p):
     roll = x[3]
     pitch = x[4]
     steer = x[5]
@@ -2503,6 +2564,15 @@ def holonomic_jacobian(t, x, p):
 
     Returns a new array of shape 1 x 8; 91 operations (484 before CSE).
     """
+    try:
+        return _holonomic_jacobian(math, float(t), x.tolist(), p.tolist())
+    except _RAISES:
+        with np.errstate(all="ignore"):
+            return _holonomic_jacobian(_IEEE, np.float64(t),
+                                    *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+
+
+def _holonomic_jacobian(math, t, x, p):
     roll = x[3]
     pitch = x[4]
     steer = x[5]
