@@ -201,15 +201,23 @@ def _axis_index(axis) -> int:
 
 
 def _symbols(names, factory, what: str, force: bool = False) -> tuple:
-    if not isinstance(names, str):
-        raise ModelError(f"{what} names must be given as one string, e.g. 'q1 q2' or 'q1:3'; "
-                         f"got {type(names).__name__}")
-    if what in ("coordinate", "speed") and not force:
-        _guard_range(names, what)
-    out = factory(names)
-    out = tuple(out) if isinstance(out, (list, tuple)) else (out,)
+    parts = [names] if isinstance(names, str) else \
+        list(names) if isinstance(names, (list, tuple)) else None
+    if parts is None or not all(isinstance(n, str) for n in parts):
+        raise ModelError(f"{what} names must be a string such as 'q1 q2' or 'q1:3' (or a list of "
+                         f"such strings); got {type(names).__name__}")
+    out = []
+    for part in parts:
+        if what in ("coordinate", "speed") and not force:
+            _guard_range(part, what)
+        try:
+            made = factory(part)
+        except ValueError:  # sympy: "no symbols given"
+            made = ()
+        out.extend(made if isinstance(made, (list, tuple)) else [made])
+    out = tuple(out)
     if not out:
-        raise ModelError(f"no {what} names in {names!r}")
+        raise ModelError(f"no {what} names in {names!r}; give e.g. 'q1 q2' or 'q1:3'")
     return out
 
 

@@ -220,6 +220,9 @@ def test_five_thousand_character_name_is_a_model_error_not_oserror():
 
 def test_symbol_names_with_odd_characters_are_refused_where_declared():
     m = Model("ok")
+    for empty in ("", " ", ","):
+        with pytest.raises(ModelError, match="no coordinate names"):
+            m.coordinates(empty)
     for bad in ('a"b', "x-y", "\u03b8"):
         with pytest.raises(ModelError, match=repr(bad).strip("'")):
             m.constants(bad)
