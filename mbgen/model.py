@@ -253,6 +253,19 @@ _FORCE_SIZE: contextvars.ContextVar[bool] = contextvars.ContextVar("mbgen_force_
                                                                   default=False)
 
 
+def size_forced() -> bool:
+    """True inside :func:`allow_large_models` (e.g. while ``load_scene(..., force=True)`` runs)."""
+    return _FORCE_SIZE.get()
+
+
+def check_size(n_speeds: int, what: str) -> None:
+    """Refuse ``n_speeds`` above :data:`MAX_SPEEDS` unless forced (:class:`ModelSizeError`)."""
+    if n_speeds > MAX_SPEEDS and not size_forced():
+        raise ModelSizeError(f"{what} has {n_speeds} speeds, more than {MAX_SPEEDS}: far past "
+                             f"what mbgen derives and compiles in reasonable time ({_COST}). "
+                             f"{_FORCE_HINT}")
+
+
 @contextmanager
 def allow_large_models():
     """Within this block, models larger than :data:`MAX_SPEEDS` / :data:`MAX_BODIES` are built."""

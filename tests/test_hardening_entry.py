@@ -497,6 +497,21 @@ def test_size_guard_can_be_forced():
         load_scene("n_link_cart", n=MAX_SPEEDS)
 
 
+def test_size_guard_for_derived_equations(monkeypatch):
+    """Equations from elsewhere (from_sympy) are checked when a scene holds them."""
+    import mbgen.model
+    from mbgen import derive
+    from mbgen.model import allow_large_models
+
+    eq = derive(_pendulum())
+    assert Scene(name="small", model=eq).model is eq
+    monkeypatch.setattr(mbgen.model, "MAX_SPEEDS", 0)  # the pendulum's 1 speed is "too many"
+    with pytest.raises(ModelSizeError, match="1 speeds, more than 0"):
+        Scene(name="big", model=eq)
+    with allow_large_models():
+        assert Scene(name="big", model=eq).model is eq
+
+
 @pytest.mark.parametrize("t_end", ["inf", "nan", "-1"])
 def test_simulate_refuses_an_infinite_or_backward_span(t_end, capsys, tmp_path):
     """Issue 9.9: simulate --t-end inf ran until killed."""
