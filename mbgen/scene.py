@@ -113,6 +113,8 @@ class Scene:
     def __post_init__(self):
         try:
             check_name(self.name, "scene")
+            if self.prefix is not None:
+                check_name(self.prefix, "C prefix")
         except ModelError as exc:
             raise SceneError(str(exc)) from None
         for what in ("parameters", "fixed", "initial_state"):

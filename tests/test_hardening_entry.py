@@ -233,6 +233,8 @@ def test_scene_name_cannot_be_a_path(bad):
     """Issue 9.6: Scene(name='../../x') made generate write outside its folder."""
     with pytest.raises(SceneError, match="scene name"):
         Scene(name=bad, model=_pendulum())
+    with pytest.raises(SceneError, match="C prefix name"):
+        Scene(name="ok", model=_pendulum(), prefix=bad)
 
 
 # ------------------------------------------------------------ item 3: no eval of user text
