@@ -332,6 +332,8 @@ def cmd_golden(args) -> int:
     names = args.scenes.split(",") if args.scenes else None
     golden.repository_root()  # a developer's command: refuse outside a source checkout
     root = Path(args.root) if args.root else golden.default_root()
+    if root.exists() and not root.is_dir():
+        raise SceneError(f"--root {str(root)!r} is a file; give the folder of the golden tree")
     if args.update:
         changed = golden.update(root, names)
         print(f"{len(changed)} file(s) rewritten under {root}")
