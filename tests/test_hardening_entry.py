@@ -5,19 +5,16 @@ on the code before the fix (see the commit history).
 """
 
 import ast
-import os
 import subprocess
 import sys
-import textwrap
 import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-import numpy as np
 import pytest
 import sympy as sm
 
-from mbgen import Model, Output, Scene, escape, golden
+from mbgen import Model, Scene, escape, golden
 from mbgen.cli import EXIT_MODEL, EXIT_OK, main
 from mbgen.errors import ModelError, SceneError
 from mbgen.kinematics import vec
