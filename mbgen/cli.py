@@ -402,6 +402,8 @@ def cmd_golden(args) -> int:
     names = args.scenes.split(",") if args.scenes else None
     golden.repository_root()  # a developer's command: refuse outside a source checkout
     root = Path(args.root) if args.root else golden.default_root()
+    if root.exists() and not root.is_dir():
+        raise SceneError(f"--root {str(root)!r} is a file; give the folder of the golden tree")
     if args.update:
         changed = golden.update(root, names)
         print(f"{len(changed)} file(s) rewritten under {root}")
@@ -452,6 +454,8 @@ def parser() -> argparse.ArgumentParser:
                        help="built-in scene name (see 'mbgen scenes') or path to a scene .py file")
         p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
                        help="scene option, e.g. -O n=8 (repeatable)")
+        p.add_argument("--force", action="store_true",
+                       help="build a model past the size guard (more than 200 speeds)")
         flags = ("--derivation", "--method") if method_flag else ("--derivation",)
         p.add_argument(*flags, dest="derivation", choices=[m.value for m in Method],
                        help="derivation method (default: the scene's, else kane)")
@@ -466,8 +470,6 @@ def parser() -> argparse.ArgumentParser:
                         "files it wrote before and no longer produces")
     p.add_argument("--overwrite", action="store_true",
                    help="replace files in the output folder that mbgen did not write")
-    p.add_argument("--force", action="store_true",
-                   help="build a model past the size guard (more than 200 speeds)")
     p.add_argument("--outputs", metavar="LIST",
                    help="comma-separated outputs (e.g. rhs,jacobian,dopri5); default: the scene's")
     p.add_argument("--explain", action="store_true",

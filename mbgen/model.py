@@ -201,15 +201,23 @@ def _axis_index(axis) -> int:
 
 
 def _symbols(names, factory, what: str, force: bool = False) -> tuple:
-    if not isinstance(names, str):
-        raise ModelError(f"{what} names must be given as one string, e.g. 'q1 q2' or 'q1:3'; "
-                         f"got {type(names).__name__}")
-    if what in ("coordinate", "speed") and not force:
-        _guard_range(names, what)
-    out = factory(names)
-    out = tuple(out) if isinstance(out, (list, tuple)) else (out,)
+    parts = [names] if isinstance(names, str) else \
+        list(names) if isinstance(names, (list, tuple)) else None
+    if parts is None or not all(isinstance(n, str) for n in parts):
+        raise ModelError(f"{what} names must be a string such as 'q1 q2' or 'q1:3' (or a list of "
+                         f"such strings); got {type(names).__name__}")
+    out = []
+    for part in parts:
+        if what in ("coordinate", "speed") and not force:
+            _guard_range(part, what)
+        try:
+            made = factory(part)
+        except ValueError:  # sympy: "no symbols given"
+            made = ()
+        out.extend(made if isinstance(made, (list, tuple)) else [made])
+    out = tuple(out)
     if not out:
-        raise ModelError(f"no {what} names in {names!r}")
+        raise ModelError(f"no {what} names in {names!r}; give e.g. 'q1 q2' or 'q1:3'")
     return out
 
 
@@ -243,6 +251,19 @@ _FORCE_HINT = ("If you really mean it, build it with Model(name, force=True), lo
 
 _FORCE_SIZE: contextvars.ContextVar[bool] = contextvars.ContextVar("mbgen_force_size",
                                                                   default=False)
+
+
+def size_forced() -> bool:
+    """True inside :func:`allow_large_models` (e.g. while ``load_scene(..., force=True)`` runs)."""
+    return _FORCE_SIZE.get()
+
+
+def check_size(n_speeds: int, what: str) -> None:
+    """Refuse ``n_speeds`` above :data:`MAX_SPEEDS` unless forced (:class:`ModelSizeError`)."""
+    if n_speeds > MAX_SPEEDS and not size_forced():
+        raise ModelSizeError(f"{what} has {n_speeds} speeds, more than {MAX_SPEEDS}: far past "
+                             f"what mbgen derives and compiles in reasonable time ({_COST}). "
+                             f"{_FORCE_HINT}")
 
 
 @contextmanager

@@ -38,7 +38,7 @@ import numpy as np
 
 from .equations import Equations
 from .errors import ModelError, SceneError
-from .model import Model, allow_large_models
+from .model import Model, allow_large_models, check_size
 from .names import check_name
 from .optimize import Output
 
@@ -113,6 +113,8 @@ class Scene:
     def __post_init__(self):
         try:
             check_name(self.name, "scene")
+            if self.prefix is not None:
+                check_name(self.prefix, "C prefix")
         except ModelError as exc:
             raise SceneError(str(exc)) from None
         for what in ("parameters", "fixed", "initial_state"):
@@ -129,6 +131,9 @@ class Scene:
         t1 = finite_number(span[1], f"scene {self.name!r}: t_span[1]")
         check_span(t0, t1, f"scene {self.name!r}: t_span")
         _check_symbol_names(self)
+        if isinstance(self.model, Equations):  # a Model checks its size as it is built
+            L = self.model.layout
+            check_size(L.n_u + L.n_d, f"scene {self.name!r}")
 
     def x0(self, layout) -> np.ndarray:
         """Initial state as an array in ``layout`` order; unknown names are an error."""
