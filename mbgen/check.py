@@ -43,9 +43,10 @@ from .runtime import ModelBase
 class ErrorRow:
     """Largest errors of one output of one back end against the reference.
 
-    ``samples`` states were drawn; ``compared`` of them gave a value in both the back end
-    and the reference; ``both_failed`` raised the same named error in both;
-    ``mismatched_failures`` failed on one side only, or with different errors.
+    ``samples`` states were drawn; the back end returned a value at ``evaluated`` of them;
+    ``compared`` gave a value in both the back end and the reference; ``both_failed``
+    raised the same named error in both; ``mismatched_failures`` failed on one side only,
+    or with different errors.
     """
 
     output: str
@@ -57,6 +58,7 @@ class ErrorRow:
     ok: bool
     compared: int = 0
     both_failed: int = 0
+    evaluated: int = 0
 
     @property
     def within_tolerance(self) -> bool:
@@ -108,7 +110,7 @@ class CheckReport:
         lines = [f"check {self.name}: {self.samples} seeded random states (seed {self.seed}), "
                  f"reference = {self.reference}",
                  f"{'output':<19}{'backend':<9}{'max abs err':>13}{'max rel err':>13}"
-                 f"{'compared':>10}{'both fail':>11}  result"]
+                 f"{'evaluated':>11}{'compared':>10}{'both fail':>11}  result"]
         for r in self.rows:
             if r.ok:
                 verdict = "ok"
@@ -119,7 +121,8 @@ class CheckReport:
             else:
                 verdict = "FAIL"
             lines.append(f"{r.output:<19}{r.backend:<9}{r.max_abs:13.3e}{r.max_rel:13.3e}"
-                         f"{f'{r.compared}/{r.samples}':>10}{r.both_failed:>11}  {verdict}")
+                         f"{f'{r.evaluated}/{r.samples}':>11}{f'{r.compared}/{r.samples}':>10}"
+                         f"{r.both_failed:>11}  {verdict}")
         counts = ", ".join(f"{b} {n}" for b, n in self.evaluated().items())
         lines.append(f"samples compared per back end (fewest over its outputs): {counts}")
         lines.append(f"tolerance: rel <= {self.rtol:g} or abs <= {self.atol:g}; {self.verdict}")
@@ -160,11 +163,12 @@ def compare(models: dict[str, ModelBase], reference: ModelBase, outputs, *, p=No
     for output in outputs:
         for backend, model in models.items():
             max_abs = max_rel = 0.0
-            mismatched = compared = both_failed = 0
+            mismatched = compared = both_failed = evaluated = 0
             for k, (x, r) in enumerate(states):
                 t = 0.1 * k
                 ref, ref_err = _evaluate(reference, output, t, x, p, r)
                 got, got_err = _evaluate(model, output, t, x, p, r)
+                evaluated += got_err is None
                 if ref_err or got_err:
                     if ref_err is got_err:
                         both_failed += 1
@@ -181,7 +185,7 @@ def compare(models: dict[str, ModelBase], reference: ModelBase, outputs, *, p=No
                 max_rel = max(max_rel, diff / scale if scale > 0 else (0.0 if diff == 0 else np.inf))
             ok = compared > 0 and mismatched == 0 and (max_rel <= rtol or max_abs <= atol)
             rows.append(ErrorRow(output.value, backend, max_abs, max_rel, samples, mismatched, ok,
-                                 compared, both_failed))
+                                 compared, both_failed, evaluated))
     return tuple(rows)
 
 

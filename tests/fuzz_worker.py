@@ -274,5 +274,61 @@ def integrate_case(data, c, method, note, census):
         census["ok"] += 1
 
 
+def threads(calls: int, seed_: int, n_threads: int = 8) -> None:
+    """The same seeded calls from ``n_threads`` threads at once: every answer (value or error
+    class) must equal the one-thread answer.  Prints a JSON census."""
+    import threading
+
+    models = build_models()
+    rng = np.random.default_rng(seed_)
+    jobs = []
+    for i in range(calls):
+        c, py = models[i % len(models)]
+        func = [o.value for o in c.outputs if not o.is_integrator][i % 3]
+        x = rng.uniform(-2, 2, c.n_x)
+        if i % 7 == 0:
+            x[i % c.n_x] = [np.nan, np.inf, 0.0][i % 3]
+        p = None if i % 5 else rng.uniform(-1, 2, c.n_p)
+        for model in (c, py):
+            jobs.append((getattr(model, func), 0.1 * i, x, p))
+
+    def answer(job):
+        f, t, x, p = job
+        try:
+            return "ok", f(t, x, p).tobytes()
+        except MbgenError as exc:
+            return type(exc).__name__, None
+        except Exception as exc:
+            return f"unnamed {type(exc).__name__}", None
+
+    serial = [answer(j) for j in jobs]
+    mismatches, unnamed = [], []
+
+    def worker(k):
+        for i in range(k, len(jobs), 1):  # every thread runs every job, from its own start
+            got = answer(jobs[i])
+            if got != serial[i]:
+                mismatches.append((k, i, got[0], serial[i][0]))
+            if got[0].startswith("unnamed"):
+                unnamed.append(got[0])
+        for i in range(0, k):
+            got = answer(jobs[i])
+            if got != serial[i]:
+                mismatches.append((k, i, got[0], serial[i][0]))
+
+    pool = [threading.Thread(target=worker, args=(k * len(jobs) // n_threads,))
+            for k in range(n_threads)]
+    for th in pool:
+        th.start()
+    for th in pool:
+        th.join()
+    print(json.dumps({"calls": n_threads * len(jobs), "threads": n_threads,
+                      "mismatches": len(mismatches), "unnamed": len(unnamed),
+                      "samples": [str(m) for m in mismatches[:10]] + unnamed[:10]}))
+
+
 if __name__ == "__main__":
-    main(int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4])
+    if sys.argv[1] == "threads":
+        threads(int(sys.argv[2]), int(sys.argv[3]))
+    else:
+        main(int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3]), sys.argv[4])

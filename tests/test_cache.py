@@ -101,16 +101,13 @@ def test_stale_build_folders_are_removed(cache):
 @pytest.mark.slow
 def test_a_killed_build_leaves_nothing_behind_after_the_next(tmp_path, monkeypatch):
     monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
-    code = LOAD.replace("mbgen.compile(", "__import__('os').kill(__import__('os').getpid(), 9) "
-                        "if False else mbgen.compile(")
-    # a child killed in the middle of its build: SIGKILL when the compiler starts
+    # a child killed in the middle of its build: SIGKILL when the compiler would start
     killer = textwrap.dedent("""
         import os, signal, cffi
-        real = cffi.FFI.compile
         def compile(self, *a, **k):
             os.kill(os.getpid(), signal.SIGKILL)
         cffi.FFI.compile = compile
-    """) + code
+    """) + LOAD
     proc = subprocess.run([sys.executable, "-c", killer], env={**os.environ},
                           capture_output=True, timeout=600)
     assert proc.returncode == -9

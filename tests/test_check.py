@@ -38,7 +38,7 @@ def pendulum(mass=1.0, inertia=0.1, g=9.81, fixed_g=None, idle=False) -> mbgen.S
 def test_a_good_model_passes_and_counts_its_samples():
     report = check(pendulum(), samples=6)
     assert report.ok and report.verdict == "PASSED", report.format()
-    assert all(r.compared == 6 and r.both_failed == 0 for r in report.rows)
+    assert all(r.compared == r.evaluated == 6 and r.both_failed == 0 for r in report.rows)
     assert report.evaluated() == {"c": 6, "python": 6}
     assert "compared" in report.format()
 
@@ -53,7 +53,7 @@ def test_every_sample_failing_everywhere_is_not_a_pass(scene):
     assert not report.ok
     assert report.inconclusive and report.verdict == "INCONCLUSIVE", report.format()
     rhs = [r for r in report.rows if r.output == "rhs"]
-    assert rhs and all(r.compared == 0 and r.both_failed == 5 for r in rhs)
+    assert rhs and all(r.compared == r.evaluated == 0 and r.both_failed == 5 for r in rhs)
     with pytest.raises(CheckInconclusive):
         report.raise_if_failed()
 

@@ -8,7 +8,8 @@ hold over every seeded call:
 * 0 unnamed exceptions: every refusal is an :class:`mbgen.errors.MbgenError`;
 * 0 silent non-finite results: NaN or infinity is never returned;
 * C and generated Python agree: the same outcome (ok, or the same error class)
-  and, when both succeed, the same values.
+  and, when both succeed, the same values;
+* 8 threads making the same calls at once get the answers of one thread.
 
 The default run is small (CI, under a minute); ``-m slow`` runs a larger one.
 """
@@ -66,6 +67,16 @@ def assert_clean(result: dict) -> None:
 def test_fuzz_small():
     """About 400 seeded hostile calls (seconds once the two models are compiled)."""
     assert_clean(census(examples=250, seed=20261124))
+
+
+def test_threads_agree_with_one_thread():
+    """8 threads making the same calls (C and Python, good and NaN inputs) at once."""
+    proc = subprocess.run([sys.executable, str(WORKER), "threads", "300", "5"],
+                          capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, f"exit {proc.returncode}: {proc.stderr[-3000:]}"
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["calls"] == 8 * 600
+    assert result["mismatches"] == 0 and result["unnamed"] == 0, result
 
 
 @pytest.mark.slow

@@ -206,3 +206,12 @@ def test_rosenbrock_step_over_a_subnormal_span_is_not_a_singular_matrix():
     with pytest.raises(IntegrationError) as info:
         s.step(5e-324)
     assert info.value.status == STATUS["STEP_TOO_SMALL"]
+
+
+def test_generated_module_accepts_lists(domain):
+    _, py = domain
+    mod = py.module
+    want = mod.rhs(0.0, np.array([0.5, 0.1]), np.array([2.0]))
+    np.testing.assert_array_equal(mod.rhs(0.0, [0.5, 0.1], (2.0,)), want)
+    with pytest.raises(mod.NonFinite):
+        mod.rhs(0.0, [2.0, 0.0], [1.0])

@@ -35,6 +35,9 @@ def kanes_method(model):
     """``(KanesMethod, M_full, F_full)`` of an unconstrained mbgen model, by sympy alone."""
     N, O = model.N, model.origin
     O.set_vel(N, 0)
+    for point in model.points:  # every velocity from the origin (one path, no ambiguity)
+        if point is not O:
+            point.set_vel(N, point.pos_from(O).dt(N))
     q, u = list(model.coordinates_), list(model.speeds_)
     kd = [sm.sympify(e) for e in model.kinematic_equations_]
     used = set().union(*(e.atoms(sm.Derivative) for e in kd)) if kd else set()

@@ -109,6 +109,8 @@ def rhs(t, x, p, r):
         with np.errstate(all="ignore"):
             return _rhs(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return rhs(t, *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
 
 
 def _rhs(math, t, x, p, r):
@@ -220,6 +222,8 @@ def reactions(t, x, p, r):
         with np.errstate(all="ignore"):
             return _reactions(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return reactions(t, *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
 
 
 def _reactions(math, t, x, p, r):
