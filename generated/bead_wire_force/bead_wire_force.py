@@ -186,6 +186,8 @@ def rhs(t, x, p):
         with np.errstate(all="ignore"):
             return _rhs(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return rhs(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _rhs(math, t, x, p):
@@ -234,6 +236,8 @@ def constraint_forces(t, x, p):
         with np.errstate(all="ignore"):
             return _constraint_forces(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return constraint_forces(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _constraint_forces(math, t, x, p):
@@ -280,6 +284,8 @@ def holonomic(t, x, p):
         with np.errstate(all="ignore"):
             return _holonomic(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return holonomic(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _holonomic(math, t, x, p):
@@ -303,6 +309,8 @@ def holonomic_jacobian(t, x, p):
         with np.errstate(all="ignore"):
             return _holonomic_jacobian(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return holonomic_jacobian(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _holonomic_jacobian(math, t, x, p):

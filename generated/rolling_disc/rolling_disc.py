@@ -204,6 +204,8 @@ def rhs(t, x, p):
         with np.errstate(all="ignore"):
             return _rhs(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return rhs(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _rhs(math, t, x, p):
@@ -329,6 +331,8 @@ def energy(t, x, p):
         with np.errstate(all="ignore"):
             return _energy(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return energy(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _energy(math, t, x, p):
@@ -413,6 +417,8 @@ def constraint_forces(t, x, p):
         with np.errstate(all="ignore"):
             return _constraint_forces(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return constraint_forces(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _constraint_forces(math, t, x, p):

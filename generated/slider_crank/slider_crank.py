@@ -186,6 +186,8 @@ def rhs(t, x, p, r):
         with np.errstate(all="ignore"):
             return _rhs(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return rhs(t, *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
 
 
 def _rhs(math, t, x, p, r):
@@ -275,6 +277,8 @@ def energy(t, x, p, r):
         with np.errstate(all="ignore"):
             return _energy(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return energy(t, *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
 
 
 def _energy(math, t, x, p, r):
@@ -341,6 +345,8 @@ def constraint_forces(t, x, p, r):
         with np.errstate(all="ignore"):
             return _constraint_forces(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return constraint_forces(t, *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
 
 
 def _constraint_forces(math, t, x, p, r):
@@ -428,6 +434,8 @@ def holonomic(t, x, p, r):
         with np.errstate(all="ignore"):
             return _holonomic(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return holonomic(t, *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
 
 
 def _holonomic(math, t, x, p, r):
@@ -461,6 +469,8 @@ def holonomic_jacobian(t, x, p, r):
         with np.errstate(all="ignore"):
             return _holonomic_jacobian(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return holonomic_jacobian(t, *[np.asarray(a, dtype=np.float64) for a in (x, p, r,)])
 
 
 def _holonomic_jacobian(math, t, x, p, r):

@@ -204,6 +204,8 @@ def rhs(t, x, p):
         with np.errstate(all="ignore"):
             return _rhs(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return rhs(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _rhs(math, t, x, p):
@@ -1136,6 +1138,8 @@ def energy(t, x, p):
         with np.errstate(all="ignore"):
             return _energy(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return energy(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _energy(math, t, x, p):
@@ -1589,6 +1593,8 @@ def constraint_forces(t, x, p):
         with np.errstate(all="ignore"):
             return _constraint_forces(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return constraint_forces(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _constraint_forces(math, t, x, p):
@@ -2517,6 +2523,8 @@ def holonomic(t, x, p):
         with np.errstate(all="ignore"):
             return _holonomic(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return holonomic(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _holonomic(math, t, x, p):
@@ -2570,6 +2578,8 @@ def holonomic_jacobian(t, x, p):
         with np.errstate(all="ignore"):
             return _holonomic_jacobian(_IEEE, np.float64(t),
                                     *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
+    except AttributeError:  # lists or tuples rather than arrays
+        return holonomic_jacobian(t, *[np.asarray(a, dtype=np.float64) for a in (x, p,)])
 
 
 def _holonomic_jacobian(math, t, x, p):
