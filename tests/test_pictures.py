@@ -157,7 +157,10 @@ def test_repr_html_is_a_summary_not_the_matrices():
     assert "q0, q1, q2" in text and "..." in text and "(34)" in text   # 34 states, shortened
     assert f"M 17 x 17" in text and "ops" in text
     assert "29 after CSE (53 before)" in compiled._repr_html_()
-    assert "&lt;b&gt;" in mbgen.Model("<b>")._repr_html_()          # names are escaped
+    from mbgen import summary
+    assert summary.names(["<b>", "a&b"]) == "&lt;b&gt;, a&amp;b"      # text is escaped
+    with pytest.raises(mbgen.ModelError, match="letters, digits"):               # and names never get there
+        mbgen.Model("<b>")
 
 
 # ------------------------------------------------------------------ optional matplotlib
