@@ -65,3 +65,14 @@ class IntegrationError(MbgenError, ArithmeticError):
 
 class CheckFailed(MbgenError, AssertionError):
     """A verification found an error above its tolerance."""
+
+
+class UnknownNameError(MbgenError, ValueError):
+    """A parameter, input or state given by a name the model does not have (or a
+    needed name left out); the message lists the closest names ("did you mean")."""
+
+
+class UsageError(MbgenError, ValueError):
+    """A command-line mistake found after parsing: an output path that is a file, a
+    folder that cannot be written, an unknown integration method, ...
+    (``mbgen: error: ...``, exit code 2)."""
