@@ -15,6 +15,7 @@ Exit codes
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -26,7 +27,8 @@ from dataclasses import replace
 from ._version import __version__
 from .derive import Method
 from .errors import (BuildError, CheckFailed, CheckInconclusive, MbgenError, ModelError,
-                     NonFiniteResultError, SceneError, SingularMassMatrixError)
+                     NonFiniteResultError, SceneError, SingularMassMatrixError, UnknownNameError,
+                     UsageError)
 
 EXIT_OK, EXIT_CHECK, EXIT_USAGE, EXIT_MODEL, EXIT_BUILD, EXIT_NUMERIC = 0, 1, 2, 3, 4, 5
 EXIT_INCONCLUSIVE = 6
@@ -54,6 +56,111 @@ def _scene(args):
     scene = load_scene(args.scene, force=getattr(args, "force", False), **_options(args.option))
     derivation = getattr(args, "derivation", None)
     return replace(scene, method=Method(derivation)) if derivation else scene
+
+
+# ------------------------------------------------------- numbers by name, paths
+def _assignments(pairs, flag: str) -> dict[str, float]:
+    """``["c=0.5", ...]`` of ``flag`` (-p, -r, -x) -> ``{"c": 0.5}``."""
+    out = {}
+    for pair in pairs or ():
+        name, eq, value = pair.partition("=")
+        name = name.strip()
+        if not eq or not name:
+            raise UsageError(f"{flag} {pair!r} must look like NAME=VALUE (e.g. {flag} c=0.5)")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise UsageError(f"{flag} {pair!r}: {value.strip()!r} is not a number") from None
+    return out
+
+
+def _with_numbers(scene, args):
+    """``scene`` with ``-p NAME=VALUE`` (parameters, fixed ones included) and ``-x NAME=VALUE``
+    (initial state) applied; parameter names are checked here ("did you mean")."""
+    from .named import check_names
+
+    params = _assignments(getattr(args, "parameter", None), "-p")
+    states = _assignments(getattr(args, "state", None), "-x")
+    if params:
+        check_names(params, sorted({*scene.parameters, *scene.fixed}), "parameters",
+                    scene.name)
+        scene = replace(scene, parameters={**scene.parameters,
+                                           **{k: v for k, v in params.items()
+                                              if k not in scene.fixed}},
+                        fixed={k: params.get(k, v) for k, v in scene.fixed.items()})
+    if states:
+        scene = replace(scene, initial_state={**scene.initial_state, **states})
+    return scene
+
+
+def _initial_state(scene, model):
+    """The scene's initial state for ``model``; ``-x`` names are checked ("did you mean")."""
+    from .named import check_names
+
+    check_names(scene.initial_state, model.state_names, "states", scene.name)
+    return scene.x0(model.layout)
+
+
+def _inputs(args, model):
+    """``-r NAME=VALUE`` as the model's input vector (others 0)."""
+    from .named import inputs
+
+    return inputs(model, _assignments(getattr(args, "input", None), "-r"))
+
+
+def _nearest_existing(path: Path) -> Path:
+    path = path.absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def _check_folder(path, flag: str) -> Path:
+    """Refuse (before any work) an output folder that is a file or cannot be created."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"{flag} {str(path)!r} is a file, not a folder; give a folder (it is "
+                         f"created when missing)")
+    base = _nearest_existing(path)
+    if not base.is_dir():
+        raise UsageError(f"{flag} {str(path)!r}: {str(base)!r} is a file, so the folder cannot "
+                         f"be created; choose another path")
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag} {str(path)!r}: the folder {str(base)!r} is not writable; "
+                         f"choose a folder you can write")
+    return path
+
+
+def _check_file(path, flag: str) -> Path:
+    """Refuse (before any work) an output file that is a folder or cannot be written."""
+    path = Path(path)
+    if path.is_dir():
+        raise UsageError(f"{flag} {str(path)!r} is a folder; give a file path (e.g. "
+                         f"{str(path / 'trajectory.csv')!r})")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise UsageError(f"{flag} {str(path)!r} is not writable; choose another file")
+    base = _nearest_existing(path.parent)
+    if not base.is_dir():
+        raise UsageError(f"{flag} {str(path)!r}: {str(base)!r} is a file, not a folder; choose "
+                         f"a path in a folder")
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag} {str(path)!r}: the folder {str(base)!r} is not writable; "
+                         f"choose a folder you can write")
+    return path
+
+
+def _os_error(exc: OSError) -> str:
+    """What went wrong with a file or folder, and the fix."""
+    name = exc.filename or ""
+    env = os.environ.get("MBGEN_CACHE_DIR")  # build.cache_dir(), without creating it
+    cache = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME",
+                                                      Path.home() / ".cache")) / "mbgen"
+    where = f" {str(name)!r}" if name else ""
+    if name and (Path(name).absolute() == cache.absolute()
+                 or cache.absolute() in Path(name).absolute().parents):
+        return (f"cannot use the compile cache folder {str(cache)!r} ({exc.strerror}); set "
+                f"MBGEN_CACHE_DIR to a writable folder")
+    return f"cannot write{where}: {exc.strerror or exc}; choose a writable path"
 
 
 def _progress(msg: str) -> None:
@@ -118,7 +225,9 @@ def cmd_linearize(args) -> int:
     from .outputs import Output
     from .pipeline import compile
 
-    scene = _scene(args)
+    if args.output:
+        _check_folder(args.output, "-o")
+    scene = _with_numbers(_scene(args), args)
     outputs = [Output.RHS, Output.JACOBIAN]
     model_eq = scene.model
     constrained = bool(getattr(model_eq, "constraints_", None) or
@@ -126,16 +235,11 @@ def cmd_linearize(args) -> int:
     if constrained:
         outputs += [Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN]
     model = compile(scene, outputs + ([Output.INPUT_JACOBIAN] if _has_inputs(scene) else []))
-    x = scene.x0(model.layout)
-    for pair in args.state or ():
-        name, _, value = pair.partition("=")
-        if name.strip() not in model.state_names:
-            raise SceneError(f"-x {pair!r}: {name!r} is not a state of {scene.name!r}; states: "
-                             f"{list(model.state_names)}")
-        x[model.state_names.index(name.strip())] = float(value)
+    x = _initial_state(scene, model)
+    r = _inputs(args, model)
     if model.dependent_coordinates:
-        x = model.consistent(x)
-    lin = linearize(model, x, scene.p(model.layout))
+        x = model.consistent(x, r=r)
+    lin = linearize(model, x, scene.p(model.layout), r)
     print(f"{scene.name}: operating point " + ", ".join(
         f"{n} = {v:.6g}" for n, v in zip(model.state_names, x)))
     print(lin.format())
@@ -165,7 +269,8 @@ def cmd_check(args) -> int:
         print(f"mbgen: error: --samples must be at least 1 (got {args.samples}): a check of "
               f"no sample proves nothing", file=sys.stderr)
         return EXIT_USAGE
-    report = check(_scene(args), samples=args.samples, seed=args.seed, rtol=args.rtol,
+    report = check(_with_numbers(_scene(args), args), samples=args.samples, seed=args.seed,
+                   rtol=args.rtol,
                    atol=args.atol)
     print(report.format())
     if report.ok:
@@ -181,25 +286,41 @@ def cmd_check(args) -> int:
 
 def cmd_simulate(args) -> int:
     from .fileio import plain_name
-    from .outputs import INTEGRATORS, Output
-    from .scene import check_span
+    from .outputs import Output
     from .pipeline import compile
-    from .simulate import holonomic_outputs, simulate, simulate_in_c
+    from .scene import check_span
+    from .simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate
 
-    scene = _scene(args)
+    method = args.method
+    if method is not None:  # an unknown method is refused before any work
+        choose_method(_NoModel, method if method.lower() not in C_METHODS else None)
+    scene = _with_numbers(_scene(args), args)
     check_span(scene.t_span[0], scene.t_span[1] if args.t_end is None else args.t_end, "--t-end")
-    in_c = args.method.lower() in {o.value for o in INTEGRATORS}
-    outputs = tuple(scene.outputs) + ((Output(args.method.lower()),) if in_c else ())
+    csv = _check_file(args.csv or plain_name(f"{scene.name}.csv", "default CSV name"), "--csv")
+    if args.points < 2:
+        raise UsageError(f"--points {args.points}: give at least 2 output times")
+    outputs = tuple(scene.outputs)
+    if method is not None and method.lower() in C_METHODS:
+        outputs += (Output(method.lower()),)
+    elif method is None or method.lower() in {m.lower() for m in IMPLICIT} \
+            or method.lower() == "auto":
+        outputs += (Output.JACOBIAN,)  # for the implicit methods (and the stiffness check)
     outputs += holonomic_outputs(scene)   # consistent initial state (constrained scenes)
     model = compile(scene, outputs)
-    x0 = scene.x0(model.layout)
+    x0 = _initial_state(scene, model)
+    r = _inputs(args, model)
     t_end = args.t_end if args.t_end is not None else scene.t_span[1]
-    run_ = simulate_in_c if in_c else simulate
-    traj = run_(model, x0, (scene.t_span[0], t_end), method=args.method.lower() if in_c else
-                args.method, rtol=args.rtol, atol=args.atol, n_out=args.points)
-    path = traj.write_csv(args.csv or plain_name(f"{scene.name}.csv", "default CSV name"))
-    print(f"{scene.name}: {args.method} rtol={args.rtol:g} atol={args.atol:g}, "
-          f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls, {traj.wall_time:.3f} s")
+
+    def note(msg: str) -> None:
+        print(f"mbgen: note: {msg}", file=sys.stderr, flush=True)
+
+    traj = simulate(model, x0, (scene.t_span[0], t_end), r=r, method=method, rtol=args.rtol,
+                    atol=args.atol, n_out=args.points, progress=not args.quiet, say=note)
+    path = traj.write_csv(csv)
+    why = f" ({traj.message})" if traj.message and traj.message != "named" else ""
+    print(f"{scene.name}: {traj.method}{why}, rtol={args.rtol:g} atol={args.atol:g}, "
+          f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls"
+          + (f", {traj.njev} Jacobians" if traj.njev else "") + f", {traj.wall_time:.3f} s")
     print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
     _print_constraint_start(model, x0, traj)
     print(f"trajectory: {path} ({len(traj.t)} rows)")
@@ -233,6 +354,12 @@ def _print_constraint_start(model, x0, traj) -> None:
           + ("" if traj.method.startswith("C ") else " (solve_ivp does not project)"))
 
 
+class _NoModel:
+    """Stands in for a model when only a method name is checked."""
+
+    outputs, backend, name = (), "none", ""
+
+
 def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
     """Median over ``repeats`` of the mean time of ``calls`` calls, in microseconds."""
     samples = []
@@ -252,6 +379,7 @@ def cmd_demo(args) -> int:
     from .scene import load_scene
     from .simulate import simulate, simulate_in_c
 
+    _check_folder(args.output, "-o")
     scene = load_scene("disc_pendulum")
     print(f"mbgen demo: {scene.description}")
     _progress("derive, CSE, render, compile")
@@ -263,7 +391,8 @@ def cmd_demo(args) -> int:
     report = check(scene, result=result, samples=50)
     _progress("simulate")
     x0, p = scene.x0(model.layout), scene.p(model.layout)
-    traj = simulate(model, x0, scene.t_span, rtol=1e-10, atol=1e-12)
+    traj = simulate(model, x0, scene.t_span, method="DOP853", rtol=1e-10, atol=1e-12,
+                    progress=False)
     csv_path = traj.write_csv(folder / "trajectory.csv")
     in_c = simulate_in_c(model, x0, scene.t_span, method="dopri5", rtol=1e-10, atol=1e-12)
     gap = float(abs(in_c.x[-1] - traj.x[-1]).max())
@@ -332,7 +461,9 @@ def cmd_bench(args) -> int:
     from .scene import load_scene
     from .workprecision import DEFAULT_RTOLS, work_precision
 
-    scene = load_scene(args.what, **_options(args.option))
+    if args.output:
+        _check_folder(args.output, "-o")
+    scene = _with_numbers(load_scene(args.what, **_options(args.option)), args)
     rtols = tuple(float(v) for v in args.rtols.split(",")) if args.rtols else DEFAULT_RTOLS
     report = work_precision(
         scene, rtols=rtols, repeats=args.repeats,
@@ -420,6 +551,7 @@ def cmd_golden(args) -> int:
 def cmd_fmu(args) -> int:
     from .targets.fmu import export_fmu
 
+    _check_folder(args.output, "-o")
     path = export_fmu(_scene(args), args.output)
     print(f"{path}  (FMI 2.0, model exchange and co-simulation)")
     return EXIT_OK
@@ -429,6 +561,7 @@ def cmd_sweep(args) -> int:
     from .ensemble import ensemble, parse_grid, parse_samples
 
     scene = _scene(args)
+    _check_file(args.csv or f"{scene.name}_sweep.csv", "--csv")
     result = ensemble(scene, grid=parse_grid(args.grid), samples=parse_samples(args.samples),
                       n=args.n, seed=args.seed, method=args.method, t_end=args.t_end,
                       n_out=args.points, rtol=args.rtol, atol=args.atol, address=args.address,
@@ -460,6 +593,18 @@ def parser() -> argparse.ArgumentParser:
         p.add_argument(*flags, dest="derivation", choices=[m.value for m in Method],
                        help="derivation method (default: the scene's, else kane)")
 
+    def numbers_args(p, parameters=True, states=True, inputs=True):
+        if parameters:
+            p.add_argument("-p", "--parameter", action="append", metavar="NAME=VALUE",
+                           help="a parameter's value (repeatable; others: the scene's)")
+        if states:
+            p.add_argument("-x", "--state", action="append", metavar="NAME=VALUE",
+                           help="an initial state's value (repeatable; others: the scene's "
+                                "initial state, else 0)")
+        if inputs:
+            p.add_argument("-r", "--input", action="append", metavar="NAME=VALUE",
+                           help="a constant input's value (repeatable; others 0)")
+
     p = sub.add_parser("scenes", help="list the built-in scenes")
     p.set_defaults(func=cmd_scenes)
 
@@ -483,6 +628,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("-x", "--state", action="append", metavar="NAME=VALUE",
                    help="operating point: a state's value (repeatable; default the scene's "
                         "initial state, made consistent with its constraints)")
+    numbers_args(p, states=False)
     p.add_argument("-o", "--output", metavar="DIR", help="write A.csv and B.csv into DIR")
     p.set_defaults(func=cmd_linearize)
 
@@ -492,15 +638,18 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance (default 1e-9)")
     p.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    numbers_args(p, states=False, inputs=False)
     p.set_defaults(func=cmd_check)
 
     p = sub.add_parser("simulate", help="integrate with the compiled RHS and write a CSV")
     scene_args(p)
     p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
-    p.add_argument("--method", default="DOP853",
-                   help="a solve_ivp method (RK45, DOP853, Radau, BDF, LSODA) or a generated C "
-                        "integrator (dopri5, rosenbrock, rk4: fixed step (t_end - t0)/10000); "
-                        "default DOP853")
+    p.add_argument("--method", default=None,
+                   help="a solve_ivp method (RK45, DOP853, Radau, BDF, LSODA, RK23; the implicit "
+                        "ones get the compiled Jacobian) or a generated C integrator (dopri5, "
+                        "rosenbrock, rk4: fixed step (t_end - t0)/10000); default auto: the "
+                        "scene's C integrator, else DOP853, switching to Radau when "
+                        "stiffness-bound")
     p.add_argument("--rtol", type=float, default=1e-9)
     p.add_argument("--atol", type=float, default=1e-12)
     p.add_argument("--points", type=int, default=201, help="output times (default 201)")
@@ -508,6 +657,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--plot", metavar="FILE",
                    help="also write a PNG: states against time, energy drift when the scene "
                         "conserves energy, constraint residual when it has constraints")
+    numbers_args(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("animate", help="3-D animation of the scene's points and bodies "
@@ -570,6 +721,7 @@ def parser() -> argparse.ArgumentParser:
                    help="arm: time Pinocchio from Python only (no C++ loop)")
     p.add_argument("--derivation", default="kane", metavar="METHOD",
                    help="arm: mbgen's derivation method (default kane)")
+    numbers_args(p, inputs=False)
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("stress", help="stability suite: stiff, extreme, near-singular, long runs, "
@@ -637,6 +789,12 @@ def main(argv=None) -> int:
     except CheckFailed as exc:
         print(f"mbgen: check failed: {exc}", file=sys.stderr)
         return EXIT_CHECK
+    except (UsageError, UnknownNameError) as exc:  # a mistake in the arguments
+        print(f"mbgen: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:  # a path that cannot be written (or read): the caller's to fix
+        print(f"mbgen: error: {_os_error(exc)}", file=sys.stderr)
+        return EXIT_USAGE
     except (SceneError, ModelError) as exc:
         print(f"mbgen: error: {exc}", file=sys.stderr)
         return EXIT_MODEL

@@ -104,3 +104,14 @@ class CheckInconclusive(CheckFailed):
     """A verification compared nothing: every sample failed in every back end (a zero
     mass, a NaN parameter, a singular mass matrix everywhere), or no samples were asked
     for.  Not a pass: ``mbgen check`` exits with its own code (6)."""
+
+
+class UnknownNameError(MbgenError, ValueError):
+    """A parameter, input or state given by a name the model does not have (or a
+    needed name left out); the message lists the closest names ("did you mean")."""
+
+
+class UsageError(MbgenError, ValueError):
+    """A command-line mistake found after parsing: an output path that is a file, a
+    folder that cannot be written, an unknown integration method, ...
+    (``mbgen: error: ...``, exit code 2)."""

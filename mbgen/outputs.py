@@ -253,7 +253,10 @@ def _spec(eq: Equations, output: Output, form: Form) -> Spec:
     form = Form(form)
     if form is Form.RECURSIVE and eq.accelerations is None:
         raise ModelError(f"the equations of {eq.name!r} have no recursive accelerations; "
-                         f"derive with Method.NEWTON_EULER (relative joints) or use Form.SOLVE")
+                         + (_IMPORTED.format(what="Form.RECURSIVE") + "; use Form.SOLVE"
+                            if _imported(eq) else
+                            "derive with Method.NEWTON_EULER (relative joints) or use "
+                            "Form.SOLVE"))
     if output is Output.RHS:
         if form is Form.RECURSIVE:
             entries = tuple(enumerate(list(eq.kinematics) + list(eq.accelerations)))
@@ -295,15 +298,19 @@ def _spec(eq: Equations, output: Output, form: Form) -> Spec:
     if output is Output.ENERGY:
         if eq.kinetic_energy is None:
             raise ModelError(f"the equations of {eq.name!r} carry no energy expressions; "
-                             f"derive with energy=True or leave Output.ENERGY out")
+                             + (_IMPORTED.format(what="Output.ENERGY") if _imported(eq) else
+                                "derive with energy=True or leave Output.ENERGY out"))
         pot = eq.potential_energy if eq.potential_energy is not None else sm.S.Zero
         return Spec(output, "energy", (2,), ("T", "V"),
                     (Block("out", 2, ((0, eq.kinetic_energy), (1, pot))),),
                     doc="Kinetic energy T and potential energy V (gravity, springs).")
     if output in (Output.POSITIONS, Output.VELOCITIES):
         if not eq.points:
-            raise ModelError(f"the equations of {eq.name!r} carry no points; list the points "
-                             f"to report in the scene (Scene.points) or derive with points=...")
+            raise ModelError(f"the equations of {eq.name!r} carry no points; "
+                             + (_IMPORTED.format(what=f"Output.{output.name}")
+                                if _imported(eq) else
+                                "list the points to report in the scene (Scene.points) or "
+                                "derive with points=..."))
         position = output is Output.POSITIONS
         entries = tuple((3 * k + i, (pk.position if position else pk.velocity)[i])
                         for k, pk in enumerate(eq.points) for i in range(3))
@@ -472,13 +479,24 @@ def _implicit_sensitivity(eq, output, variables, out_name, shape, labels, doc, t
                 velocity=_velocity_blocks(eq), implicit=nv)
 
 
+_IMPORTED = ("they come from from_sympy(), which converts the equations of motion only "
+             "(from_sympy(obj, name=, parameters=, dependent=) takes no option for more): leave "
+             "{what} out, or build the model with mbgen.Model to get it")
+
+
+def _imported(eq: Equations) -> bool:
+    """Equations converted by :func:`mbgen.from_sympy` (their ``method`` is ``sympy.*``)."""
+    return str(eq.method).startswith("sympy.")
+
+
 def _reactions(eq: Equations, form: Form) -> Spec:
     """Joint reactions: after the solve (they hold for the actual accelerations)."""
     J = eq.reactions
     if J is None or not J.names:
-        raise ModelError(f"the equations of {eq.name!r} carry no joint reactions; derive with "
-                         f"reactions=True (Output.REACTIONS asks for it) from an mbgen.Model "
-                         f"with at least one body")
+        raise ModelError(f"the equations of {eq.name!r} carry no joint reactions; "
+                         + (_IMPORTED.format(what="Output.REACTIONS") if _imported(eq) else
+                            "derive with reactions=True (Output.REACTIONS asks for it) from an "
+                            "mbgen.Model with at least one body"))
     nj = len(J.names)
     entries = tuple(enumerate(J.matrix))
     doc = (f"Joint reactions, row-major {nj} x 6: for each joint, the force and the moment "

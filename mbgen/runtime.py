@@ -28,6 +28,7 @@ from .errors import (ArgumentError, ArgumentTypeError, IntegrationError, MbgenEr
                      NonFiniteResultError, SingularConstraintError,
                      SingularMassMatrixError)
 from .layout import Layout
+from . import named
 from .optimize import Output
 from .render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
 
@@ -151,6 +152,8 @@ class ModelBase:
         values = [defaults.get(n) for n in self.parameter_names]
         self.default_parameters = (np.array(values, dtype=float)
                                    if all(v is not None for v in values) else None)
+        self.parameter_defaults = {n: float(v) for n, v in zip(self.parameter_names, values)
+                                   if v is not None}
         self.outputs = tuple(outputs)
         self.reaction_names: tuple[str, ...] = ()
         self.reaction_frames: tuple[str, ...] = ()
@@ -167,6 +170,8 @@ class ModelBase:
         return _real_vector(value, n, what, names)
 
     def _x(self, x) -> np.ndarray:
+        if isinstance(x, Mapping):  # by name (mbgen.named)
+            x = named.states(self, x)
         return self._vector(x, self.n_x, "state x", self.state_names)
 
     def _p(self, p) -> np.ndarray:
@@ -175,11 +180,15 @@ class ModelBase:
                 raise ArgumentError(f"model {self.name!r} has no default for every parameter "
                                     f"{list(self.parameter_names)}; pass p")
             return self.default_parameters if self.n_p else np.zeros(0)
+        if isinstance(p, Mapping):  # by name (mbgen.named)
+            p = named.parameters(self, p)
         return self._vector(p, self.n_p, "parameters p", self.parameter_names)
 
     def _r(self, r) -> np.ndarray:
         if r is None:
             return self._zeros_r
+        if isinstance(r, Mapping):  # by name (mbgen.named)
+            r = named.inputs(self, r)
         return self._vector(r, self.n_r, "inputs r", self.input_names)
 
     @staticmethod
@@ -330,9 +339,15 @@ class ModelBase:
         ``vectorized=True``: ``f(t, y)`` takes and returns solve_ivp's ``(n_x, k)``
         columns (``solve_ivp(f, ..., vectorized=True)``), evaluated by the batch
         loop in C (compiled models) as ``rhs(t, y.T).T``.
+
+        ``p``, ``r``: arrays or mappings by name (:mod:`mbgen.named`); ``r`` may
+        also be a function ``r(t, x)`` (or an :class:`~mbgen.named.InputTable`),
+        called at every evaluation.
         """
         output = Output(output)
         self._require(output)
+        if callable(r) and not vectorized:
+            return named.driven(self, output, self._p(p).copy(), r)
         p_arr, r_arr = self._p(p).copy(), self._r(r).copy()
 
         if vectorized:
@@ -360,12 +375,17 @@ class ModelBase:
 class Integration:
     """A trajectory computed by a generated C integrator (:meth:`CompiledModel.integrate`).
 
+    It reads like scipy's ``OdeResult``: ``t``, ``y`` (shape ``(n_x, k)``),
+    ``success``, ``message``, ``status``, ``nfev``, ``njev``, ``nlu`` (also as
+    ``result["y"]``), plus mbgen's own fields below (``x`` is ``y.T``, ``n_rhs``
+    is ``nfev``, ...).
+
     Attributes
     ----------
     t : ndarray, shape (k,)
         The requested output times.
     x : ndarray, shape (k, n_x)
-        The state at those times (row 0 is ``x0``).
+        The state at those times (row 0 is ``x0``); ``y`` is its transpose.
     method : str
         ``"dopri5"``, ``"rk4"`` or ``"rosenbrock"``.
     status : int
@@ -391,6 +411,39 @@ class Integration:
     n_lu: int
     wall_time: float
     max_residual: float = float("nan")
+
+    # scipy.integrate.OdeResult's names -------------------------------------
+    @property
+    def y(self) -> np.ndarray:
+        """States as columns, shape ``(n_x, k)`` (as ``solve_ivp``'s ``y``)."""
+        return self.x.T
+
+    @property
+    def success(self) -> bool:
+        return self.status == 0
+
+    @property
+    def message(self) -> str:
+        return ("The solver successfully reached the end of the integration interval."
+                if self.status == 0 else f"failed with status {self.status}")
+
+    @property
+    def nfev(self) -> int:
+        return self.n_rhs
+
+    @property
+    def njev(self) -> int:
+        return self.n_jac
+
+    @property
+    def nlu(self) -> int:
+        return self.n_lu
+
+    def __getitem__(self, key: str):
+        try:
+            return getattr(self, key)
+        except AttributeError:
+            raise KeyError(key) from None
 
 
 class CompiledModel(ModelBase):
@@ -444,6 +497,7 @@ class CompiledModel(ModelBase):
         r_default = default_buffer(self._zeros_r.copy()) if has_r else None
 
         def slow(t, x, p, r):
+            x, p, r = named.arrays(model, x, p, r)  # mappings by name (a batch too)
             if not (type(x) is ndarray and x.ndim == 1) \
                     or p is not None and not (type(p) is ndarray and p.ndim == 1) \
                     or r is not None and not (type(r) is ndarray and r.ndim == 1):
@@ -512,6 +566,15 @@ class CompiledModel(ModelBase):
         """``dxdt = [G; u']``, shape ``(n_x,)`` (the fastest way in from Python)."""
         return self._rhs(t, x, p, r)
 
+    def _input_table(self, table: "named.InputTable") -> "named.InputTable":
+        """``table`` in this model's input order, if its C integrators take tables."""
+        if not self.n_r:
+            raise ValueError(f"{self.name!r} has no inputs; an InputTable has nothing to drive")
+        if "n_table" not in dict(self.ffi.typeof(f"{self.rendered.prefix}_options").fields):
+            raise MbgenError(f"the C integrators of {self.name!r} were generated without "
+                             f"input tables (an older mbgen); regenerate the code")
+        return table.for_model(self)
+
     def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = 1e-6,
                   atol: float = 1e-9, h: float | None = None, h_max: float = 0.0,
                   max_steps: int = 0, on_failure: str = "raise", project: bool = True):
@@ -527,7 +590,10 @@ class CompiledModel(ModelBase):
         t_eval : array_like, shape (k,)
             Output times, strictly increasing; ``t_eval[0]`` is the initial time.
         x0, p, r
-            Initial state, parameters (default: the model's) and inputs (held constant).
+            Initial state, parameters (default: the model's) and inputs (held constant),
+            as arrays or mappings by name (:mod:`mbgen.named`).  ``r`` may also be an
+            :class:`~mbgen.named.InputTable`: a piecewise-linear ``r(t)`` that the C
+            integrator interpolates at every stage time.
             A 2-D ``x0`` ``(k, n_x)``, ``p`` ``(k, n_p)`` or ``r`` ``(k, n_r)`` is a
             batch (1-D ones are shared by every member): ``k`` trajectories in one C
             loop, returned as a :class:`~mbgen.targets.batch.BatchIntegration`.
@@ -569,6 +635,10 @@ class CompiledModel(ModelBase):
         t = _times(t_eval)
         from .targets import batch
 
+        x0, p, r = named.arrays(self, x0, p, r)
+        table = None
+        if isinstance(r, named.InputTable):
+            table, r = self._input_table(r), None
         xa = None if batch.is_batch(x0, p, r) else self._x(x0)
         if xa is not None and not np.all(np.isfinite(xa)):
             raise ArgumentError(f"initial state x0 must be finite; got {xa.tolist()}")
@@ -588,6 +658,9 @@ class CompiledModel(ModelBase):
         max_steps = step_count(max_steps, limit=2**(8 * self.ffi.sizeof("long") - 1) - 1)
 
         if xa is None:
+            if table is not None:
+                raise ValueError("an InputTable drives one trajectory; integrate the batch "
+                                 "members one by one, or give constant inputs r")
             return batch.integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
                                    h_max=h_max, max_steps=max_steps, on_failure=on_failure)
         ffi, prefix = self.ffi, self.rendered.prefix
@@ -597,6 +670,9 @@ class CompiledModel(ModelBase):
         projects = "no_projection" in dict(ffi.typeof(f"{prefix}_options").fields)
         if projects:
             settings["no_projection"] = 0 if project else 1
+        if table is not None:
+            settings.update(n_table=table.times.size, table_t=buf("double[]", table.times),
+                            table_r=buf("double[]", table.values))
         opt = ffi.new(f"{prefix}_options *", settings)
         stats = ffi.new(f"{prefix}_stats *")
         x_out = np.empty((t.size, self.n_x))
