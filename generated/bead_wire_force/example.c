@@ -18,7 +18,7 @@ int main(void)
     const double x0[BEAD_WIRE_FORCE_N_X] = { 0.5, 0.0, -0.8 };
     /* free parameters p = [omega, m] */
     const double p[BEAD_WIRE_FORCE_N_P] = { 2.0, 0.1 };
-    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
     const bead_wire_force_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     bead_wire_force_stats stats;
     double t[N_OUT];

@@ -18,7 +18,7 @@ int main(void)
     const double x0[FOUR_BAR_N_X] = { 0.5, 0.3570423653981547, 1.4771923848205422, 0.0 };
     /* free parameters p = [la, lb, lc, ld, ma, mb, mc] */
     const double p[FOUR_BAR_N_P] = { 1.0, 2.0, 2.0, 2.0, 1.0, 1.5, 1.2 };
-    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
     const four_bar_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     four_bar_stats stats;
     double t[N_OUT];

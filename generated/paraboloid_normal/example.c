@@ -18,7 +18,7 @@ int main(void)
     const double x0[PARABOLOID_NORMAL_N_X] = { 1.0, 0.0, 0.5, 0.0, 2.5 };
     /* free parameters p = [k, m] */
     const double p[PARABOLOID_NORMAL_N_P] = { 0.5, 1.0 };
-    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
     const paraboloid_normal_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     paraboloid_normal_stats stats;
     double t[N_OUT];

@@ -20,8 +20,8 @@ int main(void)
     const double p[SLIDER_CRANK_N_P] = { 0.1, 0.35, 1.0, 0.8, 0.5, 200.0, 0.6, 0.2, 0.05 };
     /* inputs r = [T], held constant */
     const double r[SLIDER_CRANK_N_R] = { 0.0 };
-    /* the last 0: project the dependent coordinates back onto the constraints after each step */
-    const slider_crank_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
+    /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
+    const slider_crank_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0, 0, NULL, NULL };
     slider_crank_stats stats;
     double t[N_OUT];
     double x[N_OUT * SLIDER_CRANK_N_X];

@@ -95,7 +95,7 @@ extern "C" {
 #define SLIDER_CRANK_R_T 0 /* T */
 
 /* SHA-256 (16 hex digits) of slider_crank.h, .c and .py with this value blanked. */
-#define SLIDER_CRANK_CONTENT_HASH "57a485d711e40583"
+#define SLIDER_CRANK_CONTENT_HASH "2327365d98b12700"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
@@ -115,7 +115,8 @@ int slider_crank_holonomic_jacobian(double t, const double *x, const double *p, 
 void slider_crank_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.
  * t_out[0] is the initial time, t_out strictly increasing (else SLIDER_CRANK_BAD_ARGUMENT);
- * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant.
+ * x_out is row-major n_out x 4 with row 0 = x0; inputs r are held constant unless
+ * opt gives an input table (then r is ignored).
  * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
  * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
  * steps, 0 = 1000000).  stats may be NULL. */
@@ -126,6 +127,10 @@ typedef struct {
     double h_max;
     long max_steps;
     int no_projection;  /* 1: do not project the dependent coordinates (to measure drift) */
+    long n_table;           /* 0: inputs r held constant; > 0: rows of the input table */
+    const double *table_t;  /* n_table strictly increasing times */
+    const double *table_r;  /* row-major n_table x 1 inputs at those times, linear in between,
+                             * the end rows held outside (every stage time interpolates) */
 } slider_crank_options;
 typedef struct {
     long n_steps;

@@ -18,7 +18,7 @@ int main(void)
     const double x0[WHIPPLE_N_X] = { 0.0, 0.0, 0.0, 0.0, -0.3141592653589793, 0.0, 0.0, 0.0, 0.5, 0.0, 15.333333333333332 };
     /* free parameters p = [g] */
     const double p[WHIPPLE_N_P] = { 9.81 };
-    /* the last 0: project the dependent coordinates back onto the constraints after each step */
+    /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
     const whipple_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
     whipple_stats stats;
     double t[N_OUT];
