@@ -24,7 +24,8 @@ sympy (children ``sympy-rhs`` and ``sympy-lin``)
     inverted symbolically) and ``lambdify(rhs, cse=True)``, one call timed from Python.
     ``sympy-lin`` derives again and times ``KanesMethod.linearize(A_and_B=True,
     op_point=..., simplify=False)`` at the same operating point; its A's nonzero
-    eigenvalues are compared with mbgen's.
+    eigenvalues are printed under mbgen's (when A is finite there: measured, it is not --
+    see the README's table).
 
 Four-bar (in this process): :mod:`mbgen.scenes.four_bar` from its start over 10 times its
 span (50 s) with the C ``dopri5``, projection on and off, at a sweep of tolerances: the
