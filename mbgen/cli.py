@@ -492,7 +492,8 @@ def _bench_constraints(args) -> int:
     folder = Path(args.output or Path("bench") / "constraints")
     path = folder / "constraints.txt"
     write_atomic(path, text + "\n")
-    print(f"\nwrote {path}")
+    write_atomic(folder / "constraints.json", bench.to_json())
+    print(f"\nwrote {path} and {folder / 'constraints.json'}")
     return EXIT_OK
 
 

@@ -24,7 +24,8 @@ sympy (children ``sympy-rhs`` and ``sympy-lin``)
     inverted symbolically) and ``lambdify(rhs, cse=True)``, one call timed from Python.
     ``sympy-lin`` derives again and times ``KanesMethod.linearize(A_and_B=True,
     op_point=..., simplify=False)`` at the same operating point; its A's nonzero
-    eigenvalues are compared with mbgen's.
+    eigenvalues are printed under mbgen's (when A is finite there: measured, it is not --
+    see the README's table).
 
 Four-bar (in this process): :mod:`mbgen.scenes.four_bar` from its start over 10 times its
 span (50 s) with the C ``dopri5``, projection on and off, at a sweep of tolerances: the
@@ -352,6 +353,14 @@ class ConstraintBench:
     four_bar: list = field(default_factory=list)
     budget_s: float = 0.0
 
+    def to_json(self) -> str:
+        """Every raw result (per side: results, status, seconds; the four-bar rows)."""
+        from dataclasses import asdict
+
+        return json.dumps(dict(point=self.point, sides={
+            k: dict(results=r, status=s, seconds=sec) for k, (r, s, sec) in self.sides.items()},
+            four_bar=[asdict(r) for r in self.four_bar]), indent=1) + "\n"
+
 
 def constraint_bench(*, repeats: int = 7, budget_s: float = 300.0, sympy_budget_s: float = 300.0,
                      memory_gb: float = 12.0,
@@ -398,13 +407,14 @@ def format_bench(b: ConstraintBench) -> str:
              _s(sr, "sympy_rhs_py_ns", 1e-3, ".1f") + " (Python)"),
             ("linearise: Jacobians generated+compiled (s)", _s(mb, "jacobians_s"), ""),
             ("linearise: call (ms)", _s(mb, "linearize_call_s", 1e3, ".2f"), ""),
-            ("linearise: total (s)", _s(mb, "linearize_s"), _s(sl, "sympy_linearize_s")),
-            ("side status", mb_status, f"rhs: {sr_status}; linearize: {sl_status}"),
-            ("side wall time (s)", f"{mb_s:.1f}", f"{sr_s:.1f} + {sl_s:.1f}")]
+            ("linearise: total (s)", _s(mb, "linearize_s"), _s(sl, "sympy_linearize_s"))]
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows + [("", "mbgen", "")])
     lines.append(f"{'':<{w0}}  {'mbgen':>{w1}}  sympy.physics.mechanics")
     lines += [f"{a:<{w0}}  {b_:>{w1}}  {c}" for a, b_, c in rows]
+    lines += ["", f"mbgen: {mb_status} ({mb_s:.1f} s)",
+              f"sympy rhs: {sr_status} ({sr_s:.1f} s)",
+              f"sympy linearize: {sl_status} ({sl_s:.1f} s)"]
     ours = np.array(b.point["accelerations"])
     if "sympy_accelerations" in sr:
         theirs = np.array(sr["sympy_accelerations"])[:ours.size]     # u_ind come first
