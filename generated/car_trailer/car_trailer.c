@@ -331,6 +331,20 @@ static int car_trailer_integ_start(const double *x0, int n_out, const double *t_
         || !(opt->h_max >= 0.0) || opt->max_steps < 0) {
         return CAR_TRAILER_BAD_ARGUMENT;
     }
+    if (opt->n_table < 0 || (opt->n_table > 0 && (!opt->table_t || !opt->table_r))) {
+        return CAR_TRAILER_BAD_ARGUMENT;
+    }
+    for (i = 0; i < opt->n_table; ++i) {
+        int j;
+        if (!isfinite(opt->table_t[i]) || (i > 0 && !(opt->table_t[i] > opt->table_t[i - 1]))) {
+            return CAR_TRAILER_BAD_ARGUMENT;
+        }
+        for (j = 0; j < 2; ++j) {
+            if (!isfinite(opt->table_r[(long)i * 2 + j])) {
+                return CAR_TRAILER_BAD_ARGUMENT;
+            }
+        }
+    }
     for (i = 0; i < 8; ++i) {
         if (!isfinite(x0[i])) {
             return CAR_TRAILER_BAD_ARGUMENT;
@@ -338,6 +352,47 @@ static int car_trailer_integ_start(const double *x0, int n_out, const double *t_
         x_out[i] = x0[i];
     }
     return CAR_TRAILER_OK;
+}
+
+/* The inputs at time t: r itself without a table (opt->n_table == 0), else the
+ * table interpolated linearly in t (as numpy.interp; the end rows held outside
+ * [table_t[0], table_t[n_table - 1]]) into buf. */
+static const double *car_trailer_input_at(double t, const double *r,
+                                           const car_trailer_options *opt, double *buf)
+{
+    const double *tt = opt->table_t, *row;
+    long lo, hi, mid;
+    double slope;
+    int j;
+    if (opt->n_table < 1) {
+        return r;
+    }
+    if (!(t > tt[0]) || opt->n_table == 1) {
+        row = opt->table_r;
+    } else if (t >= tt[opt->n_table - 1]) {
+        row = opt->table_r + (opt->n_table - 1) * 2;
+    } else {
+        lo = 0;
+        hi = opt->n_table - 1;
+        while (hi - lo > 1) {  /* tt[lo] <= t < tt[hi] */
+            mid = lo + (hi - lo) / 2;
+            if (tt[mid] <= t) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        for (j = 0; j < 2; ++j) {
+            slope = (opt->table_r[hi * 2 + j] - opt->table_r[lo * 2 + j])
+                    / (tt[hi] - tt[lo]);
+            buf[j] = slope * (t - tt[lo]) + opt->table_r[lo * 2 + j];
+        }
+        return buf;
+    }
+    for (j = 0; j < 2; ++j) {
+        buf[j] = row[j];
+    }
+    return buf;
 }
 
 /* Root mean square of v[i] / w[i]. */
@@ -410,6 +465,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
     car_trailer_stats local;
     double y[8], y_new[8], xs[8], err[8], sc[8];
     double K[7][8];
+    double rbuf[2];
     double w[7];
     double t, t_new, t_end, h, h_abs, h_max, min_step, rtol, atol, err_norm, factor, s;
     long max_steps;
@@ -431,7 +487,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
     for (i = 0; i < 8; ++i) {
         y[i] = x0[i];
     }
-    status = car_trailer_rhs(t, y, p, r, K[0]);
+    status = car_trailer_rhs(t, y, p, car_trailer_input_at(t, r, opt, rbuf), K[0]);
     ++stats->n_rhs;
     if (status != CAR_TRAILER_OK) {
         return status;
@@ -439,7 +495,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
     if (opt->h0 > 0.0) {
         h_abs = opt->h0;
     } else {
-        status = car_trailer_initial_step(t, y, K[0], p, r, t_end, h_max, rtol, atol,
+        status = car_trailer_initial_step(t, y, K[0], p, car_trailer_input_at(t, r, opt, rbuf), t_end, h_max, rtol, atol,
                                            0.2, &h_abs, &stats->n_rhs);
         if (status != CAR_TRAILER_OK) {
             return status;
@@ -470,7 +526,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
             for (i = 0; i < 8; ++i) {
                 xs[i] = y[i] + (0.2 * K[0][i]) * h;
             }
-            status = car_trailer_rhs(t + 0.2 * h, xs, p, r, K[1]);
+            status = car_trailer_rhs(t + 0.2 * h, xs, p, car_trailer_input_at(t + 0.2 * h, r, opt, rbuf), K[1]);
             ++stats->n_rhs;
             if (status != CAR_TRAILER_OK) {
                 return status;
@@ -478,7 +534,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
             for (i = 0; i < 8; ++i) {
                 xs[i] = y[i] + (0.075 * K[0][i] + 0.225 * K[1][i]) * h;
             }
-            status = car_trailer_rhs(t + 0.3 * h, xs, p, r, K[2]);
+            status = car_trailer_rhs(t + 0.3 * h, xs, p, car_trailer_input_at(t + 0.3 * h, r, opt, rbuf), K[2]);
             ++stats->n_rhs;
             if (status != CAR_TRAILER_OK) {
                 return status;
@@ -486,7 +542,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
             for (i = 0; i < 8; ++i) {
                 xs[i] = y[i] + (0.9777777777777777 * K[0][i] - 3.7333333333333334 * K[1][i] + 3.5555555555555554 * K[2][i]) * h;
             }
-            status = car_trailer_rhs(t + 0.8 * h, xs, p, r, K[3]);
+            status = car_trailer_rhs(t + 0.8 * h, xs, p, car_trailer_input_at(t + 0.8 * h, r, opt, rbuf), K[3]);
             ++stats->n_rhs;
             if (status != CAR_TRAILER_OK) {
                 return status;
@@ -494,7 +550,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
             for (i = 0; i < 8; ++i) {
                 xs[i] = y[i] + (2.9525986892242035 * K[0][i] - 11.595793324188385 * K[1][i] + 9.822892851699436 * K[2][i] - 0.2908093278463649 * K[3][i]) * h;
             }
-            status = car_trailer_rhs(t + 0.8888888888888888 * h, xs, p, r, K[4]);
+            status = car_trailer_rhs(t + 0.8888888888888888 * h, xs, p, car_trailer_input_at(t + 0.8888888888888888 * h, r, opt, rbuf), K[4]);
             ++stats->n_rhs;
             if (status != CAR_TRAILER_OK) {
                 return status;
@@ -502,7 +558,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
             for (i = 0; i < 8; ++i) {
                 xs[i] = y[i] + (2.8462752525252526 * K[0][i] - 10.757575757575758 * K[1][i] + 8.906422717743473 * K[2][i] + 0.2784090909090909 * K[3][i] - 0.2735313036020583 * K[4][i]) * h;
             }
-            status = car_trailer_rhs(t + 1.0 * h, xs, p, r, K[5]);
+            status = car_trailer_rhs(t + 1.0 * h, xs, p, car_trailer_input_at(t + 1.0 * h, r, opt, rbuf), K[5]);
             ++stats->n_rhs;
             if (status != CAR_TRAILER_OK) {
                 return status;
@@ -510,7 +566,7 @@ int car_trailer_dopri5(const double *x0, const double *p, const double *r, int n
             for (i = 0; i < 8; ++i) {
                 y_new[i] = y[i] + h * (0.09114583333333333 * K[0][i] + 0.44923629829290207 * K[2][i] + 0.6510416666666666 * K[3][i] - 0.322376179245283 * K[4][i] + 0.13095238095238096 * K[5][i]);
             }
-            status = car_trailer_rhs(t_new, y_new, p, r, K[6]);
+            status = car_trailer_rhs(t_new, y_new, p, car_trailer_input_at(t_new, r, opt, rbuf), K[6]);
             ++stats->n_rhs;
             if (status != CAR_TRAILER_OK) {
                 return status;

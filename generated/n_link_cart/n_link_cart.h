@@ -83,7 +83,7 @@ extern "C" {
 #define N_LINK_CART_R_F 0 /* F */
 
 /* SHA-256 (16 hex digits) of n_link_cart.h, .c and .py with this value blanked. */
-#define N_LINK_CART_CONTENT_HASH "e84c649c653f8d6e"
+#define N_LINK_CART_CONTENT_HASH "b537595c0a4cee80"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
@@ -95,7 +95,8 @@ int n_link_cart_rhs(double t, const double *x, const double *p, const double *r,
 void n_link_cart_default_parameters(double *p);
 /* Integrators (dopri5): a whole trajectory per call, no globals.
  * t_out[0] is the initial time, t_out strictly increasing (else N_LINK_CART_BAD_ARGUMENT);
- * x_out is row-major n_out x 8 with row 0 = x0; inputs r are held constant.
+ * x_out is row-major n_out x 8 with row 0 = x0; inputs r are held constant unless
+ * opt gives an input table (then r is ignored).
  * opt: rtol, atol (error per step <= atol + rtol*|x|), h0 (first step; 0 = automatic;
  * the fixed step of rk4, required > 0), h_max (0 = unbounded), max_steps (attempted
  * steps, 0 = 1000000).  stats may be NULL. */
@@ -105,6 +106,10 @@ typedef struct {
     double h0;
     double h_max;
     long max_steps;
+    long n_table;           /* 0: inputs r held constant; > 0: rows of the input table */
+    const double *table_t;  /* n_table strictly increasing times */
+    const double *table_r;  /* row-major n_table x 1 inputs at those times, linear in between,
+                             * the end rows held outside (every stage time interpolates) */
 } n_link_cart_options;
 typedef struct {
     long n_steps;
