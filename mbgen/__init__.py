@@ -12,10 +12,11 @@ from .equations import Equations
 from .errors import (BuildError, CheckFailed, ConstraintError, IntegrationError, MbgenError,
                      ModelError,
                      NonFiniteResultError, SceneError, SingularConstraintError,
-                     SingularMassMatrixError)
+                     SingularMassMatrixError, UnknownNameError, UsageError)
 from .importers import from_sympy
 from .layout import Layout
 from .linearize import Linearization, linearize
+from .named import InputTable
 from .model import Model, t
 from .optimize import CseBackend, Output
 from .pipeline import compile, equations_of, python_model, run
@@ -31,4 +32,5 @@ __all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", 
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",
-           "CheckFailed", "IntegrationError", "Targets", "export_fmu", "ensemble"]
+           "CheckFailed", "IntegrationError", "Targets", "export_fmu", "ensemble",
+           "UnknownNameError", "UsageError", "InputTable"]

@@ -36,7 +36,11 @@ from .errors import UnknownNameError
 
 def did_you_mean(name: str, names: Sequence[str]) -> str:
     """``"; did you mean 'c'?"`` for the closest of ``names`` (empty when none is close)."""
-    close = difflib.get_close_matches(str(name), list(names), n=3, cutoff=0.5)
+    lower = {}
+    for n in names:  # compared without case: 'f' finds 'F'
+        lower.setdefault(str(n).lower(), n)
+    close = [lower[c] for c in difflib.get_close_matches(str(name).lower(), list(lower), n=3,
+                                                         cutoff=0.5)]
     if not close:
         return ""
     return "; did you mean " + " or ".join(repr(c) for c in close) + "?"

@@ -368,9 +368,10 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
                     if h * rho > 0.5 * _STABILITY[method]:
                         better = [o.value for o in INTEGRATORS if o in model.outputs]
                         hint = (f"the C integrator {better[0]!r}" if better and
-                                model.backend == "c" else "Radau or BDF (with the compiled "
-                                "Jacobian: outputs including 'jacobian') or the generated C "
-                                "'rosenbrock'")
+                                model.backend == "c" else "Radau or BDF (" + (
+                                    "they get the compiled Jacobian" if has_jac else
+                                    "compile with outputs including 'jacobian' to pass them "
+                                    "the Jacobian") + ") or the generated C 'rosenbrock'")
                         text = (f"{model.name}: {method} is stiffness-bound at t={solver.t:.6g}: "
                                 f"{steps} steps so far of h={h:.3g} against the fastest time "
                                 f"scale 1/rho={1 / rho:.3g} (h*rho={h * rho:.3g}, stability "
