@@ -315,7 +315,8 @@ def cmd_simulate(args) -> int:
         print(f"mbgen: note: {msg}", file=sys.stderr, flush=True)
 
     traj = simulate(model, x0, (scene.t_span[0], t_end), r=r, method=method, rtol=args.rtol,
-                    atol=args.atol, n_out=args.points, progress=not args.quiet, say=note)
+                    atol=args.atol, n_out=args.points, progress=not args.quiet, say=note,
+                    max_steps=args.max_steps)
     path = traj.write_csv(csv)
     why = f" ({traj.message})" if traj.message and traj.message != "named" else ""
     print(f"{scene.name}: {traj.method}{why}, rtol={args.rtol:g} atol={args.atol:g}, "
@@ -575,6 +576,28 @@ def cmd_sweep(args) -> int:
 
 
 # ------------------------------------------------------------------- parser
+def _positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (tolerances, budgets, rates)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a finite number greater than 0")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1 (step limits, counts)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: give a whole number of at least 1")
+    return value
+
+
 def parser() -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(
         prog="mbgen", description="Multibody models to fast, verified C and Python.",
@@ -637,8 +660,8 @@ def parser() -> argparse.ArgumentParser:
     scene_args(p, method_flag=True)
     p.add_argument("--samples", type=int, default=20, help="random states (default 20, >= 1)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance (default 1e-9)")
-    p.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    p.add_argument("--rtol", type=_positive_float, default=1e-9, help="relative tolerance (default 1e-9)")
+    p.add_argument("--atol", type=_positive_float, default=1e-12, help="absolute tolerance (default 1e-12)")
     numbers_args(p, states=False, inputs=False)
     p.set_defaults(func=cmd_check)
 
@@ -651,8 +674,8 @@ def parser() -> argparse.ArgumentParser:
                         "rosenbrock, rk4: fixed step (t_end - t0)/10000); default auto: the "
                         "scene's C integrator, else DOP853, switching to Radau when "
                         "stiffness-bound")
-    p.add_argument("--rtol", type=float, default=1e-9)
-    p.add_argument("--atol", type=float, default=1e-12)
+    p.add_argument("--rtol", type=_positive_float, default=1e-9)
+    p.add_argument("--atol", type=_positive_float, default=1e-12)
     p.add_argument("--points", type=int, default=201, help="output times (default 201)")
     p.add_argument("--csv", metavar="PATH", help="trajectory file (default SCENE.csv)")
     p.add_argument("--plot", metavar="FILE",
@@ -660,6 +683,8 @@ def parser() -> argparse.ArgumentParser:
                         "conserves energy, constraint residual when it has constraints")
     numbers_args(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--max-steps", type=_positive_int, default=None, metavar="N",
+                   help="step limit (default: 1,000,000 for solve_ivp, the C integrator's own)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("animate", help="3-D animation of the scene's points and bodies "
@@ -669,7 +694,7 @@ def parser() -> argparse.ArgumentParser:
                    help="FILE.html or FILE.gif (default SCENE.html)")
     p.add_argument("--frames", type=int, default=100, help="frames over t_span (default 100)")
     p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
-    p.add_argument("--fps", type=float, default=20.0, help="playback frames per second")
+    p.add_argument("--fps", type=_positive_float, default=20.0, help="playback frames per second")
     p.set_defaults(func=cmd_animate)
 
     p = sub.add_parser("demo", help="the main job on the pendulum on a rotating disc")
@@ -697,7 +722,7 @@ def parser() -> argparse.ArgumentParser:
                    help="RK45,DOP853,Radau,BDF,LSODA,dopri5,rosenbrock,rk4 (default all)")
     p.add_argument("--backends", default="lambdify,python,c", metavar="LIST",
                    help="RHS back ends for solve_ivp (default lambdify,python,c)")
-    p.add_argument("--time-budget", type=float, default=10.0,
+    p.add_argument("--time-budget", type=_positive_float, default=10.0,
                    help="seconds one solve may take (default 10)")
     p.add_argument("--repeats", type=int, default=None,
                    help="timed repeats per point; medians are reported (default 3; arm: 7)")
@@ -709,12 +734,12 @@ def parser() -> argparse.ArgumentParser:
                         "render, compile), each under --budget, instead of the work-precision "
                         "report")
     p.add_argument("--outputs", metavar="LIST", help="--stages: outputs (default: the scene's)")
-    p.add_argument("--budget", type=float, default=300.0,
+    p.add_argument("--budget", type=_positive_float, default=300.0,
                    help="arm: seconds mbgen may take for one n (default 300; stops larger n); "
                         "--stages: seconds one stage may take")
-    p.add_argument("--sympy-budget", type=float, default=120.0,
+    p.add_argument("--sympy-budget", type=_positive_float, default=120.0,
                    help="arm: seconds sympy's KanesMethod may take for one n (default 120; 0: skip)")
-    p.add_argument("--memory-gb", type=float, default=12.0,
+    p.add_argument("--memory-gb", type=_positive_float, default=12.0,
                    help="arm, --stages: address-space cap of each timed child process "
                         "(default 12)")
     p.add_argument("--no-pinocchio", action="store_true", help="arm: leave Pinocchio out")
@@ -756,8 +781,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
     p.add_argument("--points", type=int, default=2,
                    help="output times, t0..t_end (default 2: initial and final state)")
-    p.add_argument("--rtol", type=float, default=1e-6)
-    p.add_argument("--atol", type=float, default=1e-9)
+    p.add_argument("--rtol", type=_positive_float, default=1e-6)
+    p.add_argument("--atol", type=_positive_float, default=1e-9)
     p.add_argument("--address", help="a running Dask scheduler (default: a LocalCluster)")
     p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes")
     p.add_argument("--chunk", type=int, default=None, help="members per task (default: auto)")

@@ -32,7 +32,7 @@ import numpy as np
 from scipy import integrate as ivp
 
 from . import named
-from .errors import IntegrationError, MbgenError, UsageError
+from .errors import ArgumentError, IntegrationError, MbgenError, UsageError
 from .fileio import write_atomic
 from .outputs import INTEGRATORS, Output
 from .runtime import ModelBase
@@ -45,6 +45,7 @@ C_METHODS = tuple(o.value for o in INTEGRATORS)
 _STABILITY = {"RK23": 2.5, "RK45": 3.3, "DOP853": 6.0}
 STIFF_MIN_STEPS = 2000      # below this many steps nothing is called stiffness-bound
 PROGRESS_DELAY = 2.0        # seconds before a progress bar appears
+MAX_STEPS = 1_000_000       # default step limit of the solve_ivp paths (C: the integrator's own)
 
 
 class StiffnessWarning(RuntimeWarning):
@@ -200,7 +201,8 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
 def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None = None,
              rtol: float = 1e-9, atol: float = 1e-12, n_out: int = 201, t_eval=None,
              progress: bool = True, say: Callable[[str], None] | None = None,
-             rk4_steps: int = 10000, project: bool = True) -> Trajectory:
+             rk4_steps: int = 10000, project: bool = True,
+             max_steps: int | None = None) -> Trajectory:
     """Integrate ``model`` from ``x0`` over ``t_span``.
 
     Parameters
@@ -230,6 +232,9 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
     project : bool
         C integrators of models with configuration constraints: project the
         dependent coordinates back onto the constraints after each step.
+    max_steps : int, optional
+        Step limit (attempted steps in C; accepted steps in solve_ivp, default
+        :data:`MAX_STEPS`); reaching it is an :class:`IntegrationError`.
 
     Models with configuration constraints start from :func:`consistent_start`;
     solve_ivp does not project, so their trajectory drifts off the constraints
@@ -247,18 +252,24 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
     say = say or (lambda msg: warnings.warn(msg, StiffnessWarning, stacklevel=3))
     chosen, reason = choose_method(model, method, r)
     t0, t1 = float(t_span[0]), float(t_span[1])
+    if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
+        raise ArgumentError(f"t_span {t_span!r}: give two finite times, the second after the "
+                            f"first")
+    if max_steps is not None and (isinstance(max_steps, bool) or int(max_steps) != max_steps
+                                  or max_steps < 1):
+        raise ArgumentError(f"max_steps={max_steps!r}: give a positive whole number of steps")
     r0 = None if callable(r) or isinstance(r, named.InputTable) else r   # for the constraints
     x0 = consistent_start(model, x0, p, r0, t0)
     t_eval = np.linspace(t0, t1, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if chosen in C_METHODS:
         return _in_c(model, chosen, x0, p, r, t_eval, rtol, atol, rk4_steps, progress, reason,
-                     project)
+                     project, int(max_steps or 0))
     auto = method is None or str(method).lower() == "auto"
     if t_eval.ndim != 1 or t_eval.size < 1 or np.any(np.diff(t_eval) <= 0) \
             or t_eval[0] < t0 or t_eval[-1] > t1:
         raise ValueError(f"t_eval must be increasing times within t_span {(t0, t1)}")
     return _solve_ivp(model, chosen, x0, p, r, (t0, t1), t_eval, rtol, atol, progress, say,
-                      auto, reason)
+                      auto, reason, int(max_steps or MAX_STEPS))
 
 
 def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = 1e-9,
@@ -272,14 +283,14 @@ def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = 1e
 
 # ------------------------------------------------------------------ C integrators
 def _in_c(model, method, x0, p, r, t, rtol, atol, rk4_steps, progress, reason,
-          project=True) -> Trajectory:
+          project=True, max_steps=0) -> Trajectory:
     h = (t[-1] - t[0]) / rk4_steps if method == "rk4" else None
     done: dict = {}
 
     def work():  # cffi releases the GIL: the bar below keeps time while C runs
         try:
             done["result"] = model.integrate(method, t, x0, p, r, rtol=rtol, atol=atol, h=h,
-                                             project=project)
+                                             project=project, max_steps=max_steps)
         except BaseException as exc:  # re-raised in the caller's thread
             done["error"] = exc
 
@@ -322,7 +333,7 @@ def _spectral_radius(model, jac, f, t, y, p, r, fy) -> float:
 
 
 def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, say, auto,
-               reason) -> Trajectory:
+               reason, max_steps=MAX_STEPS) -> Trajectory:
     f = model.bind(p, r)
     has_jac = Output.JACOBIAN in model.outputs
     jac = model.bind(p, r, Output.JACOBIAN) if has_jac else None
@@ -354,6 +365,12 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
                     raise IntegrationError(f"integration of {model.name} ({label}) failed at "
                                            f"t={solver.t!r}: {message}", None, float(solver.t))
                 steps += 1
+                if steps > max_steps:
+                    raise IntegrationError(
+                        f"integration of {model.name} ({label}) reached its step limit of "
+                        f"{max_steps} steps at t={solver.t:.6g} of {t1:.6g}; raise max_steps "
+                        f"(--max-steps), loosen rtol/atol, or use an implicit or C integrator",
+                        None, float(solver.t))
                 j = int(np.searchsorted(t_eval, solver.t, side="right"))
                 if j > idx:
                     columns.append(np.asarray(solver.dense_output()(t_eval[idx:j])).reshape(
