@@ -253,7 +253,10 @@ class KinematicTree:
         """``(theta', {r: d theta'/d u_r}, theta''^t)`` for a rotation node."""
         def make():
             rate, coeffs = self.dt(node.angle)
-            assert not coeffs
+            if coeffs:   # the angle's rate would hold u' terms: it must be a function of q and t
+                raise ModelError(f"the rotation angle of frame {node.name!r} depends on speeds "
+                                 f"({', '.join(sorted(map(str, coeffs)))}); write it in "
+                                 f"coordinates and time only")
             acc, partial = self.dt(rate)
             return rate, partial, acc
         return self._memo(("theta", node), make)

@@ -96,7 +96,7 @@ from .cases import case_specs
 from .context import SIZES, Context, Size, make_context
 from .extreme import classify_parameters
 from .precision import PointResult, check_point, evaluate_point, judge_point
-from .reference import HighPrecision, Reference
+from .reference import HighPrecision, HighPrecisionValue, Reference
 from .report import Case, StressReport
 from .singular import SINGULAR_PATHS
 
@@ -148,5 +148,5 @@ def stress(scene: Scene | str, *, size: str = "ci",
 
 
 __all__ = ["stress", "StressReport", "Case", "Context", "make_context", "Size", "SIZES",
-           "classify_parameters", "HighPrecision", "Reference", "PointResult", "evaluate_point",
+           "classify_parameters", "HighPrecision", "HighPrecisionValue", "PointResult", "evaluate_point",
            "judge_point", "check_point", "SINGULAR_PATHS"]

@@ -19,7 +19,7 @@ itself loses to cancellation between intermediate values.  With
 Jacobians), ``cond(M)`` (2-norm, from the 50-digit eigenvalues) and ``e_formula``
 (the error of evaluating the *same unoptimised formula* and solve in 53-bit
 arithmetic, estimated from mpmath evaluations at 56..64 bits scaled to 53,
-:attr:`~mbgen.stress.reference.Reference.formula_error`)::
+:attr:`~mbgen.stress.reference.HighPrecisionValue.formula_error`)::
 
     ||f_C - f_HP||_inf <= C eps (cond(M) ||f_HP||_inf + max_i s_i) + 30 e_formula
 
@@ -71,14 +71,14 @@ import numpy as np
 
 from ..errors import MbgenError, NonFiniteResultError, SingularMassMatrixError
 from ..outputs import Output
-from .reference import HighPrecision, Reference
+from .reference import HighPrecision, HighPrecisionValue
 from .report import Case, fmt_g
 
 #: Unit roundoff of float64.
 EPS = float(np.finfo(float).eps)
 #: Safety factor of the floating-point bound (see the module docstring).
 FP_SAFETY = 1e3
-#: Factor on the formula's own rounding error (``Reference.formula_error``) in the bound.
+#: Factor on the formula's own rounding error (``HighPrecisionValue.formula_error``) in the bound.
 FORMULA_SAFETY = 30.0
 
 
@@ -93,7 +93,7 @@ class PointResult:
 
     f: np.ndarray | None
     error: str                # "" or the mbgen exception name (or "unexpected ...")
-    reference: Reference
+    reference: HighPrecisionValue
     abs_err: float = math.nan
     fnorm: float = math.nan
     cond_term: float = math.nan

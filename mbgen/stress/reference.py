@@ -2,10 +2,10 @@
 
 :class:`HighPrecision` evaluates ``M``, ``F`` and ``G`` of the *unoptimised*
 equations with mpmath at :data:`DPS` digits and solves ``M a = F`` at that
-precision; :meth:`HighPrecision.evaluate` returns a :class:`Reference`: the
+precision; :meth:`HighPrecision.evaluate` returns a :class:`HighPrecisionValue`: the
 right-hand side, ``cond(M)``, whether ``M`` is positive definite, and the
 estimated rounding error of the same formula in double
-(:attr:`Reference.formula_error`, from evaluations at :data:`FORMULA_BITS`).
+(:attr:`HighPrecisionValue.formula_error`, from evaluations at :data:`FORMULA_BITS`).
 
 Constrained equations (``equations.constraints``; ``M``, ``F`` over every speed,
 ``A u + b = 0``, ``A u' + beta = 0``, ``A = [A_s A_r]``) are reduced the way the
@@ -34,7 +34,7 @@ FORMULA_BITS = (56, 58, 60, 62, 64)
 
 
 @dataclass(frozen=True)
-class Reference:
+class HighPrecisionValue:
     """The right-hand side at 50 digits at one point.
 
     Attributes
@@ -105,11 +105,11 @@ class HighPrecision:
         return [mpmath.mpf(float(t))] + [mpmath.mpf(float(values.get(n, 0.0)))
                                          for n in self._names[1:]]
 
-    def evaluate(self, t: float, values: Mapping[str, float], formula: bool = True) -> Reference:
+    def evaluate(self, t: float, values: Mapping[str, float], formula: bool = True) -> HighPrecisionValue:
         """The reference right-hand side at ``t`` and the named state/parameter/input ``values``.
 
         ``formula``: also estimate the formula's own rounding error in double
-        (see :attr:`Reference.formula_error`).
+        (see :attr:`HighPrecisionValue.formula_error`).
         """
         ref = self._evaluate(t, values)
         if not formula or ref.f is None:
@@ -125,12 +125,12 @@ class HighPrecision:
             worst = max(worst, float(err) * 2.0 ** (bits - 53))
         return replace(ref, formula_error=worst)
 
-    def _evaluate(self, t, values) -> Reference:
+    def _evaluate(self, t, values) -> HighPrecisionValue:
         """Evaluate at ``self.dps`` digits."""
         with mpmath.workdps(self.dps):
             return self._evaluate_here(t, values)
 
-    def _evaluate_here(self, t, values, strict: bool = True) -> Reference:
+    def _evaluate_here(self, t, values, strict: bool = True) -> HighPrecisionValue:
         """Evaluate at the current mpmath precision.
 
         ``strict``: ``M`` counts as singular when its smallest eigenvalue is
@@ -143,7 +143,7 @@ class HighPrecision:
             try:
                 args, reduction = self._dependent_speeds(args)
             except (ZeroDivisionError, ValueError, OverflowError, TypeError):
-                return Reference(None, True, math.inf, "singular constraint Jacobian")
+                return HighPrecisionValue(None, True, math.inf, "singular constraint Jacobian")
         n_all = n + self.n_d
         try:
             M = mpmath.matrix(n_all, n_all)
@@ -153,7 +153,7 @@ class HighPrecision:
         except (ZeroDivisionError, ValueError, OverflowError, TypeError):
             ok_m = False
         if not ok_m:
-            return Reference(None, False, math.inf, "non-finite mass matrix")
+            return HighPrecisionValue(None, False, math.inf, "non-finite mass matrix")
         F_all = None
         if reduction is not None:
             T, cond_ar = reduction
@@ -161,13 +161,13 @@ class HighPrecision:
                 F_all = mpmath.matrix([_real(v) for v in self._F(*args)])
                 d = self._acceleration_offset(args, T)
             except (ZeroDivisionError, ValueError, OverflowError, TypeError):
-                return Reference(None, True, math.inf, "non-finite")
+                return HighPrecisionValue(None, True, math.inf, "non-finite")
             F_all = T.T * (F_all - M * d)
             M = T.T * M * T
         eig = mpmath.eigsy(M, eigvals_only=True)
         lo, hi = min(eig), max(abs(e) for e in eig)
         if hi == 0 or lo <= (hi * mpmath.mpf(2) ** (16 - mpmath.mp.prec) if strict else 0):
-            return Reference(None, False, math.inf, "not positive definite")
+            return HighPrecisionValue(None, False, math.inf, "not positive definite")
         cond = float(hi / lo) * (reduction[1] if reduction is not None else 1.0)
         try:
             F = F_all if F_all is not None else mpmath.matrix([_real(v) for v in self._F(*args)])
@@ -175,10 +175,10 @@ class HighPrecision:
             a = mpmath.cholesky_solve(M, F)
             f = G + [a[i] for i in range(n)]
         except (ZeroDivisionError, ValueError, OverflowError, TypeError):
-            return Reference(None, True, cond, "non-finite")
+            return HighPrecisionValue(None, True, cond, "non-finite")
         if not all(mpmath.isfinite(v) for v in f):
-            return Reference(None, True, cond, "non-finite")
-        return Reference(f, True, cond)
+            return HighPrecisionValue(None, True, cond, "non-finite")
+        return HighPrecisionValue(f, True, cond)
 
 
     def _dependent_speeds(self, args):
@@ -224,3 +224,8 @@ def _real(value):
             raise ValueError("complex intermediate (NaN in double)")
         return value.real
     return mpmath.mpf(value)
+
+
+#: The old name of :class:`HighPrecisionValue` (``Reference`` names only the check's
+#: lambdified reference, :mod:`mbgen.reference`); kept for imports written before the rename.
+Reference = HighPrecisionValue
