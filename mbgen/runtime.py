@@ -575,6 +575,24 @@ class CompiledModel(ModelBase):
                              f"input tables (an older mbgen); regenerate the code")
         return table.for_model(self)
 
+    #: Largest configuration-constraint residual ``max|f_h(x0)|`` (relative to
+    #: ``1 + max|q|``) that :meth:`integrate` accepts at the start.
+    START_RESIDUAL_TOL = 1e-8
+
+    def _check_consistent_start(self, t0, x0, p, r) -> None:
+        """Refuse an initial state off the configuration constraints (ConstraintError)."""
+        from .errors import ConstraintError
+
+        res = float(np.max(np.abs(self.holonomic(float(t0), x0, p, r))))
+        scale = 1.0 + float(np.max(np.abs(x0[:self.layout.n_q]))) if self.layout.n_q else 1.0
+        if not res <= self.START_RESIDUAL_TOL * scale:
+            raise ConstraintError(
+                f"{self.name}: the initial state violates the configuration constraints "
+                f"(residual {res:.3g}); complete its dependent coordinates "
+                f"({', '.join(self.dependent_coordinates)}) with model.consistent(x0) first "
+                f"(mbgen.simulate.simulate does this), or pass project=False to integrate "
+                f"from it as given")
+
     def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = 1e-6,
                   atol: float = 1e-9, h: float | None = None, h_max: float = 0.0,
                   max_steps: int = 0, on_failure: str = "raise", project: bool = True):
@@ -663,6 +681,8 @@ class CompiledModel(ModelBase):
                                  "members one by one, or give constant inputs r")
             return batch.integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
                                    h_max=h_max, max_steps=max_steps, on_failure=on_failure)
+        if project and self.dependent_coordinates and Output.HOLONOMIC in self.outputs:
+            self._check_consistent_start(t[0], xa, p, r)
         ffi, prefix = self.ffi, self.rendered.prefix
         buf = ffi.from_buffer
         settings = {"rtol": rtol, "atol": atol, "h0": h0, "h_max": h_max,
