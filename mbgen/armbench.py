@@ -36,8 +36,6 @@ from __future__ import annotations
 
 import csv
 import json
-import os
-import resource
 import shutil
 import statistics
 import subprocess
@@ -50,6 +48,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from . import children
 from .errors import BuildError, MbgenError
 
 #: Shortest timed loop, seconds (C drivers and Python per-call loops).
@@ -368,42 +367,13 @@ def _child_main(argv: Sequence[str]) -> int:
 def _run_child(side: str, n: int, repeats: int, method: str, budget_s: float,
                memory_gb: float) -> tuple[dict, str]:
     """Run one side in a child process; ``(results so far, status)``."""
-    def limit_memory():
-        cap = int(memory_gb * 2 ** 30)
-        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-
     stages = (["derive_s", "bake_s", "cse_s", "render_s", "compile_s", "rhs_c_ns", "rhs_py_ns"]
               if side == "mbgen" else
               ["sympy_derive_s", "sympy_cse_s", "sympy_lambdify_s", "sympy_rhs_py_ns"])
-    with tempfile.TemporaryDirectory(prefix="mbgen-arm-") as cache, \
-            tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-        env = dict(os.environ, MBGEN_CACHE_DIR=cache)
-        proc = subprocess.Popen([sys.executable, "-m", "mbgen.armbench", side, str(n),
-                                 str(repeats), method], stdout=out, stderr=err, env=env,
-                                preexec_fn=limit_memory)
-        try:
-            rc = proc.wait(timeout=budget_s)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-            rc = None
-        out.seek(0)
-        err.seek(0)
-        results = {}
-        for line in out:
-            if line.startswith("{"):
-                results.update(json.loads(line))
-        error = err.read().strip().splitlines()
-    pending = next((s for s in stages if s not in results), None)
-    where = pending.removeprefix("sympy_").removesuffix("_s").removesuffix("_ns") if pending else ""
-    if rc is None:
-        status = f"stopped in {where}: over the {budget_s:g} s budget"
-    elif rc != 0:
-        last = error[-1] if error else f"exit status {rc}"
-        status = f"failed in {where}: {'out of memory' if 'MemoryError' in last else last}"[:120]
-    else:
-        status = "ok"
-    return results, status
+    results, rc, error = children.run_json_child(
+        ["-m", "mbgen.armbench", side, str(n), str(repeats), method], budget_s=budget_s,
+        memory_gb=memory_gb, prefix="mbgen-arm-")
+    return results, children.status(results, stages, rc, error, budget_s, width=120)
 
 
 # ----------------------------------------------------------------------------- the benchmark

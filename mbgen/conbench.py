@@ -39,10 +39,7 @@ stages are measured once.  Timings on a shared machine are noisy: compare within
 from __future__ import annotations
 
 import json
-import os
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -51,6 +48,8 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
+
+from . import children
 
 #: Speed (m/s) of the steady upright run where both sides linearise and evaluate.
 SPEED = 5.0
@@ -264,43 +263,12 @@ def _child_main(argv: Sequence[str]) -> int:
 def _run_child(side: str, point: dict, repeats: int, budget_s: float,
                memory_gb: float) -> tuple[dict, str, float]:
     """One side in a child process: ``(results so far, status, seconds)``."""
-    def limit_memory():
-        cap = int(memory_gb * 2 ** 30)
-        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-
     start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="mbgen-conbench-") as cache, \
-            tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-        env = dict(os.environ, MBGEN_CACHE_DIR=cache)
-        proc = subprocess.Popen([sys.executable, "-m", "mbgen.conbench", side, str(repeats)],
-                                stdin=subprocess.PIPE, stdout=out, stderr=err, env=env,
-                                preexec_fn=limit_memory, text=True)
-        proc.stdin.write(json.dumps(point))
-        proc.stdin.close()
-        try:
-            rc = proc.wait(timeout=budget_s)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-            rc = None
-        out.seek(0)
-        err.seek(0)
-        results = {}
-        for line in out:
-            if line.startswith("{"):
-                results.update(json.loads(line))
-        error = err.read().strip().splitlines()
+    results, rc, error = children.run_json_child(
+        ["-m", "mbgen.conbench", side, str(repeats)], budget_s=budget_s, memory_gb=memory_gb,
+        stdin=json.dumps(point), prefix="mbgen-conbench-")
     seconds = time.perf_counter() - start
-    pending = next((s for s in STAGES[side] if s not in results), None)
-    where = (pending or "").removeprefix("sympy_").removesuffix("_s").removesuffix("_ns")
-    if rc is None:
-        status = f"stopped in {where} at the {budget_s:g} s budget"
-    elif rc != 0:
-        last = error[-1] if error else f"exit status {rc}"
-        status = f"failed in {where}: {'out of memory' if 'MemoryError' in last else last}"[:160]
-    else:
-        status = "ok"
-    return results, status, seconds
+    return results, children.status(results, STAGES[side], rc, error, budget_s), seconds
 
 
 # ------------------------------------------------------------------------------ four-bar

@@ -32,7 +32,7 @@ import numpy as np
 from scipy import integrate as ivp
 
 from . import named
-from .errors import ArgumentError, IntegrationError, MbgenError, UsageError
+from .errors import ArgumentError, IntegrationError, UsageError
 from .fileio import write_atomic
 from .outputs import INTEGRATORS, Output
 from .runtime import ModelBase

@@ -25,6 +25,8 @@ import time
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
+from .children import memory_cap
+
 
 @dataclass(frozen=True)
 class StageTime:
@@ -82,10 +84,6 @@ def stage_times(scene_name: str, options: dict | None = None, outputs: Sequence[
     """
     say = progress or (lambda message: None)
 
-    def limit_memory():
-        cap = int(memory_gb * 2 ** 30)
-        resource.setrlimit(resource.RLIMIT_AS, (cap, cap))
-
     args = json.dumps({"scene": scene_name, "options": options or {}, "outputs": list(outputs)})
     results: list[StageTime] = []
     with tempfile.TemporaryDirectory(prefix="mbgen-stages-") as cache, \
@@ -93,7 +91,7 @@ def stage_times(scene_name: str, options: dict | None = None, outputs: Sequence[
             tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen([sys.executable, "-m", "mbgen.stagetimes", args], stdout=out,
                                 stderr=err, env=dict(os.environ, MBGEN_CACHE_DIR=cache),
-                                preexec_fn=limit_memory)
+                                preexec_fn=memory_cap(memory_gb))
         started, current, seen = time.monotonic(), None, 0
         while True:
             rc = proc.poll()

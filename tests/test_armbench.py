@@ -81,7 +81,7 @@ def test_table_csv_and_plot(small_run, tmp_path):
 def test_budget_stops_a_side_and_skips_larger_n():
     rows = armbench.arm_scaling((2, 3), repeats=1, budget_s=0.05, sympy_budget_s=0,
                                 pinocchio=False)
-    assert rows[0].status.startswith("stopped in derive: over the 0.05 s budget")
+    assert rows[0].status.startswith("stopped in derive at the 0.05 s budget")
     assert rows[1].status == "not run (stopped at a smaller n)"
     assert rows[0].sympy_status == rows[1].sympy_status == "not run"
     assert rows[0].derive_s is None and rows[0].rhs_c_ns is None
