@@ -772,17 +772,10 @@ class PythonModel(ModelBase):
             self._fail(7, output.value, t, xa)
 
     def _batch(self, output, fn, t, x, p, r, batch_args, _scalar_time):
+        from .targets.batch import batch_times
+
         k, (xa, xs), (pa, ps), (ra, rs) = batch_args(self, x, p, r)
-        if _scalar_time(t):
-            ta, ts = np.array([self._t(t)]), 0
-        else:
-            try:
-                shape = np.shape(t)
-            except ValueError:
-                shape = "ragged"
-            if shape != (k,):
-                raise ArgumentError(f"t must be a number or have shape ({k},); got shape {shape}")
-            ta, ts = _real_vector(t, k, "t", ()), 1
+        ta, ts = batch_times(self, t, k)
         info = next(f for f in self.rendered.functions if Output(f.output) is output)
         out = np.empty((k,) + tuple(info.out_shape))
         for i in range(k):

@@ -79,8 +79,6 @@ def _rows(model, value, n: int, what: str, names, k: int | None):
 
 def is_batch(x, p=None, r=None) -> bool:
     """Whether a call gets a batch: a 2-D ``x``, ``p`` or ``r``."""
-    import numpy as np
-
     return any(v is not None and _two_d(v) for v in (x, p, r))
 
 
@@ -123,6 +121,24 @@ def _batch_args(model, x, p, r, x_what="state x"):
     return k, xs, ps, rs
 
 
+def batch_times(model, t, k: int):
+    """``(times, stride)`` of a batch of ``k``: one time for all (stride 0) or ``k`` of them."""
+    import numpy as np
+
+    if _scalar_time(t):
+        return np.array([model._t(t)]), 0
+    from ..errors import ArgumentError
+    from ..runtime import _real_vector
+
+    try:
+        shape = np.shape(t)
+    except ValueError:
+        shape = "ragged"
+    if shape != (k,):
+        raise ArgumentError(f"t must be a number or have shape ({k},); got shape {shape}")
+    return _real_vector(t, k, "t", ()), 1
+
+
 def evaluate(model, info, t, x, p, r):
     """One output for a batch: ``x (k, n_x)`` (and/or ``p``, ``r`` with ``k`` rows) -> ``(k, *shape)``."""
     import numpy as np
@@ -130,19 +146,7 @@ def evaluate(model, info, t, x, p, r):
     from ..errors import MbgenError
 
     k, (xa, xs), (pa, ps), (ra, rs) = _batch_args(model, x, p, r)
-    if _scalar_time(t):
-        ta, ts = np.array([model._t(t)]), 0
-    else:
-        from ..errors import ArgumentError
-        from ..runtime import _real_vector
-
-        try:
-            shape = np.shape(t)
-        except ValueError:
-            shape = "ragged"
-        if shape != (k,):
-            raise ArgumentError(f"t must be a number or have shape ({k},); got shape {shape}")
-        ta, ts = _real_vector(t, k, "t", ()), 1
+    ta, ts = batch_times(model, t, k)
     out = np.empty((k,) + tuple(info.out_shape))
     status = np.zeros(k, dtype=np.intc)
     buf = model.ffi.from_buffer
