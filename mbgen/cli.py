@@ -318,7 +318,7 @@ def cmd_simulate(args) -> int:
                     atol=args.atol, n_out=args.points, progress=not args.quiet, say=note,
                     max_steps=args.max_steps)
     path = traj.write_csv(csv)
-    why = f" ({traj.message})" if traj.message and traj.message != "named" else ""
+    why = f" ({traj.message})" if traj.message and traj.message != "as asked" else ""
     print(f"{scene.name}: {traj.method}{why}, rtol={args.rtol:g} atol={args.atol:g}, "
           f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls"
           + (f", {traj.njev} Jacobians" if traj.njev else "") + f", {traj.wall_time:.3f} s")

@@ -189,13 +189,13 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
             raise UsageError(f"a Python input function cannot drive the C integrator {name!r}; "
                              f"give the inputs as mbgen.named.InputTable(times, values), or "
                              f"use a solve_ivp method")
-        return name, "named"
+        return name, "as asked"
     by_lower = {k.lower(): k for k in SOLVE_IVP}
     if name.lower() not in by_lower:
         raise UsageError(f"unknown integration method {method!r}; choose a solve_ivp method "
                          f"({', '.join(SOLVE_IVP)}), a generated C integrator "
                          f"({', '.join(C_METHODS)}) or auto")
-    return by_lower[name.lower()], "named"
+    return by_lower[name.lower()], "as asked"
 
 
 def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None = None,
@@ -314,7 +314,7 @@ def _in_c(model, method, x0, p, r, t, rtol, atol, rk4_steps, progress, reason,
 
 
 # ------------------------------------------------------------------ solve_ivp
-def _spectral_radius(model, jac, f, t, y, p, r, fy) -> float:
+def _spectral_radius(jac, f, t, y, fy) -> float:
     """``max |lambda|`` of ``df/dx`` at ``(t, y)``: eigenvalues of the compiled
     Jacobian, else power iteration on finite-difference products ``J v``."""
     if jac is not None and y.size <= 200:
@@ -381,7 +381,7 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
                         and not warned):
                     h = solver.t - solver.t_old
                     fy = f(solver.t, solver.y)
-                    rho = _spectral_radius(model, jac, f, solver.t, solver.y, p, r, fy)
+                    rho = _spectral_radius(jac, f, solver.t, solver.y, fy)
                     if h * rho > 0.5 * _STABILITY[method]:
                         better = [o.value for o in INTEGRATORS if o in model.outputs]
                         hint = (f"the C integrator {better[0]!r}" if better and
