@@ -26,7 +26,7 @@ from dataclasses import replace
 
 from ._version import __version__
 from .derive import Method
-from .errors import (BuildError, CheckFailed, CheckInconclusive, MbgenError, ModelError,
+from .errors import (BuildError, CacheError, CheckFailed, CheckInconclusive, MbgenError, ModelError,
                      NonFiniteResultError, SceneError, SingularMassMatrixError, UnknownNameError,
                      UsageError)
 
@@ -89,6 +89,11 @@ def _with_numbers(scene, args):
                                               if k not in scene.fixed}},
                         fixed={k: params.get(k, v) for k, v in scene.fixed.items()})
     if states:
+        from .scene import _model_names
+
+        known = (_model_names(scene.model) or {}).get("states")
+        if known is not None:
+            check_names(states, known, "states", scene.name)
         scene = replace(scene, initial_state={**scene.initial_state, **states})
     return scene
 
@@ -576,8 +581,19 @@ def cmd_sweep(args) -> int:
 
 
 # ------------------------------------------------------------------- parser
+def _nonnegative_float(text: str) -> float:
+    """argparse type: a finite number >= 0 (tolerances, budgets)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value >= 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a finite number >= 0")
+    return value
+
+
 def _positive_float(text: str) -> float:
-    """argparse type: a finite number > 0 (tolerances, budgets, rates)."""
+    """argparse type: a finite number > 0 (rates)."""
     try:
         value = float(text)
     except ValueError:
@@ -660,8 +676,8 @@ def parser() -> argparse.ArgumentParser:
     scene_args(p, method_flag=True)
     p.add_argument("--samples", type=int, default=20, help="random states (default 20, >= 1)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--rtol", type=_positive_float, default=1e-9, help="relative tolerance (default 1e-9)")
-    p.add_argument("--atol", type=_positive_float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    p.add_argument("--rtol", type=_nonnegative_float, default=1e-9, help="relative tolerance (default 1e-9)")
+    p.add_argument("--atol", type=_nonnegative_float, default=1e-12, help="absolute tolerance (default 1e-12)")
     numbers_args(p, states=False, inputs=False)
     p.set_defaults(func=cmd_check)
 
@@ -674,8 +690,8 @@ def parser() -> argparse.ArgumentParser:
                         "rosenbrock, rk4: fixed step (t_end - t0)/10000); default auto: the "
                         "scene's C integrator, else DOP853, switching to Radau when "
                         "stiffness-bound")
-    p.add_argument("--rtol", type=_positive_float, default=1e-9)
-    p.add_argument("--atol", type=_positive_float, default=1e-12)
+    p.add_argument("--rtol", type=_nonnegative_float, default=1e-9)
+    p.add_argument("--atol", type=_nonnegative_float, default=1e-12)
     p.add_argument("--points", type=int, default=201, help="output times (default 201)")
     p.add_argument("--csv", metavar="PATH", help="trajectory file (default SCENE.csv)")
     p.add_argument("--plot", metavar="FILE",
@@ -722,7 +738,7 @@ def parser() -> argparse.ArgumentParser:
                    help="RK45,DOP853,Radau,BDF,LSODA,dopri5,rosenbrock,rk4 (default all)")
     p.add_argument("--backends", default="lambdify,python,c", metavar="LIST",
                    help="RHS back ends for solve_ivp (default lambdify,python,c)")
-    p.add_argument("--time-budget", type=_positive_float, default=10.0,
+    p.add_argument("--time-budget", type=_nonnegative_float, default=10.0,
                    help="seconds one solve may take (default 10)")
     p.add_argument("--repeats", type=int, default=None,
                    help="timed repeats per point; medians are reported (default 3; arm: 7)")
@@ -734,12 +750,12 @@ def parser() -> argparse.ArgumentParser:
                         "render, compile), each under --budget, instead of the work-precision "
                         "report")
     p.add_argument("--outputs", metavar="LIST", help="--stages: outputs (default: the scene's)")
-    p.add_argument("--budget", type=_positive_float, default=300.0,
+    p.add_argument("--budget", type=_nonnegative_float, default=300.0,
                    help="arm: seconds mbgen may take for one n (default 300; stops larger n); "
                         "--stages: seconds one stage may take")
-    p.add_argument("--sympy-budget", type=_positive_float, default=120.0,
+    p.add_argument("--sympy-budget", type=_nonnegative_float, default=120.0,
                    help="arm: seconds sympy's KanesMethod may take for one n (default 120; 0: skip)")
-    p.add_argument("--memory-gb", type=_positive_float, default=12.0,
+    p.add_argument("--memory-gb", type=_nonnegative_float, default=12.0,
                    help="arm, --stages: address-space cap of each timed child process "
                         "(default 12)")
     p.add_argument("--no-pinocchio", action="store_true", help="arm: leave Pinocchio out")
@@ -781,8 +797,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
     p.add_argument("--points", type=int, default=2,
                    help="output times, t0..t_end (default 2: initial and final state)")
-    p.add_argument("--rtol", type=_positive_float, default=1e-6)
-    p.add_argument("--atol", type=_positive_float, default=1e-9)
+    p.add_argument("--rtol", type=_nonnegative_float, default=1e-6)
+    p.add_argument("--atol", type=_nonnegative_float, default=1e-9)
     p.add_argument("--address", help="a running Dask scheduler (default: a LocalCluster)")
     p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes")
     p.add_argument("--chunk", type=int, default=None, help="members per task (default: auto)")
@@ -827,6 +843,9 @@ def main(argv=None) -> int:
     except ImportError as exc:  # plots.MissingExtraError: an optional dependency is missing
         if not isinstance(exc, MbgenError):
             raise
+        print(f"mbgen: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except CacheError as exc:  # $MBGEN_CACHE_DIR unusable: the caller's setting to fix
         print(f"mbgen: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except BuildError as exc:

@@ -58,7 +58,7 @@ def test_unwritable_cache_folder(tmp_path, capsys, monkeypatch):
     afile.write_text("")
     monkeypatch.setenv("MBGEN_CACHE_DIR", str(afile / "cache"))
     fails(["simulate", "disc_pendulum", "--csv", str(tmp_path / "t.csv")], capsys,
-          "compile cache folder", "set MBGEN_CACHE_DIR to a writable folder")
+          "cache folder MBGEN_CACHE_DIR", "point MBGEN_CACHE_DIR at a writable folder")
 
 
 def test_numbers_by_name_mistakes(tmp_path, capsys):
