@@ -516,15 +516,20 @@ class CompiledModel(ModelBase):
                 fail(status, what, t, xa)
             return out.reshape(shape) if reshape else out
 
-        def vector(v, n, default):
+        n_p, n_r = self.n_p, self.n_r
+        last = [(None, None), (None, None)]   # the last p, r arrays and their buffers
+
+        def vector(v, n, default, slot):
             if v is None and default is not None:
                 return default
             if v.__class__ is ndarray and v.dtype is f64 and v.shape == (n,) and \
                     v.strides == stride:
-                return buf("double[]", v)
+                seen, b = last[slot]
+                if v is not seen:   # a new array: a new buffer (the same array keeps its memory)
+                    b = buf("double[]", v)
+                    last[slot] = (v, b)
+                return b
             return None
-
-        n_p, n_r = self.n_p, self.n_r
 
         def call(t, x, p=None, r=None):
             if not (t.__class__ is float and x.__class__ is ndarray and x.dtype is f64
@@ -532,11 +537,11 @@ class CompiledModel(ModelBase):
                 return slow(t, x, p, r)
             pb = rb = None
             if has_p:
-                pb = p_default if p is None else vector(p, n_p, None)
+                pb = p_default if p is None else vector(p, n_p, None, 0)
                 if pb is None:
                     return slow(t, x, p, r)
             if has_r:
-                rb = r_default if r is None else vector(r, n_r, None)
+                rb = r_default if r is None else vector(r, n_r, None, 1)
                 if rb is None:
                     return slow(t, x, p, r)
             out = empty(size)
