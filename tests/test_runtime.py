@@ -124,3 +124,23 @@ def test_inputs_of_n_link_cart():
     assert pushed[3] > 0  # the cart accelerates along the force
     with pytest.raises(ValueError, match="inputs r"):
         model.rhs(0.0, x, None, [1.0, 2.0])
+
+
+def test_fast_path_sees_a_parameter_array_changed_in_place():
+    """The fast path reuses the buffer of the last p array: values changed in place and
+    alternating arrays must still be honoured."""
+    import mbgen
+    from mbgen.scene import load_scene
+
+    m = mbgen.compile(load_scene("disc_pendulum"), ("rhs",))
+    x = np.full(m.n_x, 0.3)
+    p = np.array(m.default_parameters, dtype=float)
+    first = m.rhs(0.0, x, p)
+    p[:] = p * 1.5 + 0.1
+    changed = m.rhs(0.0, x, p)
+    assert not np.array_equal(first, changed)
+    assert np.array_equal(changed, m.rhs(0.0, x, p.copy()))       # a new array, same values
+    other = p * 2.0                                                 # back and forth
+    assert np.array_equal(m.rhs(0.0, x, p), changed)
+    assert not np.array_equal(m.rhs(0.0, x, other), changed)
+    assert np.array_equal(m.rhs(0.0, x, p), changed)
