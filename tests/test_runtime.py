@@ -140,7 +140,8 @@ def test_fast_path_sees_a_parameter_array_changed_in_place():
     changed = m.rhs(0.0, x, p)
     assert not np.array_equal(first, changed)
     assert np.array_equal(changed, m.rhs(0.0, x, p.copy()))       # a new array, same values
-    other = p * 2.0                                                 # back and forth
+    other = p.copy()                                                # back and forth
+    other[m.parameter_names.index("g")] += 1.0
     assert np.array_equal(m.rhs(0.0, x, p), changed)
     assert not np.array_equal(m.rhs(0.0, x, other), changed)
     assert np.array_equal(m.rhs(0.0, x, p), changed)
