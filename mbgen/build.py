@@ -66,7 +66,8 @@ def cflags(rendered: Rendered) -> tuple[str, ...]:
                              f"unset it")
         level = forced
     else:
-        level = "-O1" if len(rendered.source) > LARGE_SOURCE_CHARS else "-O2"
+        source = rendered.files[f"{rendered.prefix}.c"]
+        level = "-O1" if len(source) > LARGE_SOURCE_CHARS else "-O2"
     return tuple(level if f == "-O2" else f for f in CFLAGS)
 
 _loaded: dict[str, object] = {}
