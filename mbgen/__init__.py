@@ -18,7 +18,8 @@ from .layout import Layout
 from .linearize import Linearization, linearize
 from .named import InputTable
 from .model import Model, t
-from .optimize import CseBackend, Output
+from .optimize import CseBackend
+from .abi import Output
 from .pipeline import compile, equations_of, python_model, run
 from .reference import LambdifiedModel
 from .runtime import CompiledModel, PythonModel

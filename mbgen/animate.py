@@ -92,7 +92,7 @@ def animate_scene(scene, path, *, frames: int = 100, t_end: float | None = None,
 def _simulate_positions(scene, names, frames, t_end):
     """Times ``(k,)``, positions ``(k, n_points, 3)`` of the named points, and the states
     ``{name: (k,)}``."""
-    from .optimize import Output
+    from .abi import Output
     from .pipeline import run
     from .simulate import simulate, simulate_in_c
 

@@ -179,7 +179,7 @@ def _cmeel_prefix() -> Path:
 
 def build_aba_driver(folder: Path, repeats: int) -> Path:
     """Compile the C++ ``aba`` loop against the wheel; returns the executable (about a minute)."""
-    from .render import environment
+    from .templating import environment
 
     prefix = _cmeel_prefix()
     cxx = shutil.which("g++") or shutil.which("c++")
@@ -219,8 +219,8 @@ def run_aba_driver(exe: Path, n: int, q: np.ndarray, v: np.ndarray) -> tuple[flo
 def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int,
              folder: Path) -> float:
     """Median ns per ``<prefix>_rhs`` call in a compiled C loop (driver from the template)."""
-    from .build import _compiler
-    from .render import environment
+    from .build import compiler
+    from .templating import environment
 
     layout = rendered.layout
     for name, text in rendered.files.items():
@@ -234,7 +234,7 @@ def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int
         repeats=repeats, flags=" ".join(DRIVER_FLAGS))
     (folder / "bench_rhs.c").write_text(driver, encoding="utf-8")
     exe = folder / "bench_rhs"
-    cmd = [_compiler(), "-std=c99", *DRIVER_FLAGS, "-o", str(exe), "bench_rhs.c",
+    cmd = [compiler(), "-std=c99", *DRIVER_FLAGS, "-o", str(exe), "bench_rhs.c",
            f"{rendered.prefix}.c", "-lm"]
     proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
     if proc.returncode != 0:
@@ -249,7 +249,8 @@ def _mbgen_child(n: int, repeats: int, method: str, emit) -> None:
     """mbgen's side for one ``n``; ``emit(key, value)`` reports each result as it is known."""
     from .build import load
     from .derive import Method
-    from .optimize import Output, optimize
+    from .abi import Output
+    from .optimize import optimize
     from .pipeline import equations_of
     from .render import render
     from .runtime import CompiledModel

@@ -25,7 +25,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .outputs import INTEGRATORS, Form, Output, applicable
+from .abi import INTEGRATORS, Output
+from .outputs import Form, applicable
 from .pipeline import PipelineResult, equations_of, run
 from .scene import Scene
 from .solver import UNROLL_MAX, fill_pattern

@@ -62,7 +62,8 @@ from threadpoolctl import threadpool_limits
 
 from .build import load
 from .derive import derive
-from .optimize import Output, optimize
+from .abi import Output
+from .optimize import optimize
 from .render import render
 from .runtime import CompiledModel
 from .scenes.n_link_cart import build_model

@@ -38,7 +38,7 @@ from pathlib import Path
 
 from .errors import BuildError, CacheError
 from .fileio import write_files
-from .render import Rendered
+from .abi import Rendered
 
 #: Flags for the generated C.  -ffp-contract=off keeps results bitwise close to
 #: the Python module (no fused multiply-add contraction).
@@ -226,7 +226,7 @@ def _capture_fds():
             box["text"] = log.read().decode(errors="replace")
 
 
-def _compiler() -> str:
+def compiler() -> str:
     cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
     exe = cc.split()[0]
     if shutil.which(exe) is None:
@@ -246,7 +246,7 @@ def build(rendered: Rendered, *, force: bool = False) -> Path:
     target = compiled_path(rendered)
     if not force and target.exists() and verified(target):
         return target
-    _compiler()
+    compiler()
     import cffi
 
     name = module_name(rendered)

@@ -32,7 +32,7 @@ import numpy as np
 
 from .errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from .layout import Layout
-from .optimize import Output
+from .abi import Output
 from .outputs import dynamic_parameters
 from .pipeline import PipelineResult, python_model, run
 from .reference import LambdifiedModel

@@ -89,9 +89,9 @@ def _with_numbers(scene, args):
                                               if k not in scene.fixed}},
                         fixed={k: params.get(k, v) for k, v in scene.fixed.items()})
     if states:
-        from .scene import _model_names
+        from .scene import model_names
 
-        known = (_model_names(scene.model) or {}).get("states")
+        known = (model_names(scene.model) or {}).get("states")
         if known is not None:
             check_names(states, known, "states", scene.name)
         scene = replace(scene, initial_state={**scene.initial_state, **states})
@@ -227,7 +227,7 @@ def cmd_linearize(args) -> int:
 
     from .fileio import write_atomic
     from .linearize import linearize
-    from .outputs import Output
+    from .abi import Output
     from .pipeline import compile
 
     if args.output:
@@ -291,7 +291,7 @@ def cmd_check(args) -> int:
 
 def cmd_simulate(args) -> int:
     from .fileio import plain_name
-    from .outputs import Output
+    from .abi import Output
     from .pipeline import compile
     from .scene import check_span
     from .simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate

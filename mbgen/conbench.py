@@ -87,7 +87,8 @@ def _mbgen_child(point: dict, repeats: int, emit) -> None:
     from .armbench import c_rhs_ns
     from .build import load
     from .linearize import linearize
-    from .optimize import Output, optimize
+    from .abi import Output
+    from .optimize import optimize
     from .pipeline import compile as compile_
     from .pipeline import equations_of
     from .render import render

@@ -4,7 +4,7 @@ r"""Ensembles: parameter studies and Monte Carlo runs of one scene, serially or 
 builds the members in this process (the grids' product, each point repeated
 ``n`` times with fresh draws of ``samples``; seeded, so the same call gives
 the same members), then integrates them in chunks.  Each chunk is one C call
-(:func:`mbgen.targets.batch.integrate`); on Dask every chunk is a task.
+(:func:`mbgen.run_batch.integrate`); on Dask every chunk is a task.
 
 What travels to a worker: the rendered sources (plain strings, scattered
 once) with their content hash, and the chunk's ``(k, n_x)`` initial states and
@@ -132,13 +132,13 @@ class _Sources:
         self.extension, self.extension_cdef = d["extension"], d["extension_cdef"]
 
     def digest(self) -> str:
-        from .render import Rendered
+        from .abi import Rendered
 
         return Rendered.digest(self)
 
 
 class _Raw:
-    """The little of a CompiledModel that :func:`mbgen.targets.batch.integrate` uses."""
+    """The little of a CompiledModel that :func:`mbgen.run_batch.integrate` uses."""
 
     def __init__(self, module, prefix, n_x, n_p, n_r):
         self.ffi, self.lib = module.ffi, module.lib
@@ -167,8 +167,8 @@ def _module(sources: dict):
 
 def run_chunk(sources: dict, spec: dict, x0: np.ndarray, p: np.ndarray) -> dict:
     """Integrate one chunk of members; every array in the result has one row per member."""
-    from .outputs import Output
-    from .targets import batch
+    from .abi import Output
+    from . import run_batch as batch
 
     module, compiled = _module(sources)
     raw = _Raw(module, sources["prefix"], spec["n_x"], spec["n_p"], spec["n_r"])
@@ -358,7 +358,7 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     progress : bool
         Show a progress bar (tqdm, on stderr).
     """
-    from .outputs import Output
+    from .abi import Output
     from .pipeline import run
 
     extra_outputs = Output.parse(outputs) if outputs else ()

@@ -12,7 +12,7 @@ import numpy as np
 
 from ._version import __version__
 from .pipeline import PipelineResult
-from .render import environment
+from .templating import environment
 from .scene import Scene
 
 #: Rows of the example's trajectory.

@@ -11,8 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ModelError
-from .integrators import DEFAULT_MAX_STEPS, ROSENBROCK, RK4, Dopri5, _c
-from .outputs import Output
+from .abi import Output
+from .integrators import DEFAULT_MAX_STEPS, ROSENBROCK, RK4, Dopri5, c_double
+from .names import model_prefix
+from .outputs import time_symbols
 
 
 def _terms(coeffs, vector: str, skip_zero: bool = True) -> str:
@@ -22,7 +24,7 @@ def _terms(coeffs, vector: str, skip_zero: bool = True) -> str:
         c = float(c)
         if skip_zero and c == 0.0:
             continue
-        term = vector.format(j) if abs(c) == 1.0 else f"{_c(abs(c))} * {vector.format(j)}"
+        term = vector.format(j) if abs(c) == 1.0 else f"{c_double(abs(c))} * {vector.format(j)}"
         if out:
             out.append(f"{'-' if c < 0 else '+'} {term}")
         else:
@@ -30,11 +32,11 @@ def _terms(coeffs, vector: str, skip_zero: bool = True) -> str:
     return " ".join(out) if out else "0.0"
 
 
-def _dopri5_view() -> dict:
+def dopri5_view() -> dict:
     T = Dopri5
     stages = []
     for s in range(1, T.n_stages):
-        stages.append(dict(index=s, c=_c(T.C[s]),
+        stages.append(dict(index=s, c=c_double(T.C[s]),
                            sum=_terms(T.A[s, :s], "K[{}][i]")))
     return dict(
         n_stages=T.n_stages,
@@ -42,63 +44,59 @@ def _dopri5_view() -> dict:
         b=_terms(T.B, "K[{}][i]"),
         e=_terms(T.E, "K[{}][i]"),
         # dense output: y + h * sum_j K_j * (P_j0 s + P_j1 s^2 + P_j2 s^3 + P_j3 s^4)
-        p=[(j, [_c(v) for v in T.P[j]]) for j in range(T.n_stages + 1) if np.any(T.P[j])],
+        p=[(j, [c_double(v) for v in T.P[j]]) for j in range(T.n_stages + 1) if np.any(T.P[j])],
         order=T.error_estimator_order,
-        inv_order=_c(1.0 / (T.error_estimator_order + 1)),
-        exponent=_c(-1.0 / (T.error_estimator_order + 1)),
-        safety=_c(T.SAFETY), min_factor=_c(T.MIN_FACTOR), max_factor=_c(T.MAX_FACTOR),
+        inv_order=c_double(1.0 / (T.error_estimator_order + 1)),
+        exponent=c_double(-1.0 / (T.error_estimator_order + 1)),
+        safety=c_double(T.SAFETY), min_factor=c_double(T.MIN_FACTOR), max_factor=c_double(T.MAX_FACTOR),
     )
 
 
-def _rk4_view() -> dict:
+def rk4_view() -> dict:
     T = RK4
-    return dict(stages=[dict(index=s, c=_c(T.C[s]), sum=_terms(T.A[s, :s], "K[{}][i]"))
+    return dict(stages=[dict(index=s, c=c_double(T.C[s]), sum=_terms(T.A[s, :s], "K[{}][i]"))
                         for s in range(1, T.n_stages)],
                 b=_terms(T.B, "K[{}][i]"), n_stages=T.n_stages)
 
 
-def _rosenbrock_view(T) -> dict:
+def rosenbrock_view(T) -> dict:
     stages = []
     for s, new in enumerate(T.new_f()):
         stages.append(dict(
             index=s,
             new_f=new and s > 0,
-            alpha=_c(T.alpha[s]),
+            alpha=c_double(T.alpha[s]),
             arg=_terms(T.A[s, :s], "K[{}][i]"),
             has_arg=bool(np.any(T.A[s, :s])),
             coupling=_terms(T.C[s, :s], "K[{}][i]"),
             has_coupling=bool(np.any(T.C[s, :s])),
-            gamma_t=_c(T.gamma_t[s]),
+            gamma_t=c_double(T.gamma_t[s]),
             has_gamma_t=T.gamma_t[s] != 0.0,
         ))
     return dict(
         name=T.name,
         reference=T.reference,
         n_stages=T.n_stages(),
-        gamma=_c(T.gamma),
+        gamma=c_double(T.gamma),
         stages=stages,
         m=_terms(T.M, "K[{}][i]"),
         e=_terms(T.E, "K[{}][i]"),
         order=T.order,
         embedded_order=T.error_estimator_order,
-        inv_order=_c(1.0 / (T.error_estimator_order + 1)),
-        exponent=_c(-1.0 / (T.error_estimator_order + 1)),
-        safety=_c(T.SAFETY), min_factor=_c(T.MIN_FACTOR), max_factor=_c(T.MAX_FACTOR),
+        inv_order=c_double(1.0 / (T.error_estimator_order + 1)),
+        exponent=c_double(-1.0 / (T.error_estimator_order + 1)),
+        safety=c_double(T.SAFETY), min_factor=c_double(T.MIN_FACTOR), max_factor=c_double(T.MAX_FACTOR),
     )
 
 
-def _explicit_time(kernel) -> bool:
+def explicit_time(kernel) -> bool:
     """Whether the right-hand side depends explicitly on ``t`` (so df/dt is needed)."""
-    from .outputs import _time_symbols
-
     eq = kernel.equations
-    return eq.layout.time in _time_symbols(eq)
+    return eq.layout.time in time_symbols(eq)
 
 
 def integrator_context(kernel) -> dict:
     """Template context for ``integrators.h.j2`` / ``integrators.c.j2`` (key ``integ``)."""
-    from .names import model_prefix
-
     L = kernel.layout
     prefix = model_prefix(kernel.equations.name)
     wanted = {o.value for o in kernel.integrators}
@@ -112,7 +110,7 @@ def integrator_context(kernel) -> dict:
                             + (f", {prefix}_rosenbrock_work *work)" if o is Output.ROSENBROCK
                                else ")"))
                   for o in (Output.DOPRI5, Output.RK4, Output.ROSENBROCK) if o.value in wanted]
-    non_autonomous = Output.ROSENBROCK.value in wanted and _explicit_time(kernel)
+    non_autonomous = Output.ROSENBROCK.value in wanted and explicit_time(kernel)
     if non_autonomous and not any(f.output is Output.TIME_DERIVATIVE for f in kernel.functions):
         raise ModelError(f"the Rosenbrock integrator of {kernel.equations.name!r} needs df/dt "
                          f"(the equations depend on t explicitly); add Output.TIME_DERIVATIVE")
@@ -124,9 +122,9 @@ def integrator_context(kernel) -> dict:
         prototypes=prototypes,
         proto=dict(prototypes),
         wanted=sorted(wanted),
-        dopri5=_dopri5_view() if "dopri5" in wanted else None,
-        rk4=_rk4_view() if "rk4" in wanted else None,
-        rosenbrock=_rosenbrock_view(ROSENBROCK) if "rosenbrock" in wanted else None,
+        dopri5=dopri5_view() if "dopri5" in wanted else None,
+        rk4=rk4_view() if "rk4" in wanted else None,
+        rosenbrock=rosenbrock_view(ROSENBROCK) if "rosenbrock" in wanted else None,
         adaptive="dopri5" in wanted or "rosenbrock" in wanted,
         non_autonomous=non_autonomous,
         args=extra_args,
@@ -136,11 +134,11 @@ def integrator_context(kernel) -> dict:
         p_arg=", p" if L.n_p else "",
         n=max(L.n_x, 1),
         max_steps=DEFAULT_MAX_STEPS,
-        project=_projection(kernel),
+        project=projection(kernel),
     ))
 
 
-def _projection(kernel):
+def projection(kernel):
     """What the integrators need to project onto holonomic constraints (None: nothing)."""
     c = kernel.equations.constraints
     if c is None or not c.m_h:
@@ -150,4 +148,5 @@ def _projection(kernel):
     return dict(m=c.m_h, n_q=L.n_q, dep=dep, names=[str(q) for q in c.dependent_coordinates])
 
 
-__all__ = ["integrator_context"]
+__all__ = ["integrator_context", "dopri5_view", "rk4_view", "rosenbrock_view", "explicit_time",
+           "projection"]

@@ -1,7 +1,7 @@
 r"""Integrators rendered into the generated C: the methods as data (this module) and their
 C-template views (:mod:`mbgen.integrator_views`), one template each.
 
-Asking for :attr:`~mbgen.outputs.Output.DOPRI5`, ``RK4`` or ``ROSENBROCK``
+Asking for :attr:`~mbgen.abi.Output.DOPRI5`, ``RK4`` or ``ROSENBROCK``
 adds, next to the model's functions, C integrators that run a whole trajectory
 with no Python per step (see ``templates/integrators.c.j2``)::
 
@@ -62,7 +62,7 @@ import numpy as np
 DEFAULT_MAX_STEPS = 1000000
 
 
-def _c(value) -> str:
+def c_double(value) -> str:
     """A C double literal that round-trips exactly."""
     text = repr(float(value))
     if not math.isfinite(float(value)):  # pragma: no cover - tableaux are finite
@@ -301,17 +301,5 @@ class Rodas4(Rosenbrock):
 ROSENBROCK = Rodas4
 
 
-# The C-template view builders live in mbgen.integrator_views; the old names still import.
-_MOVED = frozenset({"integrator_context", "_terms", "_dopri5_view", "_rk4_view",
-                    "_rosenbrock_view", "_explicit_time", "_projection"})
-
-
-def __getattr__(name):
-    if name in _MOVED:
-        from . import integrator_views
-        return getattr(integrator_views, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 __all__ = ["ExplicitRungeKutta", "Dopri5", "RK4", "Rosenbrock", "Rodas3", "Rodas4", "ROSENBROCK",
-           "DEFAULT_MAX_STEPS"]
+           "DEFAULT_MAX_STEPS", "c_double"]

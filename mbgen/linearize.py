@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import ConstraintError, MbgenError
-from .outputs import Output
+from .abi import Output
 
 
 @dataclass(frozen=True)

@@ -19,8 +19,9 @@ from .cse import CseBackend, cse
 from .equations import Equations
 from .errors import ModelError
 from .layout import Layout
-from .outputs import (INTEGRATORS, Block, Form, Output, Spec, acceleration_symbols,
-                      lambda_symbols, spec, with_dependencies)
+from .abi import INTEGRATORS, Output
+from .outputs import (Block, Form, Spec, acceleration_symbols, lambda_symbols, spec,
+                      with_dependencies)
 from .solver import solve_ops
 from .symbolic import count_ops_dag, count_ops_tree, free_symbols, xreplace_dag
 

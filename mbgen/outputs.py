@@ -49,55 +49,11 @@ from typing import Iterable
 
 import sympy as sm
 
+from .abi import EXPRESSION_OUTPUTS, INTEGRATORS, Output
 from .equations import Equations, acceleration_symbols, lambda_symbols
 from .program import Program, derivatives
 from .errors import ModelError
-from .symbolic import symbols_back, to_symengine, to_sympy
-
-
-class Output(str, Enum):
-    """What a generated model computes."""
-
-    RHS = "rhs"
-    MASS_MATRIX = "mass_matrix"
-    FORCING = "forcing"
-    ENERGY = "energy"
-    JACOBIAN = "jacobian"
-    PARAMETER_JACOBIAN = "parameter_jacobian"
-    TIME_DERIVATIVE = "time_derivative"
-    POSITIONS = "positions"
-    VELOCITIES = "velocities"
-    REACTIONS = "reactions"
-    INPUT_JACOBIAN = "input_jacobian"
-    CONSTRAINT_FORCES = "constraint_forces"
-    HOLONOMIC = "holonomic"
-    HOLONOMIC_JACOBIAN = "holonomic_jacobian"
-    DOPRI5 = "dopri5"
-    RK4 = "rk4"
-    ROSENBROCK = "rosenbrock"
-
-    @property
-    def is_integrator(self) -> bool:
-        return self in INTEGRATORS
-
-    @classmethod
-    def parse(cls, values: Iterable) -> tuple["Output", ...]:
-        """Outputs from enum members or their names, in canonical (declaration) order."""
-        if isinstance(values, (str, Output)):
-            values = (values,)
-        wanted = set()
-        for v in values:
-            try:
-                wanted.add(v if isinstance(v, cls) else cls(str(v).lower()))
-            except ValueError:
-                raise ModelError(f"unknown output {v!r}; choose from "
-                                 f"{', '.join(o.value for o in cls)}") from None
-        return tuple(o for o in cls if o in wanted)
-
-
-INTEGRATORS = (Output.DOPRI5, Output.RK4, Output.ROSENBROCK)
-#: Outputs that are expressions of the equations (everything but the integrators).
-EXPRESSION_OUTPUTS = tuple(o for o in Output if o not in INTEGRATORS)
+from .symbolic import differentiate, symbols_back, to_symengine, to_sympy
 
 
 def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[Output, ...]:
@@ -110,12 +66,12 @@ def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[
         wanted |= {Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN}   # projection after each step
     if Output.ROSENBROCK in wanted:
         wanted.add(Output.JACOBIAN)
-        if equations.layout.time in _time_symbols(equations):
+        if equations.layout.time in time_symbols(equations):
             wanted.add(Output.TIME_DERIVATIVE)
     return Output.parse(wanted)
 
 
-def _time_symbols(equations: Equations) -> set:
+def time_symbols(equations: Equations) -> set:
     return equations.uses(_motion_exprs(equations))
 
 
@@ -372,30 +328,6 @@ def applicable(eq: Equations) -> tuple[Output, ...]:
     return tuple(o for o in EXPRESSION_OUTPUTS if o not in skip)
 
 
-def _derivatives(exprs, variables) -> list[list[sm.Expr]]:
-    """``[[d e / d v for v in variables] for e in exprs]``, differentiated by symengine.
-
-    symengine differentiates the shared expression graph about a hundred times
-    faster than ``sympy.diff`` (0.35 s against ~60 s for the 32-link pendulum's
-    ``dR/dx``), and memoises by node.  The expressions cross to symengine and
-    back through one memo each way (:func:`mbgen.symbolic.to_symengine`), so a
-    subexpression shared by several entries is converted once and the results
-    share nodes again.
-    """
-    memo: dict = {}
-    se_exprs = to_symengine(exprs, memo)
-    svars = to_symengine(variables, memo)
-    flat = []
-    for se_e in se_exprs:
-        free = se_e.free_symbols
-        flat.extend(se_e.diff(v) if v in free else None for v in svars)
-    nonzero = to_sympy([d for d in flat if d is not None], symbols_back(memo))
-    it = iter(nonzero)
-    values = [sm.S.Zero if d is None else next(it) for d in flat]
-    nv = len(svars)
-    return [values[i * nv:(i + 1) * nv] for i in range(len(se_exprs))]
-
-
 def _sensitivity(eq: Equations, output: Output, variables, out_name: str, var_names,
                  doc: str, form: Form = Form.SOLVE) -> Spec:
     r"""``df/dv``: kinematic rows symbolic, dynamic rows from :math:`M^{-1}\,\partial R/\partial v`.
@@ -424,8 +356,8 @@ def _sensitivity(eq: Equations, output: Output, variables, out_name: str, var_na
         dG, dR = d[:nq], d[nq:]
     else:
         extra = Program()
-        dG = _derivatives(list(eq.kinematics), variables)
-        dR = _derivatives(rows, variables)
+        dG = differentiate(list(eq.kinematics), variables)
+        dR = differentiate(rows, variables)
     g_entries = tuple((i * nv + j, dG[i][j]) for i in range(nq) for j in range(nv))
     d_entries = tuple((j * nu + i, dR[i][j]) for j in range(nv) for i in range(nu))
     if all(e == 0 for _, e in d_entries):  # u' does not depend on v: no solve needed
@@ -464,7 +396,7 @@ def _implicit_sensitivity(eq, output, variables, out_name, shape, labels, doc, t
     if eq.program:
         extra, d = derivatives(eq.program, exprs, everything, tag)
     else:
-        extra, d = Program(), _derivatives(exprs, everything)
+        extra, d = Program(), differentiate(exprs, everything)
 
     def block(name, rows, first, count):
         return Block(name, len(rows) * count, tuple(

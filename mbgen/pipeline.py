@@ -23,8 +23,10 @@ from .derive import Method, derive
 from .equations import Equations
 from .errors import ModelError
 from .model import Model
-from .optimize import CseBackend, Form, Kernel, Output, optimize
-from .render import Rendered, render
+from .optimize import CseBackend, Form, Kernel, optimize
+from .abi import Output
+from .abi import Rendered
+from .render import render
 from .runtime import CompiledModel, PythonModel
 from .scene import Scene, source_label
 from .slicing import bake

@@ -106,7 +106,7 @@ def diagnostics(scene, t, x, names, parameters: Mapping[str, float] | None = Non
     energies, and ``"residual"`` (``max_i |f_h,i|``, shape ``(k,)``) when it has
     configuration constraints; ``"notes"`` says what was left out and why.
     """
-    from .optimize import Output
+    from .abi import Output
     from .pipeline import compile
 
     out: dict = {"notes": []}

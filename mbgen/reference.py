@@ -23,9 +23,9 @@ import sympy as sm
 from .equations import Equations, acceleration_symbols, lambda_symbols
 from .errors import ModelError
 from .layout import Layout
-from .optimize import Output
+from .abi import Output
 from .program import Program
-from .outputs import _derivatives, dynamic_parameters
+from .outputs import differentiate, dynamic_parameters
 from .runtime import ModelBase
 from .symbolic import free_symbols, split_shared
 
@@ -103,9 +103,9 @@ class LambdifiedModel(ModelBase):
             variables = tuple(v for v in variables if v in dynamic_parameters(eq))
         acc = list(sm.symbols(f"acc0:{L.n_u}"))
         dG = self._lambdify(("dG", output),
-                            lambda: sm.Matrix(_derivatives(list(eq.kinematics), variables)),
+                            lambda: sm.Matrix(differentiate(list(eq.kinematics), variables)),
                             (acc,))
-        dR = self._lambdify(("dR", output), lambda: sm.Matrix(_derivatives(list(
+        dR = self._lambdify(("dR", output), lambda: sm.Matrix(differentiate(list(
             sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)), variables)),
                             (acc,))
         M, F = self._mf(t, x, p, r)
@@ -232,7 +232,7 @@ def _constrained(self, output, t, x, p, r):
     Ex = Ms * sm.Matrix(accs) - sm.Matrix(eq.forcing) - As_.T * sm.Matrix(lams)
     Bx = As_ * sm.Matrix(accs) + sm.Matrix(c.acceleration_bias)
     everything = list(variables) + list(L.dependent_speeds)
-    D = ev(("implicit", output), lambda: sm.Matrix(_derivatives(
+    D = ev(("implicit", output), lambda: sm.Matrix(differentiate(
         list(Cx) + list(eq.kinematics) + list(Ex) + list(Bx), everything)),
            (accs, lams), ur, acc, lam).reshape(-1, nv + m)
     nq = L.n_q

@@ -16,143 +16,17 @@ by the header template and by the cdef string, so they cannot drift apart.
 
 from __future__ import annotations
 
-import hashlib
-from dataclasses import dataclass
-from functools import lru_cache
-from importlib import resources
-from pathlib import Path
-
-import jinja2
-
 from ._version import __version__
-from .layout import Layout
-from .escape import FILTERS
+from .abi import (CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES, FunctionInfo,
+                  Output, Rendered)
 from .names import model_prefix
 from .optimize import Kernel, KernelFunction
-from .outputs import Form, Output, acceleration_symbols, lambda_symbols
+from .outputs import Form, acceleration_symbols, lambda_symbols
 from .printing import CPrinter, PyPrinter, math_functions
 from .solver import UNROLL_MAX, c_lines, factor_program, py_lines, solve_program
-
-STATUS_CODES = (("OK", 0, "success"),
-                ("NOT_POSITIVE_DEFINITE", 1, "the mass matrix is not positive definite"),
-                ("NONFINITE", 2, "an output is NaN or infinite"))
-CONSTRAINT_STATUS_CODES = (
-    ("CONSTRAINT_SINGULAR", 7, "the constraint Jacobian A_r of the dependent speeds is singular "
-                               "(a locked or singular configuration)"),
-    ("PROJECTION_FAILED", 8, "the dependent coordinates could not be projected back onto the "
-                             "configuration constraints (Newton did not converge)"))
-INTEGRATOR_STATUS_CODES = (
-    ("STEP_TOO_SMALL", 3, "the step size fell below the resolution of t"),
-    ("MAX_STEPS", 4, "the step limit was reached before the last output time"),
-    ("SINGULAR_ITERATION_MATRIX", 5, "the implicit method's matrix I - h*gamma*J is singular"),
-    ("BAD_ARGUMENT", 6, "invalid argument (output times not increasing, bad tolerances, ...)"))
-
-
-@dataclass(frozen=True)
-class Rendered:
-    """Generated file texts of one model.
-
-    Attributes
-    ----------
-    prefix : str
-        C prefix and file stem (``<prefix>.h``, ``<prefix>.c``, ``<prefix>.py``).
-    files : dict
-        ``{file name: text}``.
-    cdef : str
-        Declarations for ``cffi.FFI.cdef`` (same prototypes as the header).
-    functions : tuple of FunctionInfo
-        How to call each generated function.
-    layout : Layout
-        The ABI: order of states, parameters and inputs of the generated code.
-    defaults : dict
-        Default values of the ABI's parameters (by name) where known.
-    outputs : tuple of Output
-        Every output generated, integrators included.
-    extension, extension_cdef : str
-        C source (and its declarations) compiled into the Python extension
-        only: the batch loops of :mod:`mbgen.targets.batch`.
-    content_hash : str
-        ``<PREFIX>_CONTENT_HASH`` of the header (:mod:`mbgen.targets.header`).
-    stack_bounds : tuple of (str, int)
-        Stack bound in bytes of every public C function, as stated in the header.
-    step_methods : tuple of str
-        The step API's methods (empty without the step target).
-    joints : tuple of (str, str)
-        Name and reaction frame of every joint, in the rows of the ``reactions`` output.
-    constraints : tuple of str, and dependent : tuple of str
-        Names of the constraints (rows of ``constraint_forces``) and the dependent
-        coordinates of the configuration constraints (empty without constraints).
-    """
-
-    prefix: str
-    files: dict
-    cdef: str
-    functions: tuple
-    layout: Layout
-    defaults: dict
-    outputs: tuple
-    extension: str = ""
-    extension_cdef: str = ""
-    content_hash: str = ""
-    stack_bounds: tuple = ()
-    step_methods: tuple = ()
-    joints: tuple = ()
-    constraints: tuple = ()
-    dependent: tuple = ()
-
-    @property
-    def header(self) -> str:
-        return self.files[f"{self.prefix}.h"]
-
-    @property
-    def source(self) -> str:
-        return self.files[f"{self.prefix}.c"]
-
-    @property
-    def python(self) -> str:
-        return self.files[f"{self.prefix}.py"]
-
-    def digest(self) -> str:
-        """Content hash of every file and the cdef (names the compiled module)."""
-        h = hashlib.sha256()
-        for name in sorted(self.files):
-            h.update(name.encode() + b"\0" + self.files[name].encode() + b"\0")
-        h.update(self.cdef.encode())
-        h.update(b"\0" + self.extension.encode() + b"\0" + self.extension_cdef.encode())
-        return h.hexdigest()
-
-    def sources(self) -> dict:
-        """Plain strings a process needs to build this model (no sympy, no compiled objects)."""
-        return dict(prefix=self.prefix, files=dict(self.files), cdef=self.cdef,
-                    extension=self.extension, extension_cdef=self.extension_cdef,
-                    digest=self.digest())
-
-
-@dataclass(frozen=True)
-class FunctionInfo:
-    """What a runtime needs to call one generated function."""
-
-    output: str          # Output value, e.g. "rhs"
-    c_name: str          # e.g. "pendulum_rhs"
-    args: tuple          # subset of ("t", "x", "p", "r") in call order
-    out_size: int
-    out_shape: tuple
-    out_labels: tuple
-
-
-@lru_cache(maxsize=1)
-def environment() -> jinja2.Environment:
-    """The Jinja environment over the templates (shipped in the wheel as ``mbgen._templates``)."""
-    try:
-        root = resources.files("mbgen._templates")
-    except ModuleNotFoundError:  # a source checkout used without installing
-        root = Path(__file__).resolve().parent.parent / "templates"
-    loader = jinja2.FunctionLoader(lambda name: (root / name).read_text(encoding="utf-8"))
-    env = jinja2.Environment(loader=loader, undefined=jinja2.StrictUndefined,
-                             keep_trailing_newline=True, trim_blocks=True,
-                             lstrip_blocks=True, autoescape=False)
-    env.filters.update(FILTERS)  # one escaping function per context, see mbgen.escape
-    return env
+from .templating import environment
+from .integrator_views import integrator_context
+from .targets import Targets, batch, header as head, step
 
 
 def _signature_args(kernel: Kernel) -> tuple[str, ...]:
@@ -255,8 +129,6 @@ def render(kernel: Kernel, targets=None) -> Rendered:
                (f"{upper}_N_X", L.n_x, "length of the state x = [q, u]"),
                (f"{upper}_N_P", L.n_p, "number of parameters"),
                (f"{upper}_N_R", L.n_r, "number of inputs")]
-    from .targets import Targets
-
     targets = targets or Targets()
     codes = STATUS_CODES + (INTEGRATOR_STATUS_CODES if kernel.integrators or targets.step
                             else ())
@@ -320,12 +192,8 @@ def render(kernel: Kernel, targets=None) -> Rendered:
     env = environment()
     declarations = list(prototypes)
     if kernel.integrators:
-        from .integrators import integrator_context
-
         ctx.update(integrator_context(kernel))
         declarations.append(env.get_template("integrators.h.j2").render(ctx).strip())
-    from .targets import batch, header as head, step
-
     methods = ()
     if targets.step:
         ctx.update(step.step_context(kernel, prefix))
@@ -364,5 +232,4 @@ def _joints(kernel: Kernel) -> tuple:
     return tuple(zip(J.names, J.frames))
 
 
-__all__ = ["Rendered", "FunctionInfo", "render", "environment", "STATUS_CODES",
-           "INTEGRATOR_STATUS_CODES"]
+__all__ = ["render"]

@@ -27,104 +27,12 @@ import numpy as np
 from .errors import (ArgumentError, ArgumentTypeError, IntegrationError, MbgenError,
                      NonFiniteResultError, SingularConstraintError,
                      SingularMassMatrixError)
+from .arguments import F64, real_number, real_vector, step_count, times
 from .layout import Layout
 from . import named
-from .optimize import Output
-from .render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
-
-F64 = np.dtype(np.float64)
-#: Largest ``max_steps`` the C integrators take (their ``long``; 64-bit Unix).
-LONG_MAX = 2**63 - 1
-
-
-# ---------------------------------------------------------------- argument checks
-# Called off the fast path only (a call whose arguments are not already a float ``t`` and
-# contiguous float64 arrays of the right length), so they may take their time.
-
-def real_number(value, what: str) -> float:
-    """``value`` as a double: a Python or NumPy real (or a 0-d real array).
-
-    Raises ArgumentTypeError for a complex, string, ``None`` ... and ArgumentError for
-    an integer or fraction too large for a double (``10**400``).
-    """
-    if value.__class__ is float:
-        return value
-    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
-        value = value[()]
-    if not isinstance(value, numbers.Real):
-        raise ArgumentTypeError(f"{what} must be a real number (int, float or a NumPy real); "
-                                f"got {type(value).__name__} {value!r:.80}")
-    try:
-        return float(value)
-    except OverflowError:
-        raise ArgumentError(f"{what} = {value!r:.40} is too large for a double "
-                            f"(|value| > 1.8e308); pass a finite float") from None
-
-
-def _real_vector(value, n: int, what: str, names) -> np.ndarray:
-    """``value`` as a new C-contiguous float64 array of shape ``(n,)``, or a named error."""
-    try:
-        a = np.asarray(value)
-    except Exception as exc:  # ragged lists and the like
-        raise ArgumentError(f"{what} must be a 1-D array of {n} numbers {list(names)}: "
-                            f"{exc}") from None
-    if a.dtype.kind not in "iuf":
-        raise ArgumentTypeError(f"{what} must hold real numbers (float64); got dtype {a.dtype}")
-    if a.shape != (n,):
-        raise ArgumentError(f"{what} must have shape ({n},) for {list(names)}; got shape "
-                            f"{a.shape}")
-    return np.ascontiguousarray(a, dtype=F64)
-
-
-def _times(t_eval) -> np.ndarray:
-    """Output times: a 1-D array of finite, strictly increasing reals (at most 2**31 - 1)."""
-    try:
-        t = np.asarray(t_eval)
-    except Exception:
-        raise ArgumentError(f"t_eval must be a 1-D array of increasing times; got "
-                            f"{t_eval!r:.80}") from None
-    if t.dtype.kind not in "iuf" and not (t.dtype.kind == "O" and t.size and all(
-            isinstance(v, numbers.Real) for v in t.flat)):
-        raise ArgumentTypeError(f"t_eval must hold real numbers; got dtype {t.dtype} "
-                                f"({t_eval!r:.80})")
-    try:
-        t = t.astype(F64)
-    except OverflowError:
-        raise ArgumentError(f"t_eval holds a number too large for a double: {t_eval!r:.80}") \
-            from None
-    if t.ndim != 1 or t.size < 1:
-        raise ArgumentError(f"t_eval must be a 1-D array of at least one time; got shape "
-                            f"{t.shape}")
-    if not np.all(np.isfinite(t)):
-        raise ArgumentError("t_eval must hold finite times")
-    if t.size > 2**31 - 1:
-        raise ArgumentError("t_eval has too many times for the C integrator (int n_out)")
-    with np.errstate(over="ignore"):  # [-1e308, 1e308]: the difference is inf, still > 0
-        steps = np.diff(t)
-    if np.any(steps <= 0):
-        i = int(np.argmax(steps <= 0))
-        raise ArgumentError(f"t_eval must be strictly increasing; t_eval[{i + 1}] = "
-                            f"{t[i + 1]!r} follows t_eval[{i}] = {t[i]!r}")
-    return t
-
-
-def step_count(value, what: str = "max_steps", limit: int = LONG_MAX) -> int:
-    """A step limit: an integer (or integral float) in ``[0, limit]``."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise ArgumentTypeError(f"{what} must be an integer >= 0 (0: the default); got "
-                                f"{type(value).__name__} {value!r:.40}")
-    if isinstance(value, numbers.Integral):
-        v = int(value)
-    else:
-        f = float(value)
-        if not (np.isfinite(f) and f.is_integer()):
-            raise ArgumentError(f"{what} must be an integer >= 0 (0: the default); got {value!r}")
-        v = int(f)
-    if not 0 <= v <= limit:
-        raise ArgumentError(f"{what} must be in [0, {limit}] (0: the default); got {v}")
-    return v
-
-
+from .run_batch import batch_args, batch_times, evaluate, is_batch
+from .run_batch import integrate as batch_integrate
+from .abi import Output, status_message
 
 class ModelBase:
     """Shared validation, parameter defaults and binding.
@@ -167,7 +75,7 @@ class ModelBase:
         if (type(value) is np.ndarray and value.dtype is F64 and value.shape == (n,)
                 and value.flags.c_contiguous):
             return value
-        return _real_vector(value, n, what, names)
+        return real_vector(value, n, what, names)
 
     def _x(self, x) -> np.ndarray:
         if isinstance(x, Mapping):  # by name (mbgen.named)
@@ -483,7 +391,6 @@ class CompiledModel(ModelBase):
         xshape, stride = (self.n_x,), (8,)
         reshape = len(shape) != 1
 
-        from .targets.batch import evaluate, is_batch
 
         model = self
         keep: list = []   # arrays behind the cached default buffers
@@ -619,7 +526,7 @@ class CompiledModel(ModelBase):
             integrator interpolates at every stage time.
             A 2-D ``x0`` ``(k, n_x)``, ``p`` ``(k, n_p)`` or ``r`` ``(k, n_r)`` is a
             batch (1-D ones are shared by every member): ``k`` trajectories in one C
-            loop, returned as a :class:`~mbgen.targets.batch.BatchIntegration`.
+            loop, returned as a :class:`~mbgen.run_batch.BatchIntegration`.
         rtol, atol : float
             Error tolerances of the adaptive methods (as solve_ivp).
         h : float, optional
@@ -655,14 +562,12 @@ class CompiledModel(ModelBase):
             raise ArgumentError(f"{method!r:.60} is not an integrator; choose from 'dopri5', "
                                 f"'rk4', 'rosenbrock'")
         self._require(output)
-        t = _times(t_eval)
-        from .targets import batch
-
+        t = times(t_eval)
         x0, p, r = named.arrays(self, x0, p, r)
         table = None
         if isinstance(r, named.InputTable):
             table, r = self._input_table(r), None
-        xa = None if batch.is_batch(x0, p, r) else self._x(x0)
+        xa = None if is_batch(x0, p, r) else self._x(x0)
         if xa is not None and not np.all(np.isfinite(xa)):
             raise ArgumentError(f"initial state x0 must be finite; got {xa.tolist()}")
         if output is Output.RK4:
@@ -684,7 +589,7 @@ class CompiledModel(ModelBase):
             if table is not None:
                 raise ValueError("an InputTable drives one trajectory; integrate the batch "
                                  "members one by one, or give constant inputs r")
-            return batch.integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
+            return batch_integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
                                    h_max=h_max, max_steps=max_steps, on_failure=on_failure)
         if project and self.dependent_coordinates and Output.HOLONOMIC in self.outputs:
             self._check_consistent_start(t[0], xa, p, r)
@@ -713,12 +618,9 @@ class CompiledModel(ModelBase):
                        *work)
         wall = time.perf_counter() - start
         if status:
-            names = {v: (n, text) for n, v, text in
-                     STATUS_CODES + INTEGRATOR_STATUS_CODES + CONSTRAINT_STATUS_CODES}
-            code, text = names.get(status, ("UNKNOWN", "unknown error"))
             raise IntegrationError(
                 f"{self.name}.integrate({output.value!r}) failed with status {status} "
-                f"({prefix.upper()}_{code}: {text}) at t_reached={stats.t_reached!r} after "
+                f"({status_message(prefix, status)}) at t_reached={stats.t_reached!r} after "
                 f"{stats.n_steps} steps ({stats.n_rejected} rejected, {stats.n_rhs} RHS calls)",
                 status, float(stats.t_reached))
         return Integration(t, x_out, output.value, int(status), int(stats.n_steps),
@@ -754,10 +656,8 @@ class PythonModel(ModelBase):
         takes = self._args[output]
         p_, r_ = (p if "p" in takes else None), (r if "r" in takes else None)
         if not all(v is None or type(v) is np.ndarray and v.ndim == 1 for v in (x, p_, r_)):
-            from .targets.batch import _batch_args, _scalar_time, is_batch
-
             if is_batch(x, p_, r_):  # as the C batch loop: item by item, the first failure raises
-                return self._batch(output, fn, t, x, p_, r_, _batch_args, _scalar_time)
+                return self._batch(output, fn, t, x, p_, r_)
         xa = self._x(x)
         args = [self._t(t), xa]
         if "p" in self._args[output]:
@@ -776,9 +676,7 @@ class PythonModel(ModelBase):
         except getattr(self.module, "ConstraintSingular", ()):
             self._fail(7, output.value, t, xa)
 
-    def _batch(self, output, fn, t, x, p, r, batch_args, _scalar_time):
-        from .targets.batch import batch_times
-
+    def _batch(self, output, fn, t, x, p, r):
         k, (xa, xs), (pa, ps), (ra, rs) = batch_args(self, x, p, r)
         ta, ts = batch_times(self, t, k)
         info = next(f for f in self.rendered.functions if Output(f.output) is output)

@@ -40,7 +40,7 @@ from .equations import Equations
 from .errors import ModelError, SceneError
 from .model import Model, allow_large_models, check_size
 from .names import check_name
-from .optimize import Output
+from .abi import Output
 
 
 @dataclass(frozen=True)
@@ -194,7 +194,7 @@ def _did_you_mean(name, choices) -> str:
     return f"; did you mean {close[0]!r}?" if close else ""
 
 
-def _model_names(model) -> dict[str, list[str]] | None:
+def model_names(model) -> dict[str, list[str]] | None:
     """Names a scene may refer to, by kind (None: an object we cannot inspect)."""
     if isinstance(model, Model):
         return dict(parameters=[str(c) for c in model.constants_],
@@ -211,7 +211,7 @@ def _model_names(model) -> dict[str, list[str]] | None:
 
 def _check_symbol_names(scn: "Scene") -> None:
     """Every name the scene gives must exist in its model (once, where the scene is made)."""
-    known = _model_names(scn.model)
+    known = model_names(scn.model)
     if known is None:
         raise SceneError(f"scene {scn.name!r}: model must be an mbgen Model or Equations, got "
                          f"{type(scn.model).__name__}")

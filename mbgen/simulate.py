@@ -34,7 +34,7 @@ from scipy import integrate as ivp
 from . import named
 from .errors import ArgumentError, IntegrationError, UsageError
 from .fileio import write_atomic
-from .outputs import INTEGRATORS, Output
+from .abi import INTEGRATORS, Output
 from .runtime import ModelBase
 
 SOLVE_IVP = {"RK23": ivp.RK23, "RK45": ivp.RK45, "DOP853": ivp.DOP853, "Radau": ivp.Radau,
@@ -120,7 +120,7 @@ class Trajectory:
 def holonomic_outputs(scene) -> tuple:
     """The outputs :func:`consistent_start` needs for ``scene`` (none without configuration
     constraints): ``(Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN)``."""
-    from .outputs import Output
+    from .abi import Output
 
     model = scene.model
     stated = getattr(model, "constraints_", None)

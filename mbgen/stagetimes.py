@@ -42,7 +42,8 @@ class StageTime:
 
 def _child(scene_name: str, options: dict, outputs: Sequence[str]) -> None:
     from .build import load
-    from .optimize import Output, optimize
+    from .abi import Output
+    from .optimize import optimize
     from .pipeline import equations_of
     from .render import render
     from .scene import load_scene

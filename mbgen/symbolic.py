@@ -271,6 +271,30 @@ def to_sympy(exprs: Iterable, memo: dict | None = None) -> list:
     return [memo[e] for e in exprs]
 
 
+def differentiate(exprs, variables) -> list[list[sm.Expr]]:
+    """``[[d e / d v for v in variables] for e in exprs]``, differentiated by symengine.
+
+    symengine differentiates the shared expression graph about a hundred times
+    faster than ``sympy.diff`` (0.35 s against ~60 s for the 32-link pendulum's
+    ``dR/dx``), and memoises by node.  The expressions cross to symengine and
+    back through one memo each way (:func:`mbgen.symbolic.to_symengine`), so a
+    subexpression shared by several entries is converted once and the results
+    share nodes again.
+    """
+    memo: dict = {}
+    se_exprs = to_symengine(exprs, memo)
+    svars = to_symengine(variables, memo)
+    flat = []
+    for se_e in se_exprs:
+        free = se_e.free_symbols
+        flat.extend(se_e.diff(v) if v in free else None for v in svars)
+    nonzero = to_sympy([d for d in flat if d is not None], symbols_back(memo))
+    it = iter(nonzero)
+    values = [sm.S.Zero if d is None else next(it) for d in flat]
+    nv = len(svars)
+    return [values[i * nv:(i + 1) * nv] for i in range(len(se_exprs))]
+
+
 def split_shared(exprs, prefix: str = "_s"):
     """``(replacements, reduced)``: every node with more than one parent becomes a temporary.
 

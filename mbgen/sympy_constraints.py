@@ -52,7 +52,7 @@ import sympy as sm
 
 from .equations import Constraints
 from .errors import ModelError
-from .outputs import _derivatives
+from .outputs import differentiate
 from .symbolic import free_symbols, xreplace_dag
 
 _TRIES = 3  # random states per rank test
@@ -133,7 +133,7 @@ def _rank(a: np.ndarray) -> int:
 # --------------------------------------------------------------------------- forms
 def _jacobian(exprs: list, variables: Sequence[sm.Symbol]) -> list[list]:
     """``[[d e/d v for v in variables] for e in exprs]`` (symengine, one memo: linear in the graph)."""
-    return _derivatives(list(exprs), list(variables)) if exprs else []
+    return differentiate(list(exprs), list(variables)) if exprs else []
 
 
 def _affine(rows: list, speeds: Sequence[sm.Symbol], what: list[str]) -> tuple[list, list]:

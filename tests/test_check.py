@@ -70,7 +70,7 @@ def test_a_nan_parameter_is_not_a_pass():
 def test_disagreeing_on_failure_fails():
     """A back end that raises where the reference returns is a FAIL, not a skip."""
     from mbgen.check import compare
-    from mbgen.optimize import Output
+    from mbgen.abi import Output
     from mbgen.pipeline import run
 
     result = run(pendulum(), ("rhs",))
@@ -147,7 +147,7 @@ SLICED = ["spring_pendulum", "bent_pipe", "paraboloid", "spherical_rod", "bead_w
 def test_every_output_of_a_sliced_scene_against_the_unsliced_equations(name):
     """The reference is the derived equations before slicing: a dropped or wrongly baked
     output (a point's velocity set to zero, a fixed parameter with the wrong value) fails."""
-    from mbgen.outputs import Output
+    from mbgen.abi import Output
 
     scene = load_scene(name)
     assert scene.fixed, f"{name} bakes no parameter: not a sliced scene"

@@ -9,7 +9,7 @@ import pytest
 from mbgen import golden
 from mbgen.example import example_integration
 from mbgen.pipeline import run
-from mbgen.optimize import Output
+from mbgen.abi import Output
 from mbgen.scene import builtin_names, load_scene
 
 from heavy import scene_params

@@ -18,7 +18,7 @@ import mbgen
 from mbgen.errors import (ArgumentError, ArgumentTypeError, IntegrationError, MbgenError,
                           NonFiniteResultError, SingularMassMatrixError)
 from mbgen.pipeline import python_model, run
-from mbgen.render import INTEGRATOR_STATUS_CODES
+from mbgen.abi import INTEGRATOR_STATUS_CODES
 from mbgen.scene import load_scene
 
 STATUS = {name: code for name, code, _ in INTEGRATOR_STATUS_CODES}
@@ -198,7 +198,7 @@ def test_rhs_fast_path_unchanged(pendulum):
 
 def test_rosenbrock_step_over_a_subnormal_span_is_not_a_singular_matrix():
     from mbgen.targets import Targets
-    from mbgen.targets.step import Stepper
+    from mbgen.stepper import Stepper
 
     scene = load_scene("stiff_chain")
     model = mbgen.compile(scene, targets=Targets(step=True))

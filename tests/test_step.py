@@ -12,7 +12,7 @@ import mbgen
 from mbgen.pipeline import run
 from mbgen.scene import load_scene
 from mbgen.targets import Targets
-from mbgen.targets.step import Stepper
+from mbgen.stepper import Stepper
 
 CC = shutil.which("gcc") or shutil.which("cc")
 

@@ -11,7 +11,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import SceneError
-from ..outputs import Output
+from ..abi import Output
 from ..scene import scene_options
 from .context import Context
 from .extreme import extreme_case, extreme_variations

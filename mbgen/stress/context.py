@@ -15,7 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..outputs import Output
+from ..abi import Output
 from ..scene import Scene, builtin_names, load_scene
 from .reference import HighPrecision
 

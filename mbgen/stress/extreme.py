@@ -22,7 +22,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..outputs import Output
+from ..abi import Output
 from .context import Context
 from .long_runs import DRIFT_BOUND
 from .precision import check_point, try_call

@@ -19,7 +19,7 @@ import time
 import numpy as np
 import sympy as sm
 
-from ..outputs import Output
+from ..abi import Output
 from .context import Context
 from .report import Case, fmt_g
 from .runs import c_run, energy_series, run_figure, scipy_run

@@ -70,7 +70,7 @@ import mpmath
 import numpy as np
 
 from ..errors import MbgenError, NonFiniteResultError, SingularMassMatrixError
-from ..outputs import Output
+from ..abi import Output
 from .reference import HighPrecision, HighPrecisionValue
 from .report import Case, fmt_g
 

@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from ..errors import SceneError
-from ..outputs import Output
+from ..abi import Output
 from ..scene import Scene, load_scene
 from .context import Context
 from .precision import check_point

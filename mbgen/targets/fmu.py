@@ -57,8 +57,9 @@ from pathlib import Path
 from .._version import __version__
 from ..errors import BuildError, ModelError
 from ..escape import xml_attr
-from ..outputs import Output
-from ..render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES, environment
+from ..abi import Output
+from ..abi import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
+from ..templating import environment
 from . import Targets
 from .step import adaptive_method
 
@@ -187,9 +188,9 @@ def fmu_files(scene, result) -> dict[str, str]:
 
 def build_binary(files: dict[str, str], prefix: str) -> bytes:
     """Compile the FMU's sources into a shared library for this platform; its bytes."""
-    from ..build import _compiler
+    from ..build import compiler
 
-    cc = _compiler()
+    cc = compiler()
     with tempfile.TemporaryDirectory(prefix=f"mbgen-fmu-{prefix}-") as tmp:
         folder = Path(tmp)
         for name, text in files.items():

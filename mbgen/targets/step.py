@@ -45,7 +45,10 @@ projection needs the integrators rendered (a scene with an integrator output).
 from __future__ import annotations
 
 from ..errors import ModelError
-from ..outputs import Output
+from ..integrator_views import (dopri5_view, explicit_time, projection, rk4_view,
+                                rosenbrock_view)
+from ..integrators import ROSENBROCK
+from ..abi import Output
 
 #: Default attempted-step limit per call (``mem->max_steps = 0``).
 DEFAULT_MAX_STEPS = 1000000
@@ -69,9 +72,6 @@ def adaptive_method(kernel) -> str:
 
 def step_context(kernel, prefix: str) -> dict:
     """Template context (key ``step``) for ``step.h.j2`` / ``step.c.j2``."""
-    from ..integrators import ROSENBROCK, _dopri5_view, _explicit_time, _rk4_view, \
-        _rosenbrock_view
-
     L = kernel.layout
     methods = step_methods(kernel)
     functions = {f.output for f in kernel.functions}
@@ -80,13 +80,11 @@ def step_context(kernel, prefix: str) -> dict:
         if Output.JACOBIAN not in functions:
             raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs the "
                              f"Jacobian; add Output.JACOBIAN")
-        non_autonomous = _explicit_time(kernel)
+        non_autonomous = explicit_time(kernel)
         if non_autonomous and Output.TIME_DERIVATIVE not in functions:
             raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs df/dt; "
                              f"add Output.TIME_DERIVATIVE")
-    from ..integrators import _projection
-
-    project = _projection(kernel)
+    project = projection(kernel)
     if project and not kernel.integrators:
         raise ModelError(f"the step API of {kernel.equations.name!r} projects onto its "
                          f"configuration constraints with the integrators' projection; add an "
@@ -111,83 +109,10 @@ def step_context(kernel, prefix: str) -> dict:
         max_steps=DEFAULT_MAX_STEPS,
         non_autonomous=non_autonomous,
         project=project,
-        dopri5=_dopri5_view() if "dopri5" in methods else None,
-        rk4=_rk4_view(),
-        rosenbrock=_rosenbrock_view(ROSENBROCK) if "rosenbrock" in methods else None,
+        dopri5=dopri5_view() if "dopri5" in methods else None,
+        rk4=rk4_view(),
+        rosenbrock=rosenbrock_view(ROSENBROCK) if "rosenbrock" in methods else None,
     ))
 
 
 __all__ = ["step_methods", "adaptive_method", "step_context", "DEFAULT_MAX_STEPS"]
-
-
-class Stepper:
-    """The step API of a compiled model, driven from Python (for tests and prototyping).
-
-    ``Stepper(model, "dopri5", t0, x0, rtol=1e-6, atol=1e-9)``; then
-    ``step(h, p=None, r=None)`` advances ``t``, ``x`` by ``h``.  The memory is one
-    ``<prefix>_<method>_memory`` owned by this object.
-    """
-
-    def __init__(self, model, method: str, t0: float, x0, *, rtol: float = 1e-6,
-                 atol: float = 1e-9):
-        import numpy as np
-
-        from ..errors import MbgenError
-
-        rendered = model.rendered
-        if method not in rendered.step_methods:
-            raise MbgenError(f"{model.name!r} has no {method!r} step function (step methods: "
-                             f"{list(rendered.step_methods) or 'none'}); compile with "
-                             f"targets=Targets(step=True)")
-        self.model, self.method = model, method
-        self._np = np
-        ffi, lib = model.ffi, model.lib
-        self.memory = ffi.new(f"{rendered.prefix}_{method}_memory *")
-        self._step = getattr(lib, f"{rendered.prefix}_{method}_step")
-        x0 = model._x(x0)
-        status = getattr(lib, f"{rendered.prefix}_{method}_init")(
-            self.memory, float(t0), ffi.from_buffer("double[]", x0), float(rtol), float(atol))
-        self._check(status, "init")
-
-    def _check(self, status: int, what: str) -> None:
-        if status:
-            from ..errors import IntegrationError
-            from ..render import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
-
-            names = {v: n for n, v, _ in STATUS_CODES + INTEGRATOR_STATUS_CODES
-                     + CONSTRAINT_STATUS_CODES}
-            raise IntegrationError(f"{self.model.name}_{self.method}_{what} failed with status "
-                                   f"{status} ({names.get(status, 'UNKNOWN')}) at t = {self.t!r}",
-                                   status, self.t)
-
-    @property
-    def t(self) -> float:
-        return float(self.memory.t)
-
-    @property
-    def x(self):
-        return self._np.array(list(self.memory.x)[: self.model.n_x])
-
-    @property
-    def max_residual(self) -> float:
-        """Largest constraint residual met before projecting (NaN without projection)."""
-        return float(getattr(self.memory, "max_residual", float("nan")))
-
-    @property
-    def h(self) -> float:
-        """The adaptive methods' next step size (0 before the first step)."""
-        return float(getattr(self.memory, "h", 0.0))
-
-    def step(self, h: float, p=None, r=None):
-        """Advance by ``h`` with parameters ``p`` and inputs ``r`` (held over the step); returns ``x``."""
-        buf = self.model.ffi.from_buffer
-        args = [self.memory, float(h)]
-        if self.model.n_p:
-            args.append(buf("double[]", self.model._p(p)))
-        if self.model.n_r:
-            args.append(buf("double[]", self.model._r(r)))
-        self._check(self._step(*args), "step")
-        return self.x
-
-
-__all__ += ["Stepper"]

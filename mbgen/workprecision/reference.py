@@ -49,7 +49,7 @@ import numpy as np
 
 from ..errors import IntegrationError
 from ..scene import Scene
-from ..optimize import Output
+from ..abi import Output
 from .points import C_METHODS, FAILED, IMPLICIT_METHODS, OVER_BUDGET
 from .solve import Backends, Failed, solve
 

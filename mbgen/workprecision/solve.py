@@ -15,7 +15,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from ..errors import MbgenError
-from ..optimize import Output
+from ..abi import Output
 from ..pipeline import python_model, run
 from ..reference import LambdifiedModel
 from ..runtime import CompiledModel
