@@ -8,25 +8,28 @@ Pipeline (each arrow is one function returning a frozen value)::
 
 from ._version import __version__
 from .derive import Method, derive
-from .equations import Equations
+from .symbolic.equations import Equations
 from .errors import (BuildError, CheckFailed, ConstraintError, IntegrationError, MbgenError,
-                     ModelError,
-                     NonFiniteResultError, SceneError, SingularConstraintError,
+                     ModelError, NonFiniteResultError, SceneError, SingularConstraintError,
                      SingularMassMatrixError, UnknownNameError, UsageError)
-from .importers import from_sympy
-from .layout import Layout
-from .linearize import Linearization, linearize
-from .named import InputTable
-from .model import Model, t
-from .optimize import CseBackend
+from .derive.from_sympy import from_sympy
+from .symbolic.layout import Layout
+from .run.linearize import Linearization, linearize
+from .run.named import InputTable
+from .model.builder import Model, t
+from .codegen.optimize import CseBackend
 from .abi import Output
 from .pipeline import compile, equations_of, python_model, run
-from .reference import LambdifiedModel
-from .runtime import CompiledModel, PythonModel
-from .scene import Scene, load_scene
-from .targets import Targets
-from .targets.fmu import export_fmu
-from .ensemble import ensemble
+from .run.lambdified import LambdifiedModel
+from .run.compiled import CompiledModel, PythonModel
+from .model.scene import Scene, load_scene
+from .codegen.targets import Targets
+from .codegen.targets.fmu import export_fmu
+from .studies.ensemble import ensemble
+from .run.simulate import Trajectory, simulate
+from .run.stepper import Stepper
+from .viz.plots import plot_simulation
+from .viz.animate import animate_scene
 
 
 __all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
@@ -34,4 +37,5 @@ __all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", 
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",
            "CheckFailed", "IntegrationError", "Targets", "export_fmu", "ensemble",
-           "UnknownNameError", "UsageError", "InputTable"]
+           "UnknownNameError", "UsageError", "InputTable", "simulate", "Trajectory", "Stepper",
+           "plot_simulation", "animate_scene"]

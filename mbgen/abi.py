@@ -1,7 +1,7 @@
 """What generated code promises its callers: the outputs, the status codes, the rendered bundle.
 
 This is the contract between the stage that writes code (:mod:`mbgen.codegen`)
-and the stages that build and run it (:mod:`mbgen.build`, :mod:`mbgen.run`):
+and the stages that build and run it (:mod:`mbgen.build.extension`, :mod:`mbgen.run`):
 both read it, neither imports the other.
 
 :class:`Output`
@@ -107,9 +107,9 @@ class Rendered:
         Every output generated, integrators included.
     extension, extension_cdef : str
         C source (and its declarations) compiled into the Python extension
-        only: the batch loops of :mod:`mbgen.targets.batch`.
+        only: the batch loops of :mod:`mbgen.codegen.targets.batch`.
     content_hash : str
-        ``<PREFIX>_CONTENT_HASH`` of the header (:mod:`mbgen.targets.header`).
+        ``<PREFIX>_CONTENT_HASH`` of the header (:mod:`mbgen.codegen.header`).
     stack_bounds : tuple of (str, int)
         Stack bound in bytes of every public C function, as stated in the header.
     step_methods : tuple of str

@@ -21,7 +21,7 @@ class ModelSizeError(ModelError):
     """A model is far larger than mbgen can derive and compile in reasonable time.
 
     Raised while the model is built, before any derivation starts
-    (:data:`mbgen.model.MAX_SPEEDS`, :data:`mbgen.model.MAX_BODIES`); pass
+    (:data:`mbgen.model.builder.MAX_SPEEDS`, :data:`mbgen.model.builder.MAX_BODIES`); pass
     ``force=True`` (``--force`` on the command line) to go on anyway.
     """
 
@@ -29,7 +29,7 @@ class ModelSizeError(ModelError):
 class NonFiniteConstantError(ModelError):
     """Code would be generated with an ``inf``, ``nan`` or ``zoo`` constant in it.
 
-    Raised by the C and Python printers (:mod:`mbgen.printing`) instead of
+    Raised by the C and Python printers (:mod:`mbgen.codegen.printing`) instead of
     printing a bare ``inf`` (which does not compile) or a NaN.
     """
 

@@ -6,8 +6,8 @@
           --build--> CompiledModel
 
 ``bake`` is the scene's slice: fixed parameters become numbers and absent
-inputs zero (:mod:`mbgen.slicing`); ``optimize`` keeps only the requested
-outputs and the parameters they read (:mod:`mbgen.optimize`).
+inputs zero (:mod:`mbgen.codegen.slicing`); ``optimize`` keeps only the requested
+outputs and the parameters they read (:mod:`mbgen.codegen.optimize`).
 """
 
 from __future__ import annotations
@@ -18,18 +18,18 @@ import types
 from dataclasses import dataclass, field, replace
 from typing import Iterable, Mapping, Sequence
 
-from .build import compiled_path, load
+from .build.extension import compiled_path, load
 from .derive import Method, derive
-from .equations import Equations
+from .symbolic.equations import Equations
 from .errors import ModelError
-from .model import Model
-from .optimize import CseBackend, Form, Kernel, optimize
+from .model.builder import Model
+from .codegen.optimize import CseBackend, Form, Kernel, optimize
 from .abi import Output
 from .abi import Rendered
-from .render import render
-from .runtime import CompiledModel, PythonModel
-from .scene import Scene, source_label
-from .slicing import bake
+from .codegen.render import render
+from .run.compiled import CompiledModel, PythonModel
+from .model.scene import Scene, source_label
+from .codegen.slicing import bake
 
 
 @dataclass(frozen=True)
@@ -117,13 +117,13 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         Model name, i.e. the C prefix (default: the model's or the scene's prefix).
     sliced : bool
         ``False`` ignores the scene's fixed parameters and input selection.
-    targets : mbgen.targets.Targets, optional
+    targets : mbgen.codegen.targets.Targets, optional
         What to render besides the outputs (the step API).
     method : Method, optional
         Derivation method (default: the scene's, else ``Method.KANE``).
     form : Form, optional
         How ``u'`` is computed (default: chosen by operation count; see
-        :func:`mbgen.optimize.optimize`).
+        :func:`mbgen.codegen.optimize.optimize`).
     """
     outs = _outputs(source, outputs)
     scene = source if isinstance(source, Scene) else None
@@ -188,7 +188,7 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         ``Method.KANE`` or ``Method.NEWTON_EULER`` (default: the scene's, else Kane).
     form : Form, optional
         ``Form.SOLVE`` or ``Form.RECURSIVE`` (default: fewer operations wins).
-    targets : mbgen.targets.Targets, optional
+    targets : mbgen.codegen.targets.Targets, optional
         What to render besides the outputs, e.g. ``Targets(step=True)`` for the step API.
 
     Returns

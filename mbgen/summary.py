@@ -6,7 +6,7 @@ the symbols in array order, operation counts, the outputs; never the matrices
 to their first and last entries.  Every name is HTML-escaped.
 
 Operation counts of ``Equations`` are those of the expressions as a graph
-(:func:`mbgen.symbolic.count_ops_dag`: each distinct subexpression once),
+(:func:`mbgen.symbolic.graph.count_ops_dag`: each distinct subexpression once),
 computed in one pass linear in the graph.
 """
 
@@ -62,7 +62,7 @@ def model_html(m) -> str:
 
 def equations_html(eq) -> str:
     """Summary of :class:`mbgen.Equations` (sizes, symbols, operation counts)."""
-    from .symbolic import count_ops_dag
+    from .symbolic.graph import count_ops_dag
 
     L = eq.layout
     n = L.n_u + L.n_d

@@ -14,7 +14,7 @@ pipelines).  Its own physics tests (``tests/test_vehicles.py``) run by default.
 
 import pytest
 
-from mbgen.scene import builtin_names
+from mbgen.model.scene import builtin_names
 
 #: scene name -> why it is heavy
 HEAVY = {

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mbgen
-from mbgen import armbench
+from mbgen.bench import arm as armbench
 from mbgen.scenes import spatial_arm
 
 

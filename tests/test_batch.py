@@ -6,7 +6,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import mbgen
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from mbgen.bench import ScalingRow, format_scaling, scaling
+from mbgen.bench.scaling import ScalingRow, format_scaling, scaling
 
 
 @pytest.fixture(scope="module")

@@ -15,10 +15,11 @@ from pathlib import Path
 
 import pytest
 
-from mbgen.build import STALE_AFTER, cache_dir, compiled_path, remove_stale_builds, verified
+from mbgen.build.extension import (STALE_AFTER, cache_dir, compiled_path, remove_stale_builds,
+                                   verified)
 from mbgen.errors import CacheError
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 LOAD = textwrap.dedent("""
     import numpy as np

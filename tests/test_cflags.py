@@ -1,13 +1,13 @@
-"""Optimisation level by source size, and its override (mbgen.build.cflags)."""
+"""Optimisation level by source size, and its override (mbgen.build.extension.cflags)."""
 
 import dataclasses
 
 import pytest
 
-from mbgen.build import LARGE_SOURCE_CHARS, cflags, module_name
+from mbgen.build.extension import LARGE_SOURCE_CHARS, cflags, module_name
 from mbgen.errors import BuildError
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 
 @pytest.fixture(scope="module")

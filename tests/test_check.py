@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import mbgen
-from mbgen.check import check
+from mbgen.verify.check import check
 from mbgen.cli import EXIT_CHECK, EXIT_INCONCLUSIVE, EXIT_OK, EXIT_USAGE, main
 from mbgen.errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 
 def pendulum(mass=1.0, inertia=0.1, g=9.81, fixed_g=None, idle=False) -> mbgen.Scene:
@@ -69,7 +69,7 @@ def test_a_nan_parameter_is_not_a_pass():
 
 def test_disagreeing_on_failure_fails():
     """A back end that raises where the reference returns is a FAIL, not a skip."""
-    from mbgen.check import compare
+    from mbgen.verify.check import compare
     from mbgen.abi import Output
     from mbgen.pipeline import run
 
@@ -80,7 +80,7 @@ def test_disagreeing_on_failure_fails():
             from mbgen.errors import NonFiniteResultError
             raise NonFiniteResultError("broken")
 
-    from mbgen.check import reference_model
+    from mbgen.verify.check import reference_model
     rows = compare({"broken": Broken()}, reference_model(result, (Output.RHS,)), (Output.RHS,),
                    p=result.compiled.default_parameters, samples=3)
     assert rows[0].mismatched_failures == 3 and not rows[0].ok
@@ -127,7 +127,7 @@ def test_cli_failed_exit_code_unchanged(capsys):
 
 def test_nan_parameter_values_compare_nothing():
     """g = NaN at run time: every back end raises NonFiniteResultError at every sample."""
-    from mbgen.check import CheckReport, compare, reference_model
+    from mbgen.verify.check import CheckReport, compare, reference_model
     from mbgen.pipeline import python_model, run
 
     result = run(pendulum(), ("rhs", "energy"))

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import mbgen
-from mbgen import build as build_module
-from mbgen.golden import GOLDEN_OPTIONS
+from mbgen.build import extension as build_module
+from mbgen.verify.golden import GOLDEN_OPTIONS
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 from heavy import scene_params
 
@@ -39,7 +39,7 @@ def test_generated_c_compiles_without_warnings(name, tmp_path):
 
 @pytest.mark.parametrize("name", ["disc_pendulum", "n_link_cart"])
 def test_generation_is_deterministic_across_hash_seeds(name):
-    code = ("import json; from mbgen.golden import scene_files; "
+    code = ("import json; from mbgen.verify.golden import scene_files; "
             f"print(json.dumps(scene_files({name!r})))")
     texts = []
     for seed in ("1", "2"):

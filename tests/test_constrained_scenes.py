@@ -1,7 +1,7 @@
 """The constrained built-in scenes: every back end agrees, and each reproduces its physics.
 
 * every constrained scene: compiled C, generated Python and lambdify of the unoptimised
-  equations agree on every output (``mbgen.check``), at consistent states too;
+  equations agree on every output (``mbgen.verify.check``), at consistent states too;
 * four_bar: the closed-form position analysis is what ``consistent`` finds, the default
   run keeps the loop closed and conserves energy; the dead-point variant starts with a
   nearly singular constraint block and still integrates;
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import mbgen
-from mbgen.check import check
+from mbgen.verify.check import check
 from mbgen import Output
 from mbgen.scenes import bead_wire_force, four_bar, paraboloid_normal, slider_crank, whipple
 
@@ -250,7 +250,7 @@ def test_whipple_exact_linearisation_equals_the_benchmark():
 def test_stress_four_bar_near_its_dead_point():
     """The 50-digit reference reduces by the constraints as the generated code does; the dead
     point is approached (cond grows like 1/delta) and hit (a named SingularConstraintError)."""
-    from mbgen.stress import stress
+    from mbgen.verify.stress import stress
 
     report = stress(mbgen.load_scene("four_bar", dead_point=True), size="ci")
     assert report.ok, report.format()
@@ -264,8 +264,8 @@ def test_stress_four_bar_near_its_dead_point():
 
 def test_stress_reference_reduces_like_the_generated_code():
     """Off the 50-digit reduction's result by a dropped acceleration bias, the fp cases fail."""
-    from mbgen.stress.context import make_context
-    from mbgen.stress.precision import evaluate_point
+    from mbgen.verify.stress.context import make_context
+    from mbgen.verify.stress.precision import evaluate_point
 
     ctx = make_context("rolling_disc")
     x = ctx.x0 + np.linspace(0.1, 0.5, ctx.x0.size)
@@ -279,7 +279,7 @@ def test_stress_reference_reduces_like_the_generated_code():
 
 
 def test_work_precision_error_includes_the_constraint_residual():
-    from mbgen.workprecision import work_precision
+    from mbgen.studies.workprecision import work_precision
 
     report = work_precision("four_bar", rtols=(1e-4, 1e-7), methods=("RK45", "dopri5"),
                             backends=("c",), repeats=1, t_eval_points=11)
@@ -292,7 +292,7 @@ def test_work_precision_error_includes_the_constraint_residual():
     assert max(p.err_residual for p in tight) < min(p.err_residual for p in loose)
     assert "err_residual" in report.to_csv().splitlines()[0]
     # a solution off the constraints is wrong by its residual whatever the reference says
-    from mbgen.workprecision.runs import _errors
+    from mbgen.studies.workprecision.runs import _errors
 
     x = np.zeros((3, 4))
     errors = _errors(x, x + 1e-9, residual=lambda rows: 1e-3)
@@ -315,8 +315,8 @@ def test_cli_simulate_starts_consistent_and_reports_the_residual(tmp_path, capsy
 
 # ------------------------------------------------------------------ targets
 def test_step_api_projects_after_every_step():
-    from mbgen.targets import Targets
-    from mbgen.stepper import Stepper
+    from mbgen.codegen.targets import Targets
+    from mbgen.run.stepper import Stepper
 
     scn = mbgen.load_scene("four_bar")
     c = mbgen.run(scn, None, targets=Targets(step=True), name="four_bar_step").compiled
@@ -336,7 +336,7 @@ def test_step_api_projects_after_every_step():
 def test_fmu_of_a_constrained_scene_stays_on_the_constraints(tmp_path, kind):
     fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra")
     from fmpy.validation import validate_fmu
-    from mbgen.targets.fmu import PROJECT_TOL, export_fmu
+    from mbgen.codegen.targets.fmu import PROJECT_TOL, export_fmu
 
     scn = mbgen.load_scene("slider_crank")
     path = export_fmu(scn, tmp_path)
@@ -361,7 +361,7 @@ def test_fmu_of_a_constrained_scene_stays_on_the_constraints(tmp_path, kind):
 
 # ------------------------------------------------------------------ constraint benchmark
 def test_four_bar_residual_table_shows_what_projection_buys():
-    from mbgen.conbench import four_bar_residuals
+    from mbgen.bench.constraints import four_bar_residuals
 
     rows = four_bar_residuals((1e-5,), repeats=1)
     on, off = rows
@@ -376,7 +376,7 @@ def test_sympy_kanes_method_states_the_same_bicycle():
     u_s' at a state with roll, steer and their rates (about 15 s of sympy)."""
     import sympy as sm
 
-    from mbgen.conbench import operating_point, sympy_whipple
+    from mbgen.bench.constraints import operating_point, sympy_whipple
 
     point = operating_point()
     kane, q, u, values = sympy_whipple()

@@ -6,11 +6,11 @@ import subprocess
 import numpy as np
 import pytest
 
-from mbgen import golden
-from mbgen.example import example_integration
+from mbgen.verify import golden
+from mbgen.codegen.targets.example import example_integration
 from mbgen.pipeline import run
 from mbgen.abi import Output
-from mbgen.scene import builtin_names, load_scene
+from mbgen.model.scene import builtin_names, load_scene
 
 from heavy import scene_params
 

@@ -6,10 +6,10 @@ import pytest
 
 import mbgen
 from mbgen.cli import main
-from mbgen.ensemble import ensemble, members, run_chunk
+from mbgen.studies.ensemble import ensemble, members, run_chunk
 from mbgen.errors import MbgenError, SceneError
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 distributed = pytest.importorskip("dask.distributed",
                                   reason="dask[distributed] is in the test extra")

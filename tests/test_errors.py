@@ -8,11 +8,11 @@ import sympy as sm
 
 import mbgen
 from mbgen import Model
-from mbgen.build import load
+from mbgen.build.extension import load
 from mbgen.errors import (BuildError, ModelError, NonFiniteResultError, SceneError,
                           SingularMassMatrixError)
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 
 def pendulum(name="pendulum"):

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from mbgen import golden
-from mbgen.scene import builtin_names
+from mbgen.verify import golden
+from mbgen.model.scene import builtin_names
 
 from heavy import scene_params
 

@@ -17,10 +17,10 @@ import pytest
 import sympy as sm
 
 import mbgen
-from mbgen.equations import Equations
-from mbgen.layout import Layout
-from mbgen.symbolic import (count_ops_dag, count_ops_tree, postorder_unique, split_shared,
-                            to_symengine, to_sympy, xreplace_dag)
+from mbgen.symbolic.equations import Equations
+from mbgen.symbolic.layout import Layout
+from mbgen.symbolic.graph import (count_ops_dag, count_ops_tree, postorder_unique, split_shared,
+                                  to_symengine, to_sympy, xreplace_dag)
 
 N = 30
 

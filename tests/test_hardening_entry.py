@@ -14,15 +14,17 @@ from pathlib import Path
 import pytest
 import sympy as sm
 
-from mbgen import Model, Scene, escape, golden
+from mbgen import Model, Scene
+from mbgen.codegen import escape
+from mbgen.verify import golden
 from mbgen.cli import EXIT_MODEL, EXIT_OK, main
 from mbgen.errors import ModelError, SceneError
-from mbgen.kinematics import vec
-from mbgen.model import MAX_BODIES, MAX_SPEEDS, ModelSizeError, t
+from mbgen.model.kinematics import vec
+from mbgen.model.builder import MAX_BODIES, MAX_SPEEDS, ModelSizeError, t
 from mbgen.pipeline import python_model, run
-from mbgen.printing import (CPrinter, NonFiniteConstantError, PyPrinter, power_form,
-                            printed_base_count)
-from mbgen.scene import load_scene
+from mbgen.codegen.printing import (CPrinter, NonFiniteConstantError, PyPrinter, power_form,
+                                    printed_base_count)
+from mbgen.model.scene import load_scene
 
 HOSTILE = [
     '"""; open("PWNED", "w"); """',
@@ -147,7 +149,7 @@ def _scene_file(folder: Path, file_name="pend.py", description="a pendulum"):
 def test_hostile_scene_file_name_and_description(tmp_path, monkeypatch):
     """Issue 9.1: a scene file whose name holds \"\"\" made code of the generated Python; a
     description with */ ended the C comment of example.c."""
-    from mbgen.example import render_example
+    from mbgen.codegen.targets.example import render_example
 
     monkeypatch.chdir(tmp_path)
     path = _scene_file(tmp_path, '"""; open("PWNED", "w"); """.py',
@@ -358,7 +360,7 @@ def test_printers_never_emit_inf_or_nan(printer, value):
 
 def test_power_rule_is_one_function():
     """printing.power_form decides; both printers and the CSE hoisting follow it."""
-    from mbgen.cse import _repeats_base
+    from mbgen.codegen.cse import _repeats_base
 
     x = sm.Symbol("x")
     for exp in [sm.Integer(k) for k in range(-12, 13) if k] + \
@@ -498,13 +500,13 @@ def test_size_guard_can_be_forced():
 
 def test_size_guard_for_derived_equations(monkeypatch):
     """Equations from elsewhere (from_sympy) are checked when a scene holds them."""
-    import mbgen.model
+    import mbgen.model.builder
     from mbgen import derive
-    from mbgen.model import allow_large_models
+    from mbgen.model.builder import allow_large_models
 
     eq = derive(_pendulum())
     assert Scene(name="small", model=eq).model is eq
-    monkeypatch.setattr(mbgen.model, "MAX_SPEEDS", 0)  # the pendulum's 1 speed is "too many"
+    monkeypatch.setattr(mbgen.model.builder, "MAX_SPEEDS", 0)  # the pendulum's 1 speed is "too many"
     with pytest.raises(ModelSizeError, match="1 speeds, more than 0"):
         Scene(name="big", model=eq)
     with allow_large_models():
@@ -525,7 +527,7 @@ def test_expression_parser_agrees_with_python_precedence():
     sympy's own reading of the same text (precedence, -2**2, right-associative **, a/b/c)."""
     import random
 
-    from mbgen.expressions import parse
+    from mbgen.model.expressions import parse
 
     rng = random.Random(20261124)
     k, l = sm.symbols("k l")

@@ -19,7 +19,7 @@ from mbgen.errors import (ArgumentError, ArgumentTypeError, IntegrationError, Mb
                           NonFiniteResultError, SingularMassMatrixError)
 from mbgen.pipeline import python_model, run
 from mbgen.abi import INTEGRATOR_STATUS_CODES
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 STATUS = {name: code for name, code, _ in INTEGRATOR_STATUS_CODES}
 
@@ -197,8 +197,8 @@ def test_rhs_fast_path_unchanged(pendulum):
 
 
 def test_rosenbrock_step_over_a_subnormal_span_is_not_a_singular_matrix():
-    from mbgen.targets import Targets
-    from mbgen.stepper import Stepper
+    from mbgen.codegen.targets import Targets
+    from mbgen.run.stepper import Stepper
 
     scene = load_scene("stiff_chain")
     model = mbgen.compile(scene, targets=Targets(step=True))

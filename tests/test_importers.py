@@ -10,7 +10,7 @@ from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
 from mbgen import LambdifiedModel, ModelError, Output
-from mbgen.importers import from_sympy
+from mbgen.derive.from_sympy import from_sympy
 from mbgen.scenes import n_link_cart
 
 OUTPUTS = (Output.RHS, Output.MASS_MATRIX, Output.FORCING)

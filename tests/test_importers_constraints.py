@@ -18,7 +18,7 @@ from sympy.physics import mechanics as me
 
 import mbgen
 from mbgen import LambdifiedModel, ModelError
-from mbgen.importers import from_sympy
+from mbgen.derive.from_sympy import from_sympy
 
 t = me.dynamicsymbols._t
 OUTPUTS = ("rhs", "constraint_forces", "holonomic", "holonomic_jacobian")

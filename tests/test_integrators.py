@@ -12,8 +12,8 @@ from scipy.integrate._ivp.rk import RK45
 
 import mbgen
 from mbgen import IntegrationError, MbgenError, Output
-from mbgen.integrators import ROSENBROCK, Dopri5, Rodas3, Rodas4
-from mbgen.scene import load_scene
+from mbgen.codegen.integrators.tableaux import ROSENBROCK, Dopri5, Rodas3, Rodas4
+from mbgen.model.scene import load_scene
 from mbgen.scenes import bead_wire
 
 from models import stiff_pair

@@ -6,8 +6,8 @@ from scipy.integrate import solve_ivp
 
 import mbgen
 from mbgen import Output
-from mbgen.check import check
-from mbgen.scene import load_scene
+from mbgen.verify.check import check
+from mbgen.model.scene import load_scene
 
 from heavy import scene_params
 from models import stiff_pair

@@ -1,12 +1,13 @@
 """Kinematics against the lecture notes' solved problems (P1.3, P2.1, P2.2), through the
-SOPHIA-style helpers of :mod:`mbgen.kinematics` and through the derivation engine's tree."""
+SOPHIA-style helpers of :mod:`mbgen.model.kinematics` and through the derivation engine's tree."""
 
 import pytest
 import sympy as sm
 from sympy.physics import mechanics as me
 
 import mbgen
-from mbgen import Model, kinematics as kin
+from mbgen import Model
+from mbgen.model import kinematics as kin
 from mbgen.derive.prepare import prepare
 from mbgen.derive.tree import simple_rotation
 from mbgen.scenes import bent_pipe, spherical_rod, torque_free

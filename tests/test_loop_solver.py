@@ -10,12 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import mbgen.render
-import mbgen.targets.header
-from mbgen.check import check
+import mbgen.codegen.render
+import mbgen.codegen.header
+from mbgen.verify.check import check
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
-from mbgen.solver import UNROLL_MAX
+from mbgen.model.scene import load_scene
+from mbgen.codegen.solver import UNROLL_MAX
 
 
 def _loops(rendered) -> bool:
@@ -23,8 +23,8 @@ def _loops(rendered) -> bool:
 
 
 def test_threshold_as_a_parameter(monkeypatch):
-    monkeypatch.setattr(mbgen.render, "UNROLL_MAX", 1)
-    monkeypatch.setattr(mbgen.targets.header, "UNROLL_MAX", 1)
+    monkeypatch.setattr(mbgen.codegen.render, "UNROLL_MAX", 1)
+    monkeypatch.setattr(mbgen.codegen.header, "UNROLL_MAX", 1)
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "mass_matrix"))
     assert _loops(result.rendered) and "for j in range(n):" in result.rendered.python
     report = check(None, result=result, samples=6)

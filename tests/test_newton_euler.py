@@ -24,8 +24,8 @@ import mbgen
 from mbgen import Model, Output
 from mbgen.derive import Method, derive
 from mbgen.errors import ModelError
-from mbgen.optimize import Form
-from mbgen.scene import builtin_names
+from mbgen.codegen.optimize import Form
+from mbgen.model.scene import builtin_names
 from mbgen.scenes import disc_pendulum
 
 HEAVY = {"bicycle", "spatial_arm"}   # their own tests cover them; slow with every output

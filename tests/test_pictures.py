@@ -15,7 +15,7 @@ import mbgen
 from mbgen import Model, Scene
 from mbgen.cli import main
 from mbgen.errors import IntegrationError, SceneError
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -45,8 +45,8 @@ def test_simulate_plot_writes_states_and_energy_drift(tmp_path, capsys):
 
 
 def test_energy_drift_is_small_when_conserved_and_large_when_not():
-    from mbgen.plots import diagnostics
-    from mbgen.simulate import simulate_in_c
+    from mbgen.viz.plots import diagnostics
+    from mbgen.run.simulate import simulate_in_c
 
     scene = load_scene("spring_pendulum", stiffness=1e3)
     model = mbgen.compile(scene, ("rhs", "dopri5"))
@@ -67,7 +67,7 @@ def test_energy_drift_is_small_when_conserved_and_large_when_not():
 
 
 def test_constraint_residual_panel_sees_projection(tmp_path):
-    from mbgen.plots import diagnostics, plot_simulation
+    from mbgen.viz.plots import diagnostics, plot_simulation
 
     scene = cartesian_pendulum_scene()
     model = mbgen.compile(scene, ("rhs", "holonomic", "holonomic_jacobian", "dopri5"))
@@ -105,7 +105,7 @@ def test_animate_gif_frames_and_html(tmp_path):
 
 def test_animated_positions_follow_the_model():
     """The bob hangs l = 4 from the suspension point E on the disc, at every frame."""
-    from mbgen.animate import _simulate_positions
+    from mbgen.viz.animate import _simulate_positions
 
     scene = load_scene("disc_pendulum")
     t, pos, _ = _simulate_positions(scene, ["E", "P"], 5, 2.0)
@@ -116,7 +116,7 @@ def test_animated_positions_follow_the_model():
 
 def test_body_axes_are_the_frames_direction_cosines(tmp_path):
     """torque_free has no points but a body: its axes are drawn from N.dcm(B) = Rx Ry Rz."""
-    from mbgen.animate import _body_axes, _simulate_positions
+    from mbgen.viz.animate import _body_axes, _simulate_positions
 
     scene = load_scene("torque_free")
     t, pos, states = _simulate_positions(scene, [], 3, 1.0)
@@ -136,7 +136,7 @@ def test_body_axes_are_the_frames_direction_cosines(tmp_path):
 def test_animate_refuses_what_it_cannot_draw(tmp_path, capsys):
     assert main(["animate", "disc_pendulum", "-o", str(tmp_path / "a.mp4")]) == 3
     assert "mbgen: error:" in capsys.readouterr().err and not (tmp_path / "a.mp4").exists()
-    from mbgen.animate import animate_scene
+    from mbgen.viz.animate import animate_scene
 
     eq_scene = replace(load_scene("disc_pendulum"), model=mbgen.equations_of(
         load_scene("disc_pendulum")))
@@ -165,7 +165,7 @@ def test_repr_html_is_a_summary_not_the_matrices():
 
 # ------------------------------------------------------------------ optional matplotlib
 def test_missing_matplotlib_names_the_extra(tmp_path, monkeypatch, capsys):
-    from mbgen.plots import MissingExtraError, plot_simulation
+    from mbgen.viz.plots import MissingExtraError, plot_simulation
 
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     with pytest.raises(MissingExtraError, match=r"mbgen\[plot\]"):
@@ -193,8 +193,8 @@ def test_py_typed_is_shipped():
 
 # ------------------------------------------------------------------ work-precision plot
 def _report(points, disagreement=1e-9):
-    from mbgen.workprecision import WorkPrecisionReport
-    from mbgen.workprecision.reference import Reference
+    from mbgen.studies.workprecision import WorkPrecisionReport
+    from mbgen.studies.workprecision.reference import Reference
 
     t = np.linspace(0, 1, 3)
     ref = Reference(t, np.zeros((3, 1)), "LSODA", "Radau", disagreement)
@@ -203,14 +203,14 @@ def _report(points, disagreement=1e-9):
 
 
 def _point(method, backend, jac, rtol, status="ok", err=math.nan, time_s=math.nan):
-    from mbgen.workprecision import Point
+    from mbgen.studies.workprecision import Point
 
     return Point(method, backend, jac, rtol, rtol * 1e-2, None, status, "", err, err, err,
                  time_s, probe_s=0.5 if status == "failed" else None)
 
 
 def test_pareto_front_and_tolerance_labels():
-    from mbgen.workprecision.plot import pareto_front, tolerance_label
+    from mbgen.studies.workprecision.plot import pareto_front, tolerance_label
 
     pts = [_point("RK45", "c", False, 1e-3, err=1e-3, time_s=1e-3),
            _point("RK45", "c", False, 1e-6, err=1e-6, time_s=1e-2),
@@ -241,7 +241,7 @@ def test_work_precision_plot_with_failures_and_many_series(tmp_path):
 
 # ------------------------------------------------------------------ bench: scaling -o, reference
 def _rows():
-    from mbgen.bench import ScalingRow
+    from mbgen.bench.scaling import ScalingRow
 
     return [ScalingRow(n, 0.1 * n, 0.01 * n, 0.02, 1.0, 1e-6 * n, 100 * n, 40 * n,
                        *((0.5 * n, 0.1 * n, 1e-4, 300 * n, 90 * n, 1e-15) if n < 8 else ()))
@@ -249,7 +249,7 @@ def _rows():
 
 
 def test_bench_scaling_writes_csv_and_plot_to_the_output_folder(tmp_path, monkeypatch, capsys):
-    import mbgen.bench as bench
+    import mbgen.bench.scaling as bench
 
     monkeypatch.setattr(bench, "scaling", lambda ns, **kw: [r for r in _rows() if r.n in ns])
     assert main(["bench", "scaling", "--ns", "2,4,8", "-o", str(tmp_path / "out")]) == 0
@@ -261,9 +261,8 @@ def test_bench_scaling_writes_csv_and_plot_to_the_output_folder(tmp_path, monkey
 
 
 def test_stiff_scene_gets_an_implicit_reference_within_its_budget():
-    from mbgen.workprecision.reference import (STIFF_STEPS, make_reference,
-                                               stiffness_steps)
-    from mbgen.workprecision.solve import Backends
+    from mbgen.studies.workprecision.reference import STIFF_STEPS, make_reference, stiffness_steps
+    from mbgen.studies.workprecision.solve import Backends
 
     stiff = load_scene("stiff_chain", stiffness=1e6)
     b = Backends.build(stiff, ("c",), ("rosenbrock",))
@@ -285,7 +284,7 @@ def test_stiff_scene_gets_an_implicit_reference_within_its_budget():
 
 # ------------------------------------------------------------------ stress report
 def _stress_report():
-    from mbgen.stress.report import Case, StressReport
+    from mbgen.verify.stress.report import Case, StressReport
 
     long_bound = "err <= C eps (cond(M)|f| + s) + 30 e_formula, and more words to wrap here"
     cases = (Case("fp", "nominal", "rel err 6.2e-17 <= 1e-12, cond(M) 1", long_bound, True,
@@ -332,7 +331,7 @@ def test_stress_report_files(tmp_path):
 
 
 def test_c_status_names_are_the_headers():
-    from mbgen.stress.runs import c_run, status_name
+    from mbgen.verify.stress.runs import c_run, status_name
 
     scene = load_scene("spring_pendulum")
     model = mbgen.compile(scene, ("rhs", "dopri5"))

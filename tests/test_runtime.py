@@ -6,7 +6,7 @@ from scipy.integrate import solve_ivp
 
 import mbgen
 from mbgen import Output
-from mbgen.scene import load_scene
+from mbgen.model.scene import load_scene
 
 
 @pytest.fixture(scope="module")
@@ -130,7 +130,7 @@ def test_fast_path_sees_a_parameter_array_changed_in_place():
     """The fast path reuses the buffer of the last p array: values changed in place and
     alternating arrays must still be honoured."""
     import mbgen
-    from mbgen.scene import load_scene
+    from mbgen.model.scene import load_scene
 
     m = mbgen.compile(load_scene("disc_pendulum"), ("rhs",))
     x = np.full(m.n_x, 0.3)

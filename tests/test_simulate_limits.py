@@ -6,8 +6,8 @@ import pytest
 import mbgen
 from mbgen.cli import main
 from mbgen.errors import ArgumentError, IntegrationError
-from mbgen.scene import load_scene
-from mbgen.simulate import simulate
+from mbgen.model.scene import load_scene
+from mbgen.run.simulate import simulate
 
 
 @pytest.fixture(scope="module")

@@ -5,10 +5,10 @@ import pytest
 
 import mbgen
 from mbgen import Model, Output
-from mbgen.audit import audit
+from mbgen.verify.audit import audit
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
-from mbgen.slicing import bake
+from mbgen.model.scene import load_scene
+from mbgen.codegen.slicing import bake
 
 from heavy import scene_params
 

@@ -1,6 +1,6 @@
 """Per-stage timing with a budget per stage (nothing timed is asserted)."""
 
-from mbgen.stagetimes import format_stages, stage_times
+from mbgen.bench.stages import format_stages, stage_times
 
 
 def test_every_stage_of_a_small_scene_finishes():

@@ -10,9 +10,9 @@ import pytest
 
 import mbgen
 from mbgen.pipeline import run
-from mbgen.scene import load_scene
-from mbgen.targets import Targets
-from mbgen.stepper import Stepper
+from mbgen.model.scene import load_scene
+from mbgen.codegen.targets import Targets
+from mbgen.run.stepper import Stepper
 
 CC = shutil.which("gcc") or shutil.which("cc")
 

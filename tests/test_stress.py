@@ -1,4 +1,4 @@
-"""The numerical stress suite (mbgen.stress) and the two stiff scenes it was built around."""
+"""The numerical stress suite (mbgen.verify.stress) and the two stiff scenes it was built around."""
 
 from dataclasses import replace
 
@@ -7,10 +7,10 @@ import pytest
 
 import mbgen
 from mbgen import SingularMassMatrixError
-from mbgen.scene import load_scene
-from mbgen.stress import (SINGULAR_PATHS, HighPrecision, PointResult, Reference, StressReport,
-                          check_point, classify_parameters,
-                          judge_point, make_context, stress)
+from mbgen.model.scene import load_scene
+from mbgen.verify.stress import (SINGULAR_PATHS, HighPrecision, PointResult, Reference,
+                                 StressReport, check_point, classify_parameters, judge_point,
+                                 make_context, stress)
 
 CI_SCENES = ["stiff_chain", "spring_pendulum", "torque_free", "spherical_rod", "bead_wire"]
 EXPECTED_KINDS = {

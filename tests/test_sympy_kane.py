@@ -20,9 +20,9 @@ import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from mbgen.model import Force, Gravity, LineElement, Torque
+from mbgen.model.builder import Force, Gravity, LineElement, Torque
 from mbgen.pipeline import run
-from mbgen.scene import builtin_names, load_scene
+from mbgen.model.scene import builtin_names, load_scene
 
 T = me.dynamicsymbols._t
 

@@ -9,7 +9,7 @@ from scipy.integrate import solve_ivp
 import mbgen
 from mbgen import InputTable, Output
 from mbgen.scenes import n_link_cart
-from mbgen.simulate import simulate
+from mbgen.run.simulate import simulate
 
 OUTPUTS = (Output.RHS, Output.JACOBIAN, Output.INPUT_JACOBIAN, Output.DOPRI5, Output.RK4,
            Output.ROSENBROCK)

@@ -8,7 +8,7 @@ from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
 from mbgen import Output, UnknownNameError
-from mbgen.named import did_you_mean, vector
+from mbgen.run.named import did_you_mean, vector
 from mbgen.scenes import n_link_cart
 
 OUTPUTS = (Output.RHS, Output.JACOBIAN, Output.INPUT_JACOBIAN, Output.DOPRI5)

@@ -8,9 +8,9 @@ import pytest
 
 import mbgen
 from mbgen import Output, UsageError
-from mbgen import simulate as sim
-from mbgen.scene import load_scene
-from mbgen.simulate import StiffnessWarning, choose_method, simulate
+from mbgen.run import simulate as sim
+from mbgen.model.scene import load_scene
+from mbgen.run.simulate import StiffnessWarning, choose_method, simulate
 
 
 @cache

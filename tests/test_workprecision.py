@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from mbgen import IntegrationError, load_scene
-from mbgen.runtime import CompiledModel
-from mbgen.workprecision import (CSV_COLUMNS, DEFAULT_RTOLS, Config, configurations,
-                                 rk4_steps, typical_magnitude, work_precision)
+from mbgen.run.compiled import CompiledModel
+from mbgen.studies.workprecision import (CSV_COLUMNS, DEFAULT_RTOLS, Config, configurations,
+                                         rk4_steps, typical_magnitude, work_precision)
 
 RTOLS = (1e-3, 1e-5, 1e-7)
 METHODS = ("RK45", "DOP853", "Radau", "dopri5", "rosenbrock", "rk4")

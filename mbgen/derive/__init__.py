@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from enum import Enum
 
-from ..equations import Equations
+from ..symbolic.equations import Equations
 from ..errors import ModelError
-from ..model import Model
+from ..model.builder import Model
 from .constraints import constrain
 from .kane import kane
 from .newton_euler import newton_euler

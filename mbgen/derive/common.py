@@ -10,9 +10,9 @@ from collections import defaultdict
 
 import sympy as sm
 
-from ..equations import PointKinematics
+from ..symbolic.equations import PointKinematics
 from ..errors import ModelError
-from ..symbolic import count_ops_dag
+from ..symbolic.graph import count_ops_dag
 from .prepare import Prepared
 from .tree import S0, add, dot3, matvec, mul, vadd, vneg
 

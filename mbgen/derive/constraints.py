@@ -16,7 +16,7 @@ A model's stated constraints (:meth:`mbgen.Model.holonomic`,
 Nothing is inverted here: the generated code factors the dependent block
 ``A_r`` numerically (LU with partial pivoting) to get ``u_r = -A_r^{-1}(A_s u_s + b)``
 and reduces ``M u' = F + A^T lambda`` to the independent speeds (see
-:mod:`mbgen.outputs`).  The unconstrained ``M`` and ``F`` are reordered so that
+:mod:`mbgen.codegen.outputs`).  The unconstrained ``M`` and ``F`` are reordered so that
 the dependent speeds come last.
 """
 
@@ -27,11 +27,11 @@ from dataclasses import replace
 import numpy as np
 import sympy as sm
 
-from ..equations import Constraints, Equations, acceleration_symbols
+from ..symbolic.equations import Constraints, Equations, acceleration_symbols
 from ..errors import ModelError
-from ..layout import Layout
-from ..program import Program
-from ..symbolic import free_symbols, xreplace_dag
+from ..symbolic.layout import Layout
+from ..symbolic.program import Program
+from ..symbolic.graph import free_symbols, xreplace_dag
 from .prepare import Prepared, signed_atoms
 from .tree import cross, unit
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..errors import ModelError
-from ..symbolic import free_symbols
+from ..symbolic.graph import free_symbols
 from .prepare import Prepared
 from .tree import Atom, FrameNode
 

@@ -32,9 +32,9 @@ from collections import defaultdict
 
 import sympy as sm
 
-from ..equations import Equations
-from ..model import Model
-from ..program import Program
+from ..symbolic.equations import Equations
+from ..model.builder import Model
+from ..symbolic.program import Program
 from .common import Grouping, energies, line_coefficient, point_kinematics
 from .newton_euler import reactions_for
 from .prepare import prepare

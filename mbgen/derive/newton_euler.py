@@ -49,7 +49,7 @@ with a cost linear in the number of bodies: inward
 :math:`u'_b = D_b^{-1}(u_b - U_b^T X_b \hat a_p)`.  Pivots of ``D`` must be
 positive (they are checked in the generated code).
 
-Every per-body quantity is a named intermediate (:class:`mbgen.program.Program`),
+Every per-body quantity is a named intermediate (:class:`mbgen.symbolic.program.Program`),
 so the recursion's size is linear in the number of bodies.
 """
 
@@ -59,17 +59,17 @@ from collections import defaultdict
 
 import sympy as sm
 
-from ..equations import Equations, JointLoads, acceleration_symbols, lambda_symbols
-from ..model import Force, Model, Torque
-from ..program import ProgramBuilder
+from ..symbolic.equations import Equations, JointLoads, acceleration_symbols, lambda_symbols
+from ..model.builder import Force, Model, Torque
+from ..symbolic.program import ProgramBuilder
 from .common import Grouping, energies, line_coefficient, point_kinematics
 from .constraints import ordered
 from .joints import GROUND, Body, BodyTree, build_bodies
 from .prepare import Prepared, prepare, signed_atoms as _signed
 from .spatial import (ZERO6, Rotation, congruence, dot6, force_to_parent, join, matvec6,
                       motion_to_child, spatial_inertia, split, symmetric)
-from .tree import (S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, transpose, unit, vadd,
-                   vneg, vscale)
+from .tree import (S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, transpose, unit, vadd, vneg,
+                   vscale)
 
 TWO = sm.Integer(2)
 
@@ -509,7 +509,7 @@ class NewtonEuler:
         """Force and moment of every joint (parent on child, at the joint point).
 
         ``udot``: the accelerations (default: the placeholders of
-        :func:`~mbgen.equations.acceleration_symbols`, so that the reactions
+        :func:`~mbgen.symbolic.equations.acceleration_symbols`, so that the reactions
         hold for whatever ``M u' = F`` gives).  ``extra``: further loads on
         bodies (:meth:`constraint_loads`), which do not enter ``F``.
         """

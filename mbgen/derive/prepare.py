@@ -1,4 +1,4 @@
-"""From a user's :class:`~mbgen.model.Model` to plain symbols and a kinematic tree.
+"""From a user's :class:`~mbgen.model.builder.Model` to plain symbols and a kinematic tree.
 
 This stage removes time dependence (``q1(t) -> q1``, ``q1'(t) -> G_1(q, u, t)``),
 checks that every symbol is declared, solves the kinematic differential
@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 import sympy as sm
 
 from ..errors import ModelError
-from ..layout import Layout
-from ..model import Force, Gravity, LineElement, Model, Torque, t as TIME
-from ..symbolic import applied_functions, free_symbols, walk_unique
+from ..symbolic.layout import Layout
+from ..model.builder import Force, Gravity, LineElement, Model, Torque, t as TIME
+from ..symbolic.graph import applied_functions, free_symbols, walk_unique
 from .tree import Atom, FrameNode, KinematicTree, Vec3
 
 

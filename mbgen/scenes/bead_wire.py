@@ -16,7 +16,7 @@ energy ``m (rho'^2 + omega^2 rho^2) / 2`` is not conserved.
 
 import numpy as np
 
-from mbgen import Model, Output, Scene, t
+from .. import Model, Output, Scene, t
 
 
 def build_model() -> Model:

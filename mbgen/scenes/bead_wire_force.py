@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mbgen import Model, Output, Scene, t
+from .. import Model, Output, Scene, t
 
 from .bead_wire import closed_form as _rho_closed_form
 

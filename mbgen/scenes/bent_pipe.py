@@ -28,7 +28,7 @@ import math
 
 import sympy as sm
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

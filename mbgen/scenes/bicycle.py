@@ -66,7 +66,7 @@ import math
 import numpy as np
 import sympy as sm
 
-from mbgen import Model, Output, Scene, t
+from .. import Model, Output, Scene, t
 
 #: Parameter values (SI units); inertias about the mass centres in body-frame components.
 PARAMETERS = {

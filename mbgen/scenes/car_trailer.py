@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import sympy as sm
 
-from mbgen import Method, Model, Output, Scene
+from .. import Method, Model, Output, Scene
 
 #: Parameter values (SI units).
 PARAMETERS = {

@@ -16,7 +16,7 @@ With s = 1, l = 4, g = 10: u1' = -8 cos(q2) u2 u1 / (1 + 4 sin q2),
 u2' = cos(q2) u1^2 / 4 + u1^2 sin(2 q2) / 2 - 5 sin(q2) / 2.
 """
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

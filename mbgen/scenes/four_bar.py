@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 #: The default Grashof crank-rocker and the triple rocker of the dead-point variant.
 LENGTHS = {"la": 1.0, "lb": 2.0, "lc": 2.0, "ld": 2.0}

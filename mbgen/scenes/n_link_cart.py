@@ -9,7 +9,7 @@ Symbols, order and conventions match
 ``cart_force=True``, so numbers compare directly.
 """
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model(n: int = 3) -> Model:

@@ -20,7 +20,7 @@ the particle oscillates between two heights.  The mass matrix
 which the motion never reaches while ``q1^2 q2' != 0``.
 """
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

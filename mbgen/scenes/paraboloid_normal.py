@@ -24,7 +24,7 @@ generalized force conjugate to ``f``: the surface pushes the particle with
 
 from __future__ import annotations
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import sympy as sm
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model(name: str = "rolling_disc") -> Model:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

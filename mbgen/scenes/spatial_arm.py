@@ -21,7 +21,7 @@ Gravity is ``-g n3``; speeds are the joint rates, ``u{i} = q{i}'``.  There is no
 friction and no input, so ``T + V`` is conserved.  The same arm is built as a
 Pinocchio model (revolute joints ``RZ``/``RY`` alternating, joint placements
 ``(I, [a{i-1}, 0, 0])``, inertias at lever ``[b{i}, 0, 0]``) by
-:mod:`mbgen.armbench`, which compares both RHS.
+:mod:`mbgen.bench.arm`, which compares both RHS.
 
 Parameters (:func:`link_parameters`): lengths ``a{i} = 0.4 + 0.1 (i mod 3)``,
 mass centres at mid-link ``b{i} = a{i} / 2``, masses ``m{i} = 2 - 0.25 (i mod 4)``,
@@ -37,7 +37,7 @@ goes to ``n = 32``).
 
 from __future__ import annotations
 
-from mbgen import Method, Model, Output, Scene
+from .. import Method, Model, Output, Scene
 
 
 def axis(i: int) -> int:

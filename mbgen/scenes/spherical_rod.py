@@ -22,7 +22,7 @@ start is a hanging rod swinging around the vertical (``q2 = 2.5``,
 ``q1' = 2``): the conserved ``J sin(q2)^2 q1'`` keeps it away from vertical.
 """
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

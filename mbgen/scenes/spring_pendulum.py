@@ -31,7 +31,7 @@ damping ``T + V`` is conserved; ``conserves_energy`` is ``damping == 0``.
 
 import math
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

@@ -41,7 +41,7 @@ fast modes).  Dampers dissipate energy, so ``conserves_energy`` is False.
 
 import math
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model(n: int = 5) -> Model:

@@ -21,7 +21,7 @@ The default body spins mainly about b3, near its axis of largest inertia, so
 the motion is a stable wobble and ``q2`` stays far from the gimbal lock.
 """
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 
 def build_model() -> Model:

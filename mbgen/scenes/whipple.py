@@ -54,7 +54,7 @@ import math
 import numpy as np
 import sympy as sm
 
-from mbgen import Model, Output, Scene
+from .. import Model, Output, Scene
 
 #: Meijaard et al. (2007), table 1 (z down, x forward; inertias about the mass centres).
 BENCHMARK = dict(w=1.02, c=0.08, lam=math.pi / 10, g=9.81, rR=0.3, mR=2.0, IRxx=0.0603,

@@ -1,0 +1,587 @@
+"""Scaling benchmark on the spatial arm (``mbgen bench arm``): mbgen, sympy and Pinocchio.
+
+For every number of links ``n`` the same arm (:mod:`mbgen.scenes.spatial_arm`:
+revolute joints about z and y alternating, full link inertias, gravity) is
+run through three tools, side by side in one run:
+
+mbgen (a child process per ``n``, under a time budget and a memory cap)
+    *derive* (``equations_of``), *bake* (the scene's fixed parameters),
+    *CSE* (``optimize``, RHS output), *render*, *compile* (cffi, into an empty
+    cache); the operations after CSE; the RHS time **inside C** -- a small C
+    driver (``templates/bench/rhs.c.j2``) calls ``<prefix>_rhs`` in a loop timed
+    with ``clock_gettime``, compiled with ``cc`` and the same flags as Pinocchio's
+    driver and run as a subprocess; and the time of one ``model.rhs`` call from
+    Python (the crossing included).
+sympy (a child process per ``n``, under its own budget)
+    ``KanesMethod`` on the same arm with symbolic parameters (*derive*:
+    ``kanes_equations`` + ``mass_matrix_full``/``forcing_full``), ``sympy.cse``
+    of both (*CSE*), ``lambdify(cse=True)`` (*lambdify*) and one RHS call
+    (``numpy.linalg.solve``) from Python.  Where the budget runs out, the row
+    says in which stage it stopped.
+Pinocchio (PyPI ``pin``, the ``bench`` extra)
+    The arm as a ``pinocchio.Model`` (``JointModelRZ``/``RY``, placements
+    ``(I, [a, 0, 0])``, inertias at lever ``[b, 0, 0]``): ``pin.aba`` per call from
+    Python, and ``pinocchio::aba`` in a C++ loop (``templates/bench/aba.cpp.j2``,
+    compiled once per run with ``g++`` against the wheel's ``include``/``lib``
+    folders and the Eigen headers of ``cmeel-eigen``).  Its accelerations are
+    compared with mbgen's RHS at the timed state.
+
+Timings are medians of ``repeats`` loops, each at least :data:`MIN_LOOP_S` long.
+Growth exponents are least-squares slopes of log(value) against log(n) over
+the ``n`` that finished.  Nothing is built into the repository: the drivers
+are compiled in temporary folders.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from . import children
+from ..errors import BuildError, MbgenError
+
+#: Shortest timed loop, seconds (C drivers and Python per-call loops).
+MIN_LOOP_S = 0.02
+#: Compiler flags of both drivers (the generated C and Pinocchio's C++ alike).
+DRIVER_FLAGS = ("-O3", "-march=native", "-DNDEBUG")
+#: Defines Pinocchio's CMake config exports (boost::variant with its 25 joint types).
+PINOCCHIO_DEFINES = ("-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
+                     "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS")
+
+
+class BenchmarkError(MbgenError, RuntimeError):
+    """A benchmark could not run: a missing optional dependency or a driver that failed."""
+
+
+@dataclass
+class ArmRow:
+    """One ``n``: stage times (s), operations, per-call times (ns); None where not reached."""
+
+    n: int
+    derive_s: float | None = None
+    bake_s: float | None = None
+    cse_s: float | None = None
+    render_s: float | None = None
+    compile_s: float | None = None
+    ops_after: int | None = None
+    rhs_c_ns: float | None = None
+    rhs_py_ns: float | None = None
+    status: str = "not run"
+    sympy_derive_s: float | None = None
+    sympy_cse_s: float | None = None
+    sympy_lambdify_s: float | None = None
+    sympy_ops_after: int | None = None
+    sympy_rhs_py_ns: float | None = None
+    sympy_status: str = "not run"
+    pin_py_ns: float | None = None
+    pin_cxx_ns: float | None = None
+    max_abs_diff_pin: float | None = None
+    max_abs_diff_sympy: float | None = None
+
+
+def state(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The timed state: joint angles and rates, seeded and the same for every tool."""
+    rng = np.random.default_rng(1000 + n)
+    return rng.uniform(-1.0, 1.0, n), rng.uniform(-1.0, 1.0, n)
+
+
+def per_call_ns(fn: Callable[[], object], repeats: int) -> float:
+    """Median nanoseconds of one ``fn()`` call: loops of at least MIN_LOOP_S, gc off."""
+    import gc
+
+    def loop(number: int) -> float:
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        return time.perf_counter() - t0
+
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        number = 1
+        while loop(number) < MIN_LOOP_S:
+            number *= 2
+        return 1e9 * statistics.median(loop(number) / number for _ in range(repeats))
+    finally:
+        if was:
+            gc.enable()
+
+
+# ----------------------------------------------------------------------------- Pinocchio
+def _pinocchio():
+    try:
+        import pinocchio
+    except ImportError:
+        raise BenchmarkError("Pinocchio is not installed: pip install -e '.[bench]' (PyPI 'pin')") \
+            from None
+    return pinocchio
+
+
+def link_rows(n: int) -> list[tuple]:
+    """Per link ``(axis, a_prev, b, m, Ixx, Iyy, Izz, Ixy, Iyz, Izx)`` from the scene's values."""
+    from ..scenes.spatial_arm import axis, link_parameters
+
+    v = link_parameters(n)
+    return [(axis(i), v[f"a{i - 1}"] if i > 1 else 0.0, v[f"b{i}"], v[f"m{i}"],
+             *(v[f"{k}{i}"] for k in ("Ixx", "Iyy", "Izz", "Ixy", "Iyz", "Izx")))
+            for i in range(1, n + 1)]
+
+
+def pinocchio_arm(n: int):
+    """The arm as a ``pinocchio.Model`` (gravity ``-g`` along z) with its values."""
+    pin = _pinocchio()
+    from ..scenes.spatial_arm import link_parameters
+
+    model = pin.Model()
+    parent = 0
+    for i, (ax, a, b, m, ixx, iyy, izz, ixy, iyz, izx) in enumerate(link_rows(n), start=1):
+        joint = pin.JointModelRZ() if ax == 3 else pin.JointModelRY()
+        place = pin.SE3(np.eye(3), np.array([a, 0.0, 0.0]))
+        parent = model.addJoint(parent, joint, place, f"joint{i}")
+        inertia = np.array([[ixx, ixy, izx], [ixy, iyy, iyz], [izx, iyz, izz]])
+        model.appendBodyToJoint(parent, pin.Inertia(m, np.array([b, 0.0, 0.0]), inertia),
+                                pin.SE3.Identity())
+    model.gravity.linear = np.array([0.0, 0.0, -link_parameters(n)["g"]])
+    return model
+
+
+def pinocchio_aba(n: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Joint accelerations of the unactuated arm from ``pin.aba``."""
+    pin = _pinocchio()
+    model = pinocchio_arm(n)
+    return np.array(pin.aba(model, model.createData(), q, v, np.zeros(n)))
+
+
+def _cmeel_prefix() -> Path:
+    """The folder the ``pin`` wheel installed into (it holds ``include/`` and ``lib/``)."""
+    pin = _pinocchio()
+    prefix = next((p for p in Path(pin.__file__).resolve().parents
+                   if (p / "include" / "pinocchio").is_dir()), None)
+    if prefix is None:
+        raise BenchmarkError(f"no Pinocchio headers above {pin.__file__}; the C++ loop needs the "
+                             f"'pin' wheel's include and lib folders")
+    if not (prefix / "include" / "eigen3").is_dir():
+        raise BenchmarkError("no Eigen headers for the C++ loop: pip install -e '.[bench]' "
+                             "(PyPI 'cmeel-eigen')")
+    return prefix
+
+
+def build_aba_driver(folder: Path, repeats: int) -> Path:
+    """Compile the C++ ``aba`` loop against the wheel; returns the executable (about a minute)."""
+    from ..codegen.templating import environment
+
+    prefix = _cmeel_prefix()
+    cxx = shutil.which("g++") or shutil.which("c++")
+    if cxx is None:
+        raise BenchmarkError("no C++ compiler (g++) for Pinocchio's C++ loop")
+    source = folder / "bench_aba.cpp"
+    source.write_text(environment().get_template("bench/aba.cpp.j2").render(
+        min_loop_s=MIN_LOOP_S, repeats=repeats), encoding="utf-8")
+    exe = folder / "bench_aba"
+    cmd = [cxx, "-std=c++17", *DRIVER_FLAGS, *PINOCCHIO_DEFINES, f"-I{prefix / 'include'}",
+           f"-I{prefix / 'include' / 'eigen3'}", str(source), "-o", str(exe),
+           f"-L{prefix / 'lib'}", "-lpinocchio_default", f"-Wl,-rpath,{prefix / 'lib'}"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise BenchmarkError(f"compiling Pinocchio's C++ loop failed:\n{proc.stderr[-3000:]}")
+    return exe
+
+
+def run_aba_driver(exe: Path, n: int, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(median ns per aba call, accelerations)`` from the C++ loop."""
+    from ..scenes.spatial_arm import link_parameters
+
+    lines = [str(n)] + [" ".join(repr(float(x)) if k else str(x) for k, x in enumerate(row))
+                        for row in link_rows(n)]
+    lines += [repr(link_parameters(n)["g"]), " ".join(map(repr, map(float, q))),
+              " ".join(map(repr, map(float, v)))]
+    proc = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise BenchmarkError(f"Pinocchio's C++ loop failed: {proc.stderr.strip()}")
+    out = proc.stdout.splitlines()
+    times = [float(s) for s in out if s[:1].isdigit()]
+    ddq = next(s for s in out if s.startswith("ddq")).split()[1:]
+    return statistics.median(times), np.array([float(x) for x in ddq])
+
+
+# ----------------------------------------------------------------------------- mbgen (child)
+def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int,
+             folder: Path) -> float:
+    """Median ns per ``<prefix>_rhs`` call in a compiled C loop (driver from the template)."""
+    from ..build.extension import compiler
+    from ..codegen.templating import environment
+
+    layout = rendered.layout
+    for name, text in rendered.files.items():
+        if name.endswith((".c", ".h")):
+            (folder / name).write_text(text, encoding="utf-8")
+    args = ["0.0", "x"] + (["p"] if layout.n_p else []) + (["r"] if layout.n_r else []) + ["dxdt"]
+    driver = environment().get_template("bench/rhs.c.j2").render(
+        prefix=rendered.prefix, n_x=layout.n_x, n_p=layout.n_p, n_r=layout.n_r,
+        x=[repr(float(v)) for v in x], p=[repr(float(v)) for v in p],
+        r=[repr(float(v)) for v in r], call_args=", ".join(args), min_loop_s=MIN_LOOP_S,
+        repeats=repeats, flags=" ".join(DRIVER_FLAGS))
+    (folder / "bench_rhs.c").write_text(driver, encoding="utf-8")
+    exe = folder / "bench_rhs"
+    cmd = [compiler(), "-std=c99", *DRIVER_FLAGS, "-o", str(exe), "bench_rhs.c",
+           f"{rendered.prefix}.c", "-lm"]
+    proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise BuildError(f"compiling the RHS benchmark driver failed:\n{proc.stderr[-3000:]}")
+    run = subprocess.run([str(exe)], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise BenchmarkError(f"the RHS driver failed: {run.stdout[-300:]} {run.stderr[-300:]}")
+    return statistics.median(float(s) for s in run.stdout.splitlines() if s[:1].isdigit())
+
+
+def _mbgen_child(n: int, repeats: int, method: str, emit) -> None:
+    """mbgen's side for one ``n``; ``emit(key, value)`` reports each result as it is known."""
+    from ..build.extension import load
+    from ..derive import Method
+    from ..abi import Output
+    from ..codegen.optimize import optimize
+    from ..pipeline import equations_of
+    from ..codegen.render import render
+    from ..run.compiled import CompiledModel
+    from ..scenes.spatial_arm import scene as arm_scene
+    from ..codegen.slicing import bake
+
+    def stage(key, fn, *args, **kw):
+        t0 = time.perf_counter()
+        value = fn(*args, **kw)
+        emit(key, time.perf_counter() - t0)
+        return value
+
+    scene = arm_scene(n)
+    equations = stage("derive_s", equations_of, scene, Method(method), energy=False)
+    baked = stage("bake_s", bake, equations, scene.fixed, scene.inputs)
+    kernel = stage("cse_s", optimize, baked, (Output.RHS,))
+    emit("ops_after", kernel.ops_after)
+    rendered = stage("render_s", render, kernel)
+    module = stage("compile_s", load, rendered)
+    layout = rendered.layout
+    model = CompiledModel(rendered, module, layout, rendered.defaults, rendered.outputs)
+    q, v = state(n)
+    x = np.concatenate([q, v])
+    p = np.array([rendered.defaults[k] for k in layout.parameter_names])
+    r = np.zeros(layout.n_r)
+    emit("accelerations", model.rhs(0.0, x, p, r)[n:].tolist())
+    with tempfile.TemporaryDirectory(prefix="mbgen-arm-driver-") as tmp:
+        emit("rhs_c_ns", c_rhs_ns(rendered, x, p, r, repeats, Path(tmp)))
+    emit("rhs_py_ns", per_call_ns(lambda: model.rhs(0.0, x, p, r), repeats))
+
+
+# ----------------------------------------------------------------------------- sympy (child)
+def sympy_arm(n: int):
+    """The arm in ``sympy.physics.mechanics`` with symbolic parameters: ``(KanesMethod, values)``."""
+    import sympy as sm
+    from sympy.physics import mechanics as me
+
+    from ..scenes.spatial_arm import axis, link_parameters
+
+    q, u = me.dynamicsymbols(f"q1:{n + 1}"), me.dynamicsymbols(f"u1:{n + 1}")
+    g = sm.Symbol("g")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    bodies, loads, values = [], [], {"g": link_parameters(n)["g"]}
+    parent, joint, previous_joint = N, O, O
+    for i in range(1, n + 1):
+        names = [f"{k}{i}" for k in ("b", "m", "Ixx", "Iyy", "Izz", "Ixy", "Iyz", "Izx")]
+        b, m, ixx, iyy, izz, ixy, iyz, izx = sm.symbols(names)
+        L = parent.orientnew(f"L{i}", "Axis", [q[i - 1], parent.z if axis(i) == 3 else parent.y])
+        L.set_ang_vel(parent, u[i - 1] * (parent.z if axis(i) == 3 else parent.y))
+        if i > 1:
+            a = sm.Symbol(f"a{i - 1}")
+            joint = joint.locatenew(f"J{i}", a * parent.x)
+            joint.v2pt_theory(previous_joint, N, parent)
+        G = joint.locatenew(f"G{i}", b * L.x)
+        G.v2pt_theory(joint, N, L)
+        body = me.RigidBody(f"link{i}", G, L, m, (me.inertia(L, ixx, iyy, izz, ixy, iyz, izx), G))
+        bodies.append(body)
+        loads.append((G, -m * g * N.z))
+        parent, previous_joint = L, joint
+    kane = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)])
+    kane.kanes_equations(bodies, loads)
+    values.update({k: val for k, val in link_parameters(n).items() if k != f"a{n}"})
+    return kane, values
+
+
+def _sympy_child(n: int, repeats: int, method: str, emit) -> None:
+    import sympy as sm
+
+    from ..symbolic.graph import count_ops_dag
+
+    t0 = time.perf_counter()
+    kane, values = sympy_arm(n)
+    M, F = kane.mass_matrix_full, kane.forcing_full
+    emit("sympy_derive_s", time.perf_counter() - t0)
+    exprs = list(M) + list(F)
+    t0 = time.perf_counter()
+    reps, reduced = sm.cse(exprs)
+    emit("sympy_cse_s", time.perf_counter() - t0)
+    emit("sympy_ops_after", count_ops_dag([e for _, e in reps])
+         + sum(count_ops_dag([e]) for e in reduced))
+    states = list(kane.q) + list(kane.u)
+    params = sorted((s for s in sm.Matrix(exprs).free_symbols if s.name in values),
+                    key=lambda s: s.name)
+    t0 = time.perf_counter()
+    M_fn = sm.lambdify([states, params], M, modules="numpy", cse=True)
+    F_fn = sm.lambdify([states, params], F, modules="numpy", cse=True)
+    emit("sympy_lambdify_s", time.perf_counter() - t0)
+    q, v = state(n)
+    x = np.concatenate([q, v])
+    p = np.array([values[s.name] for s in params])
+
+    def rhs():
+        return np.linalg.solve(M_fn(x, p), F_fn(x, p)).ravel()
+
+    emit("sympy_accelerations", rhs()[n:].tolist())
+    emit("sympy_rhs_py_ns", per_call_ns(rhs, repeats))
+
+
+def _child_main(argv: Sequence[str]) -> int:
+    """``python -m mbgen.bench.arm SIDE N REPEATS METHOD``: JSON lines on stdout, one per result."""
+    side, n, repeats, method = argv[0], int(argv[1]), int(argv[2]), argv[3]
+
+    def emit(key, value):
+        print(json.dumps({key: value}), flush=True)
+
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        (_mbgen_child if side == "mbgen" else _sympy_child)(n, repeats, method, emit)
+    return 0
+
+
+def _run_child(side: str, n: int, repeats: int, method: str, budget_s: float,
+               memory_gb: float) -> tuple[dict, str]:
+    """Run one side in a child process; ``(results so far, status)``."""
+    stages = (["derive_s", "bake_s", "cse_s", "render_s", "compile_s", "rhs_c_ns", "rhs_py_ns"]
+              if side == "mbgen" else
+              ["sympy_derive_s", "sympy_cse_s", "sympy_lambdify_s", "sympy_rhs_py_ns"])
+    results, rc, error = children.run_json_child(
+        ["-m", "mbgen.bench.arm", side, str(n), str(repeats), method], budget_s=budget_s,
+        memory_gb=memory_gb, prefix="mbgen-arm-")
+    return results, children.status(results, stages, rc, error, budget_s, width=120)
+
+
+# ----------------------------------------------------------------------------- the benchmark
+def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
+                budget_s: float = 300.0, sympy_budget_s: float = 120.0,
+                memory_gb: float = 12.0, pinocchio: bool = True, cxx: bool = True,
+                method: str = "kane", progress: Callable[[str], None] | None = None
+                ) -> list[ArmRow]:
+    """Run the benchmark; one :class:`ArmRow` per ``n`` (see the module docstring).
+
+    Parameters
+    ----------
+    budget_s, sympy_budget_s : float
+        Wall-time budget of mbgen's and sympy's child process for one ``n``
+        (0 skips that side).  Once a side ran over its budget (or memory), larger
+        ``n`` are not tried for it.
+    memory_gb : float
+        Address-space cap of each child process.
+    pinocchio, cxx : bool
+        Time Pinocchio from Python, and in a C++ loop (needs the ``bench`` extra).
+    method : str
+        mbgen's derivation method (``mbgen.Method`` value).
+    """
+    from ..derive import Method
+
+    if method not in {m.value for m in Method}:
+        raise BenchmarkError(f"unknown derivation method {method!r}; methods: "
+                             f"{', '.join(m.value for m in Method)}")
+    say = progress or (lambda message: None)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="mbgen-arm-aba-") as tmp:
+        aba_exe = None
+        if pinocchio and cxx:
+            say("compiling Pinocchio's C++ aba loop")
+            aba_exe = build_aba_driver(Path(tmp), repeats)
+        mbgen_stopped = budget_s <= 0
+        sympy_stopped = sympy_budget_s <= 0
+        for n in ns:
+            row = ArmRow(n=n)
+            q, v = state(n)
+            ours = theirs = None
+            if not mbgen_stopped:
+                say(f"n={n}: mbgen")
+                res, row.status = _run_child("mbgen", n, repeats, method, budget_s, memory_gb)
+                ours = res.pop("accelerations", None)
+                _fill(row, res)
+                mbgen_stopped = row.status != "ok"
+            else:
+                row.status = "not run (stopped at a smaller n)" if budget_s > 0 else "not run"
+            if not sympy_stopped:
+                say(f"n={n}: sympy KanesMethod")
+                res, row.sympy_status = _run_child("sympy", n, repeats, method, sympy_budget_s,
+                                                   memory_gb)
+                theirs = res.pop("sympy_accelerations", None)
+                _fill(row, res)
+                sympy_stopped = row.sympy_status != "ok"
+            else:
+                row.sympy_status = ("not run (stopped at a smaller n)" if sympy_budget_s > 0
+                                    else "not run")
+            if pinocchio:
+                say(f"n={n}: Pinocchio")
+                pin = _pinocchio()
+                model = pinocchio_arm(n)
+                data, tau = model.createData(), np.zeros(n)
+                row.pin_py_ns = per_call_ns(lambda: pin.aba(model, data, q, v, tau), repeats)
+                ddq = np.array(pin.aba(model, data, q, v, tau))
+                if aba_exe is not None:
+                    row.pin_cxx_ns, ddq_cxx = run_aba_driver(aba_exe, n, q, v)
+                    if not np.allclose(ddq_cxx, ddq, rtol=1e-9, atol=1e-9):
+                        raise BenchmarkError(f"n={n}: Pinocchio's C++ loop and pin.aba disagree")
+                if ours is not None:
+                    row.max_abs_diff_pin = float(np.max(np.abs(np.array(ours) - ddq)))
+            if ours is not None and theirs is not None:
+                row.max_abs_diff_sympy = float(np.max(np.abs(np.array(ours) - np.array(theirs))))
+            rows.append(row)
+    return rows
+
+
+def _fill(row: ArmRow, results: dict) -> None:
+    names = {f.name for f in fields(ArmRow)}
+    for key, value in results.items():
+        if key in names:
+            setattr(row, key, value)
+
+
+def growth_exponents(rows: Sequence[ArmRow]) -> dict[str, float]:
+    """Least-squares slope of log(value) on log(n) per numeric column (two or more values)."""
+    out = {}
+    for f in fields(ArmRow):
+        if f.name in ("n", "max_abs_diff_pin", "max_abs_diff_sympy"):
+            continue
+        pts = [(r.n, getattr(r, f.name)) for r in rows
+               if isinstance(getattr(r, f.name), (int, float)) and not isinstance(getattr(r, f.name), bool)
+               and getattr(r, f.name) > 0]
+        if len(pts) >= 2 and len({n for n, _ in pts}) >= 2:
+            x = np.log([n for n, _ in pts])
+            y = np.log([v for _, v in pts])
+            out[f.name] = float(np.polyfit(x, y, 1)[0])
+    return out
+
+
+_COLUMNS = (  # header, width, value
+    ("n", 3, lambda r: f"{r.n}"),
+    ("derive", 7, lambda r: _f(r.derive_s, ".2f")),
+    ("bake", 6, lambda r: _f(r.bake_s, ".2f")),
+    ("CSE", 7, lambda r: _f(r.cse_s, ".2f")),
+    ("render", 6, lambda r: _f(r.render_s, ".2f")),
+    ("compile", 7, lambda r: _f(r.compile_s, ".2f")),
+    ("ops", 7, lambda r: _f(r.ops_after, "d")),
+    ("ops/n", 6, lambda r: _f(None if r.ops_after is None else r.ops_after / r.n, ".0f")),
+    ("C ns", 8, lambda r: _f(r.rhs_c_ns, ".0f")),
+    ("py ns", 7, lambda r: _f(r.rhs_py_ns, ".0f")),
+    ("pin C++", 7, lambda r: _f(r.pin_cxx_ns, ".0f")),
+    ("pin py", 7, lambda r: _f(r.pin_py_ns, ".0f")),
+    ("sp derive", 9, lambda r: _f(r.sympy_derive_s, ".2f")),
+    ("sp CSE", 7, lambda r: _f(r.sympy_cse_s, ".2f")),
+    ("sp lamb", 7, lambda r: _f(r.sympy_lambdify_s, ".2f")),
+    ("sp py ns", 8, lambda r: _f(r.sympy_rhs_py_ns, ".0f")),
+    ("|mb-pin|", 8, lambda r: _f(r.max_abs_diff_pin, ".0e")),
+)
+
+_EXPONENT_KEYS = {"derive": "derive_s", "bake": "bake_s", "CSE": "cse_s", "render": "render_s",
+                  "compile": "compile_s", "ops": "ops_after", "C ns": "rhs_c_ns",
+                  "py ns": "rhs_py_ns", "pin C++": "pin_cxx_ns", "pin py": "pin_py_ns",
+                  "sp derive": "sympy_derive_s", "sp CSE": "sympy_cse_s",
+                  "sp lamb": "sympy_lambdify_s", "sp py ns": "sympy_rhs_py_ns"}
+
+LEGEND = """\
+Stage times in s (each measured once); per-call times in ns (median of loops).
+C ns: mbgen's <prefix>_rhs in a C loop; py ns: model.rhs from Python (crossing included);
+pin C++ / pin py: Pinocchio's aba in a C++ loop / pin.aba from Python; sp: sympy KanesMethod
+(derive, sympy.cse, lambdify, RHS = lambdified M, F + numpy.linalg.solve); '-': not reached.
+|mb-pin|: largest difference of the joint accelerations, mbgen vs Pinocchio, at the timed state.
+slope: least-squares growth exponent d log(value) / d log(n) over the n that finished."""
+
+
+def _f(value, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def format_arm(rows: Sequence[ArmRow]) -> str:
+    """Fixed-width table, growth exponents, each row's status, and the legend."""
+    def line(cells):
+        return "  ".join(f"{c:>{w}}" for c, (_, w, _) in zip(cells, _COLUMNS)).rstrip()
+
+    header = line(h for h, _, _ in _COLUMNS)
+    body = [line(fmt(r) for _, _, fmt in _COLUMNS) for r in rows]
+    slopes = growth_exponents(rows)
+    slope_cells = ["slope"] + [_f(slopes.get(_EXPONENT_KEYS.get(h, "")), ".2f")
+                               for h, _, _ in _COLUMNS[1:]]
+    slope_cells = [c if h in _EXPONENT_KEYS or h == "n" else "" for c, (h, _, _) in
+                   zip(slope_cells, _COLUMNS)]
+    status = [f"n={r.n}: mbgen {r.status}; sympy {r.sympy_status}" for r in rows]
+    return "\n".join([header, "-" * len(header), *body, line(slope_cells), "", *status, "",
+                      LEGEND, f"Driver flags: {' '.join(DRIVER_FLAGS)}; BLAS threads pinned to 1."])
+
+
+def write_csv(rows: Sequence[ArmRow], path: Path) -> Path:
+    """One line per ``n`` with every :class:`ArmRow` field, then a ``slope`` line."""
+    path = Path(path)
+    names = [f.name for f in fields(ArmRow)]
+    slopes = growth_exponents(rows)
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(names)
+        for r in rows:
+            w.writerow(["" if v is None else v for v in asdict(r).values()])
+        w.writerow(["slope"] + [("" if k not in slopes else f"{slopes[k]:.3f}") for k in names[1:]])
+    return path
+
+
+def plot(rows: Sequence[ArmRow], path: Path) -> Path:
+    """Log-log plot: per-call RHS times (left) and operations after CSE (right) against n."""
+    from ..viz.plots import require_matplotlib
+
+    require_matplotlib()   # a named error when the bench extra is not installed
+    import matplotlib
+    import matplotlib.ticker
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5))
+    series = (("rhs_c_ns", "mbgen RHS in C"), ("rhs_py_ns", "mbgen RHS from Python"),
+              ("pin_cxx_ns", "Pinocchio aba in C++"), ("pin_py_ns", "Pinocchio aba from Python"),
+              ("sympy_rhs_py_ns", "sympy lambdify + solve"))
+    for key, label in series:
+        pts = [(r.n, getattr(r, key)) for r in rows if getattr(r, key) is not None]
+        if pts:
+            left.loglog(*zip(*pts), "o-", label=label)
+    left.set(xlabel="links n", ylabel="ns per call", title="forward dynamics, one call")
+    left.legend(fontsize=8)
+    for key, label in (("ops_after", "mbgen"), ("sympy_ops_after", "sympy.cse")):
+        pts = [(r.n, getattr(r, key)) for r in rows if getattr(r, key) is not None]
+        if pts:
+            right.loglog(*zip(*pts), "s-", label=label)
+    right.set(xlabel="links n", ylabel="operations after CSE", title="RHS size")
+    right.legend(fontsize=8)
+    ns = [r.n for r in rows]
+    for ax in (left, right):        # plain link counts on the x axis, no minor labels
+        ax.set_xticks(ns, [str(n) for n in ns])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return Path(path)
+
+
+if __name__ == "__main__":  # the child processes
+    sys.exit(_child_main(sys.argv[1:]))

@@ -1,0 +1,133 @@
+r"""What the header states besides the prototypes: index macros, content hash, stack bounds.
+
+Index macros
+    ``<PREFIX>_X_<state>``, ``<PREFIX>_P_<parameter>``, ``<PREFIX>_R_<input>``:
+    the index of each symbol in ``x``, ``p`` and ``r`` (``x[DISC_PENDULUM_X_q2]``).
+Content hash
+    ``<PREFIX>_CONTENT_HASH``: the first 16 hex digits of the SHA-256 of the
+    generated ``.h``, ``.c`` and ``.py`` texts with the hash itself blanked
+    (:func:`content_hash`).  An FMU's GUID and the ensemble runner's cache key.
+Stack bounds
+    ``<PREFIX>_STACK_<FUNCTION>``: an upper bound, in bytes, of the stack one
+    call of each public function uses, the functions it calls included.  It
+    counts every automatic variable the function and its callees declare (8
+    bytes a double or a long, 4 an int) plus :data:`FRAME_BYTES` per call level
+    for the return address, saved registers, alignment and the compiler's own
+    spills; ``tests/test_step.py`` checks it against ``gcc -fstack-usage``.
+    Work arrays that grow with ``n_x^2`` (Rosenbrock's Jacobian and iteration
+    matrix) live in caller-owned structs: ``<prefix>_rosenbrock_work`` of the
+    whole-trajectory integrator and the step API's memory; never on the stack.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import re
+
+from .escape import c_comment
+from .solver import UNROLL_MAX, factor_program
+
+#: Allowance per call level: return address, saved registers, alignment, compiler spills.
+FRAME_BYTES = 256
+#: Placeholder of the hash while the texts are hashed.
+HASH_PLACEHOLDER = "0" * 16
+D, I = 8, 4
+
+
+def index_defines(upper: str, layout) -> list[tuple[str, int, str]]:
+    """``(macro, index, symbol)`` for every state, parameter and input (symbol escaped for a C comment)."""
+    def ident(s):
+        return re.sub(r"[^A-Za-z0-9_]", "_", str(s))
+
+    groups = (("X", layout.states), ("P", layout.parameters), ("R", layout.inputs))
+    return [(f"{upper}_{a}_{ident(s)}", i, c_comment(str(s))) for a, syms in groups
+            for i, s in enumerate(syms)]
+
+
+def content_hash(files: dict) -> str:
+    """SHA-256 (16 hex digits) of ``{name: text}`` with the hash placeholder in place."""
+    h = hashlib.sha256()
+    for name in sorted(files):
+        h.update(name.encode() + b"\0" + files[name].encode() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def _function_bytes(view: dict) -> int:
+    """Automatic storage one model function declares."""
+    doubles = int(view["uses_time"]) + len(view["loads"]) + len(view["temps"]) \
+        + len(view["post_temps"]) + sum(b["size"] for b in view["pre"] + view["post"]
+                                        if b["local"])
+    ints = int(bool(view["solve"])) + int(bool(view["columns"])) + 1
+    return D * doubles + I * ints
+
+
+def _ldl_bytes(kernel) -> int:
+    n = kernel.layout.n_u
+    if n <= UNROLL_MAX:
+        lets = sum(1 for s in factor_program(n, kernel.mass_pattern) if s.kind == "let")
+        return D * lets
+    return D * (n + 2) + I * 3
+
+
+def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
+                 non_autonomous: bool = False) -> dict[str, int]:
+    """``{C function name: bound in bytes}`` for every public function."""
+    n = max(kernel.layout.n_x, 1)
+    F = FRAME_BYTES
+    helper = F + D * 8 + I * 4        # rms, lu_solve, all_finite, integ_start, ...
+    ldl = F + _ldl_bytes(kernel)
+    bounds: dict[str, int] = {}
+    c = kernel.equations.constraints
+    constraint_solve = 0   # velocity_solve / kkt_factor / kkt_solve, each over con_lu_solve
+    if c is not None:
+        n_all = kernel.layout.n_u + c.m
+        constraint_solve = 2 * F + D * (c.m + n_all + 10) + I * 10
+    for v in views:
+        callee = max(ldl, helper) if v["solve"] or v["columns"] else helper
+        callee = max(callee, constraint_solve)
+        bounds[v["name"]] = F + _function_bytes(v) + callee
+    fn = {v["output"]: bounds[v["name"]] for v in views}
+    rhs = fn.get("rhs", 0)
+    lu = F + D * 4 + I * 4
+    initial = F + D * (3 * n + 8) + I * 2 + max(rhs, helper)
+    stats = 5 * D + D
+    integ = {o.value for o in kernel.integrators}
+    c = kernel.equations.constraints
+    project = 0                       # <prefix>_project: Newton on the dependent coordinates
+    if c is not None and c.m_h and integ:
+        m, n_q = c.m_h, kernel.layout.n_q
+        project = F + D * (3 * m + m * n_q + m * m + 3) + I * 6 + max(
+            fn.get("holonomic", 0), fn.get("holonomic_jacobian", 0), helper)
+    rhs = max(rhs, project)           # called where the RHS is: after a step
+    if "dopri5" in integ:
+        own = D * (12 * n + 7 + 14) + stats + I * 4
+        bounds[f"{prefix}_dopri5"] = F + own + max(rhs, initial, helper)
+    if "rk4" in integ:
+        own = D * (6 * n + 5) + stats + I * 3
+        bounds[f"{prefix}_rk4"] = F + own + max(rhs, helper)
+    if "rosenbrock" in integ:
+        from .integrators.tableaux import ROSENBROCK
+
+        own = D * ((8 + int(non_autonomous) + ROSENBROCK.n_stages()) * n + 18) + I * 4 \
+            + stats                     # J, G and piv are in the caller's work struct
+        calls = max(rhs, fn.get("jacobian", 0), fn.get("time_derivative", 0), lu, initial,
+                    helper)
+        bounds[f"{prefix}_rosenbrock"] = F + own + calls
+    if step_methods and project:
+        bounds[f"{prefix}_project_state"] = F + D * 14 + I * 2 + project
+    for m in step_methods:
+        bounds[f"{prefix}_{m}_init"] = F + D * 2 + helper
+        own = D * 24 + I * 6
+        calls = max(rhs, helper, F + D * 14 + I * 2 + project if project else 0)
+        if m != "rk4":
+            calls = max(calls, F + D * 8 + I * 2 + max(rhs, helper))
+        if m == "rosenbrock":
+            calls = max(calls, fn.get("jacobian", 0), fn.get("time_derivative", 0), lu)
+        bounds[f"{prefix}_{m}_step"] = F + own + calls
+    if kernel.layout.n_p and all(str(s) in kernel.equations.defaults
+                                 for s in kernel.layout.parameters):
+        bounds[f"{prefix}_default_parameters"] = F
+    return bounds
+
+
+__all__ = ["index_defines", "content_hash", "stack_bounds", "FRAME_BYTES", "HASH_PLACEHOLDER"]

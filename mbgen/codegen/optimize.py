@@ -1,0 +1,292 @@
+r"""Optimisation: ``Equations + outputs -> Kernel``.
+
+Only the outputs a scene asks for are kept (:mod:`mbgen.codegen.outputs` says what each
+computes).  Every expression of every kept output goes through **one**
+common-subexpression-elimination pass (:mod:`mbgen.codegen.cse`); each generated
+function then takes the temporaries its own expressions depend on, split into
+those computed before the mass matrix is solved and those that need the
+accelerations.  Operation counts before (expressions evaluated as trees) and
+after (temporaries plus reduced outputs) are recorded per function.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import sympy as sm
+
+from .cse import CseBackend, cse
+from ..symbolic.equations import Equations
+from ..errors import ModelError
+from ..symbolic.layout import Layout
+from ..abi import INTEGRATORS, Output
+from .outputs import (Block, Form, Spec, acceleration_symbols, lambda_symbols, spec,
+                      with_dependencies)
+from .solver import solve_ops
+from ..symbolic.graph import count_ops_dag, count_ops_tree, free_symbols, xreplace_dag
+
+__all__ = ["Output", "CseBackend", "Block", "Form", "KernelFunction", "Kernel", "optimize"]
+
+
+@dataclass(frozen=True)
+class KernelFunction:
+    """One generated function: a :class:`~mbgen.codegen.outputs.Spec` after CSE.
+
+    ``temporaries`` are evaluated before the solve, ``post_temporaries`` after
+    it (they use the accelerations).
+    """
+
+    spec: Spec
+    temporaries: tuple[tuple[sm.Symbol, sm.Expr], ...]
+    pre: tuple[Block, ...]
+    post_temporaries: tuple[tuple[sm.Symbol, sm.Expr], ...]
+    post: tuple[Block, ...]
+    uses: frozenset            # subset of {"t", "x", "p", "r"}
+    symbols_used: tuple        # layout symbols the function reads, in layout order
+    ops_before: int
+    ops_after: int
+    checks: frozenset = frozenset()   # temporaries that must be positive (recursion pivots)
+    velocity_temporaries: tuple = ()  # constrained: before the dependent speeds are solved
+    velocity: tuple = ()              # constrained: the blocks CA, CB (A and b of A u + b = 0)
+
+    @property
+    def output(self) -> Output:
+        return self.spec.output
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """Optimised, ready-to-print functions of one model, plus the integrators asked for.
+
+    ``layout`` is the ABI: the equations' layout without parameters and inputs
+    that no emitted function reads.
+    """
+
+    equations: Equations
+    functions: tuple[KernelFunction, ...]
+    integrators: tuple[Output, ...]
+    cse_backend: CseBackend
+    temp_prefix: str
+    layout: Layout
+    mass_pattern: frozenset   # (i, j), i > j: structural nonzeros of M below the diagonal
+    form: Form = Form.SOLVE   # how u' is computed (see mbgen.codegen.outputs.Form)
+    form_costs: tuple = ()    # ((form, operations of the RHS), ...) when both were tried
+
+    @property
+    def outputs(self) -> tuple[Output, ...]:
+        return tuple(f.output for f in self.functions) + self.integrators
+
+    @property
+    def ops_before(self) -> int:
+        return sum(f.ops_before for f in self.functions)
+
+    @property
+    def ops_after(self) -> int:
+        return sum(f.ops_after for f in self.functions)
+
+
+
+def _temp_prefix(equations: Equations) -> str:
+    names = set(equations.layout.identifiers.values())
+    for prefix in ("v", "w", "tmp", "cse"):
+        if not any(n.startswith(prefix) and n[len(prefix):].isdigit() for n in names):
+            return prefix
+    return "mbgen_tmp"  # pragma: no cover
+
+
+def optimize(equations: Equations, outputs=(Output.RHS,),
+             cse_backend: CseBackend = CseBackend.SYMENGINE, form: Form | None = None) -> Kernel:
+    """Select ``outputs`` of ``equations`` and eliminate common subexpressions once.
+
+    Parameters
+    ----------
+    equations : Equations
+    outputs : iterable of Output (or names)
+        What to emit; default ``(Output.RHS,)``.  Integrators pull in what they
+        call (the RHS, and for ``ROSENBROCK`` the Jacobian).
+    cse_backend : CseBackend
+        ``SYMENGINE`` (default; faster and finds more sharing) or ``SYMPY``.
+    form : Form, optional
+        How ``u'`` is computed.  Default: ``SOLVE`` unless the equations carry
+        a recursion (:attr:`Equations.accelerations`); then both forms of the
+        right-hand side are optimised and the one with fewer operations wins
+        (the solve counted with its ``L D L^T`` operations).
+    """
+    outputs = with_dependencies(outputs, equations)
+    if not outputs:
+        raise ModelError("no outputs requested; ask for at least Output.RHS")
+    cse_backend = CseBackend(cse_backend)
+    costs: tuple = ()
+    if form is None:
+        form = Form.SOLVE
+        if equations.accelerations is not None:
+            trial = {f: _kernel(equations, (Output.RHS,), cse_backend, f) for f in Form}
+            n = equations.layout.n_u
+            costs = tuple((f, k.ops_after + (solve_ops(n, k.mass_pattern) if f is Form.SOLVE
+                                             else 0)) for f, k in trial.items())
+            form = min(costs, key=lambda fc: fc[1])[0]
+            if tuple(outputs) == (Output.RHS,):
+                return replace(trial[form], form_costs=costs)
+    return replace(_kernel(equations, outputs, cse_backend, Form(form)), form_costs=costs)
+
+
+def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) -> Kernel:
+    prefix = _temp_prefix(equations)
+    specs = [spec(equations, o, form) for o in outputs if not o.is_integrator]
+
+    # every assignment (the program, and each output's own) and every output expression
+    assignments = list(equations.program.assignments)
+    for s in specs:
+        assignments += list(s.extra.assignments)
+    defined = {sym for sym, _ in assignments}
+    checks = set(equations.program.checks)
+
+    # one CSE pass over every distinct expression of every output and assignment
+    distinct: dict = {}
+    for e in [e for _, e in assignments] + [e for s in specs for b in s.velocity + s.pre + s.post
+                                          for _, e in b.entries]:
+        if e.args and e not in distinct:
+            distinct[e] = len(distinct)
+    reps, reduced = cse(list(distinct), prefix, cse_backend)
+    reduced_of = {e: reduced[i] for e, i in distinct.items()}
+    renamed: dict = {}
+    if assignments:
+        reps = _merge(reps, [(sym, reduced_of.get(e, e)) for sym, e in assignments])
+        reps, aliases = _drop_copies(reps, checks)
+        reduced_of = {e: r for e, r in zip(reduced_of,
+                                            xreplace_dag(list(reduced_of.values()), aliases))}
+        reps, renamed = _rename(reps, prefix, defined)
+        reduced_of = {e: r for e, r in zip(reduced_of,
+                                            xreplace_dag(list(reduced_of.values()), renamed))}
+        checks = {renamed[c] for c in checks if c in renamed}
+        for sym in set(renamed) | set(aliases):   # entries that are a bare temporary
+            if sym not in reduced_of:
+                target = aliases.get(sym, sym)
+                reduced_of[sym] = renamed.get(target, target)
+    rep_expr = dict(reps)
+    order = {s: i for i, (s, _) in enumerate(reps)}
+    L = equations.layout
+    solved = set(acceleration_symbols(L.n_u + L.n_d))
+    if equations.constraints is not None:
+        solved |= set(lambda_symbols(equations.constraints.m))
+    after_solve = _depends_on(reps, solved - defined)
+    program_defs = dict(assignments)
+
+    functions = []
+    for s in specs:
+        vel = tuple(_reduce(b, reduced_of) for b in s.velocity)
+        pre = tuple(_reduce(b, reduced_of) for b in s.pre)
+        post = tuple(_reduce(b, reduced_of) for b in s.post)
+        vel_roots = [e for b in vel for _, e in b.entries]
+        roots = [e for b in pre + post for _, e in b.entries]
+        first = set(_closure(vel_roots, rep_expr))
+        needed = sorted(_closure(roots, rep_expr) | first, key=order.__getitem__)
+        vel_temps = tuple((t, rep_expr[t]) for t in needed if t in first)
+        temps = tuple((t, rep_expr[t]) for t in needed if t not in after_solve and t not in first)
+        post_temps = tuple((t, rep_expr[t]) for t in needed if t in after_solve)
+        every = vel_temps + temps + post_temps
+        used_syms, uses = _usage(equations, vel_roots + roots + [e for _, e in every])
+        raw = [e for b in s.velocity + s.pre + s.post for _, e in b.entries]
+        before = count_ops_tree(raw) + sum(count_ops_tree([program_defs[d]]) for d in
+                                           _closure(raw, program_defs))
+        after = (count_ops_dag([e for _, e in every])
+                 + sum(count_ops_dag([e]) for e in vel_roots + roots))
+        functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,
+                                        before, after, frozenset(checks & set(needed)),
+                                        vel_temps, vel))
+    integrators = tuple(o for o in outputs if o in INTEGRATORS)
+    used = {sym for f in functions for sym in f.symbols_used + f.spec.variables}
+    abi = Layout(L.coordinates, L.speeds, tuple(p for p in L.parameters if p in used),
+                 tuple(r for r in L.inputs if r in used), L.time, L.dependent_speeds)
+    M = equations.mass_matrix
+    pattern = frozenset((i, j) for i in range(L.n_u) for j in range(i)
+                        if equations.constraints is not None or M[i, j] != 0)
+    return Kernel(equations, tuple(functions), integrators, cse_backend, prefix, abi, pattern,
+                  form)
+
+
+def _merge(reps, assignments) -> list:
+    """CSE temporaries and program assignments in one order where every use follows its definition.
+
+    Program assignments keep their order; a temporary goes right before its
+    first use (depth first, iteratively).
+    """
+    defs = dict(reps)
+    defs.update(assignments)
+    out: list = []
+    done: set = set()
+    for root in [s for s, _ in assignments] + [s for s, _ in reps]:
+        if root in done:
+            continue
+        stack = [(root, False)]
+        while stack:
+            sym, expanded = stack.pop()
+            if sym in done:
+                continue
+            if expanded:
+                done.add(sym)
+                out.append((sym, defs[sym]))
+                continue
+            stack.append((sym, True))
+            deps = sorted((d for d in free_symbols([defs[sym]]) if d in defs and d not in done),
+                          key=str, reverse=True)
+            stack.extend((d, False) for d in deps)
+    return out
+
+
+def _drop_copies(reps, checks):
+    """Remove temporaries that only copy another symbol (``a = b``), substituting ``b``."""
+    aliases: dict = {}
+    for sym, e in reps:
+        if e.is_Symbol and sym not in checks:
+            aliases[sym] = aliases.get(e, e)
+    if not aliases:
+        return reps, aliases
+    memo: dict = {}
+    kept = [(sym, e) for sym, e in reps if sym not in aliases]
+    values = xreplace_dag([e for _, e in kept], aliases, memo)
+    return [(sym, v) for (sym, _), v in zip(kept, values)], aliases
+
+
+def _rename(reps, prefix: str, defined: set):
+    """Name every temporary ``<prefix><k>`` in evaluation order (program symbols included)."""
+    renamed = {sym: sm.Symbol(f"{prefix}{k}") for k, (sym, _) in enumerate(reps)}
+    memo: dict = {}
+    values = xreplace_dag([e for _, e in reps], renamed, memo)
+    return [(renamed[sym], v) for (sym, _), v in zip(reps, values)], renamed
+
+
+def _reduce(block: Block, reduced_of: dict) -> Block:
+    return Block(block.name, block.size,
+                 tuple((i, reduced_of.get(e, e)) for i, e in block.entries), block.mirror)
+
+
+def _usage(equations: Equations, exprs) -> tuple[tuple, frozenset]:
+    L = equations.layout
+    used = free_symbols(exprs) & (L.symbols() - set(L.dependent_speeds))
+    ordered = tuple(s for s in L.states + L.parameters + L.inputs + (L.time,) if s in used)
+    groups = (("t", {L.time}), ("x", set(L.states)), ("p", set(L.parameters)),
+              ("r", set(L.inputs)))
+    return ordered, frozenset(k for k, group in groups if used & group)
+
+
+def _depends_on(reps, roots: set) -> set:
+    """Temporaries whose value depends (transitively) on any symbol in ``roots``."""
+    tainted = set(roots)
+    for s, e in reps:
+        if free_symbols([e]) & tainted:
+            tainted.add(s)
+    return tainted - roots
+
+
+def _closure(roots, rep_expr) -> set:
+    """Temporaries reachable from ``roots`` through ``rep_expr``."""
+    needed: set = set()
+    stack = list(free_symbols(roots) & rep_expr.keys())
+    while stack:
+        s = stack.pop()
+        if s in needed:
+            continue
+        needed.add(s)
+        stack.extend(free_symbols([rep_expr[s]]) & rep_expr.keys() - needed)
+    return needed

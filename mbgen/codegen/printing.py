@@ -1,0 +1,166 @@
+"""Printers: sympy expression -> C99 or Python source text.
+
+Printers print expressions; templates own files.  Behaviour is customised the
+sympy way, by overriding single ``_print_X`` methods:
+
+* symbols print as the sanitised identifiers of the layout (or temporaries);
+* small integer powers become multiplications (``x*x*x`` rather than
+  ``pow(x, 3)``), ``x**-1`` a division, half-integer powers ``sqrt`` times
+  multiplications (``x**(-3/2)`` is ``1.0/(sqrt(x)*x)``);
+* floats keep 17 significant digits, so no value is rounded on the way;
+* a non-finite constant (``inf``, ``nan``, ``zoo``) is never printed: it raises
+  :class:`NonFiniteConstantError` (a bare ``inf`` does not compile, and a NaN
+  baked into code would poison every result silently).
+
+Which powers print as products is decided by one function, :func:`power_form`;
+the C and Python printers, :func:`math_functions` and the CSE pass that hoists
+repeated bases (:mod:`mbgen.codegen.cse`) all ask it.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import math
+
+import sympy as sm
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.precedence import precedence
+from sympy.printing.pycode import PythonCodePrinter
+
+from ..errors import NonFiniteConstantError
+
+#: Largest integer power printed as repeated multiplication.
+MAX_UNROLLED_POWER = 8
+
+
+def power_form(exp) -> tuple[str, int] | None:
+    """How ``base**exp`` prints; the single rule for unrolled powers.
+
+    Returns
+    -------
+    ("product", k)
+        ``exp = +-k`` with ``1 <= k <= MAX_UNROLLED_POWER``: ``b*b*...*b`` (k
+        factors), divided into 1 when negative.
+    ("sqrt", k)
+        ``exp = +-(k + 1/2)`` with ``k <= MAX_UNROLLED_POWER``: ``sqrt(b)*b*...*b``
+        (k factors after the root), divided into 1 when negative.
+    None
+        Anything else: a general ``pow(b, exp)``.
+    """
+    if exp.is_Integer and 1 <= abs(int(exp)) <= MAX_UNROLLED_POWER:
+        return "product", abs(int(exp))
+    if exp.is_Rational and exp.q == 2 and abs(exp.p) <= 2 * MAX_UNROLLED_POWER + 1:
+        return "sqrt", abs(int(exp.p)) // 2
+    return None
+
+
+def printed_base_count(exp) -> int:
+    """How many times a power with exponent ``exp`` prints its base (1 for ``pow``)."""
+    form = power_form(exp)
+    if form is None:
+        return 1
+    kind, k = form
+    return k if kind == "product" else 1 + k
+
+
+def _refuse_nonfinite(expr):
+    raise NonFiniteConstantError(
+        f"the generated code would contain the non-finite constant {expr}; a parameter, fixed "
+        f"value or number in the model is inf or nan (or a division by zero was folded): "
+        f"give finite values")
+
+
+class _PowerMixin:
+    """Shared rewriting of powers and symbols for both printers."""
+
+    _names: Mapping[sm.Symbol, str]
+    _one: str
+    _sqrt: str
+
+    def _print_Symbol(self, expr):
+        try:
+            return self._names[expr]
+        except KeyError:
+            raise KeyError(f"no name for symbol {expr} in the printer's table") from None
+
+    def _print_Pow(self, expr, rational=False):
+        base, exp = expr.base, expr.exp
+        prec = precedence(expr)
+        form = power_form(exp)
+        if form is not None and form[0] == "product":
+            b = self.parenthesize(base, prec)
+            k = form[1]
+            prod = b if k == 1 else "(" + "*".join([b] * k) + ")"
+            return prod if exp > 0 else f"({self._one}/{prod})"
+        if form is not None:
+            k = form[1]  # x**(n/2) = sqrt(x) * x**k
+            root = f"{self._sqrt}({self._print(base)})"
+            b = self.parenthesize(base, prec)
+            prod = "*".join([root] + [b] * k)
+            prod = prod if k == 0 else f"({prod})"
+            return prod if exp > 0 else f"({self._one}/{prod})"
+        return self._print_general_pow(expr)
+
+    def _print_Float(self, expr):
+        value = float(expr)
+        if not math.isfinite(value):
+            _refuse_nonfinite(expr)
+        return repr(value)
+
+    def _print_Infinity(self, expr):
+        _refuse_nonfinite(expr)
+
+    _print_NegativeInfinity = _print_ComplexInfinity = _print_NaN = _print_Infinity
+
+
+class CPrinter(_PowerMixin, C99CodePrinter):
+    """C99 printer with mbgen's symbol table and power rewriting."""
+
+    _one = "1.0"
+    _sqrt = "sqrt"
+
+    def __init__(self, names: Mapping[sm.Symbol, str]):
+        super().__init__({"precision": 17, "math_macros": {}})
+        self._names = names
+
+    def _print_general_pow(self, expr):
+        return f"pow({self._print(expr.base)}, {self._print(expr.exp)})"
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0" if abs(int(expr)) < 2**53 else super()._print_Integer(expr)
+
+
+
+class PyPrinter(_PowerMixin, PythonCodePrinter):
+    """Python printer (``math`` module) with mbgen's symbol table and power rewriting."""
+
+    _one = "1.0"
+    _sqrt = "math.sqrt"
+
+    def __init__(self, names: Mapping[sm.Symbol, str]):
+        super().__init__({"fully_qualified_modules": True, "standard": "python3"})
+        self._names = names
+
+    def _print_general_pow(self, expr):
+        return f"math.pow({self._print(expr.base)}, {self._print(expr.exp)})"
+
+    def _print_Rational(self, expr):
+        return f"{expr.p}.0/{expr.q}.0"
+
+
+def math_functions(exprs) -> set[str]:
+    """Names of the sympy functions used in ``exprs`` (for includes and audits)."""
+    from ..symbolic.graph import walk_unique
+
+    out = set()
+    for node in walk_unique(exprs):
+        if isinstance(node, sm.Function):
+            out.add(type(node).__name__)
+        elif isinstance(node, sm.Pow):
+            form = power_form(node.exp)
+            if form is None:
+                out.add("pow")
+            elif form[0] == "sqrt":
+                out.add("sqrt")
+    return out

@@ -1,0 +1,117 @@
+r"""The step API: advance a state held in a caller-owned memory struct.
+
+For a control loop or a co-simulation master that owns the clock.  Rendered
+into ``<prefix>.h`` / ``<prefix>.c`` by ``templates/step/step.h.j2`` and
+``templates/step/step.c.j2`` when :class:`~mbgen.codegen.targets.Targets` has ``step``.
+
+Per method ``m`` (``rk4`` always; ``dopri5`` unless the scene asks for
+``rosenbrock`` only; ``rosenbrock`` when the scene asks for it)::
+
+    typedef struct { double t; double x[N_X]; double h; ...; } <prefix>_<m>_memory;
+    int <prefix>_<m>_init(<prefix>_<m>_memory *mem, double t0, const double *x0,
+                          double rtol, double atol);
+    int <prefix>_<m>_step(<prefix>_<m>_memory *mem, double h[, const double *p]
+                          [, const double *r]);
+
+``step`` advances ``mem->x`` from ``mem->t`` to ``mem->t + h`` with the
+inputs ``r`` held constant over the step (they may change from one call to
+the next).  ``rk4`` takes one classic Runge--Kutta step of size ``h``.  The
+adaptive methods take as many error-controlled steps as needed, the last one
+cut to land on ``t + h``, and keep in ``mem`` what the next call needs: the
+step size (``mem->h``; the controller's proposal, not the cut step), and
+``f(t, x)`` with the ``p``, ``r`` it was computed for (reused when the next
+call passes the same values, so an unchanged input costs no extra RHS call).
+The memory's size is ``sizeof(<prefix>_<m>_memory)``, a compile-time
+constant: every work array (for Rosenbrock the ``N_X x N_X`` Jacobian and
+iteration matrix) lives in it, so the functions' stack use is small and
+stated in the header.  No allocation, no globals: one memory per simulated
+system, any number in parallel.
+
+With the same tolerances, ``dopri5_step(mem, T)`` from ``t = 0`` takes exactly
+the steps of ``<prefix>_dopri5`` over ``[0, T]`` (and gives the same bits);
+likewise for Rosenbrock.  On failure the status is returned and ``mem->t``,
+``mem->x`` keep the last accepted state.
+
+Configuration constraints: after every accepted step the dependent coordinates
+are projected back onto ``f_h(q, t) = 0`` by the integrators' projection
+(Newton, ``PROJECTION_FAILED`` when it does not converge), and the largest
+residual met before projecting is kept in ``mem->max_residual``; as in the
+whole-trajectory integrators, the adaptive methods evaluate the next step's
+first stage at the projected state.  The dependent speeds are not states (the
+RHS computes them), so the state stays consistent step after step.  The
+projection needs the integrators rendered (a scene with an integrator output).
+"""
+
+from __future__ import annotations
+
+from ...errors import ModelError
+from ..integrators.views import dopri5_view, explicit_time, projection, rk4_view, rosenbrock_view
+from ..integrators.tableaux import ROSENBROCK
+from ...abi import Output
+
+#: Default attempted-step limit per call (``mem->max_steps = 0``).
+DEFAULT_MAX_STEPS = 1000000
+
+
+def step_methods(kernel) -> tuple[str, ...]:
+    """The step functions rendered for ``kernel``: ``rk4`` and the adaptive ones."""
+    wanted = set(kernel.integrators)
+    methods = ["rk4"]
+    if Output.DOPRI5 in wanted or Output.ROSENBROCK not in wanted:
+        methods.append("dopri5")
+    if Output.ROSENBROCK in wanted:
+        methods.append("rosenbrock")
+    return tuple(methods)
+
+
+def adaptive_method(kernel) -> str:
+    """The adaptive step method an FMU's co-simulation uses (Rosenbrock for stiff scenes)."""
+    return "rosenbrock" if "rosenbrock" in step_methods(kernel) else "dopri5"
+
+
+def step_context(kernel, prefix: str) -> dict:
+    """Template context (key ``step``) for ``step/step.h.j2`` / ``step/step.c.j2``."""
+    L = kernel.layout
+    methods = step_methods(kernel)
+    functions = {f.output for f in kernel.functions}
+    non_autonomous = False
+    if "rosenbrock" in methods:
+        if Output.JACOBIAN not in functions:
+            raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs the "
+                             f"Jacobian; add Output.JACOBIAN")
+        non_autonomous = explicit_time(kernel)
+        if non_autonomous and Output.TIME_DERIVATIVE not in functions:
+            raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs df/dt; "
+                             f"add Output.TIME_DERIVATIVE")
+    project = projection(kernel)
+    if project and not kernel.integrators:
+        raise ModelError(f"the step API of {kernel.equations.name!r} projects onto its "
+                         f"configuration constraints with the integrators' projection; add an "
+                         f"integrator output (e.g. Output.DOPRI5)")
+    params = "".join(f", const double *{a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
+    args = "".join(f", {a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
+    protos = {}
+    for m in methods:
+        protos[m] = dict(
+            memory=f"{prefix}_{m}_memory",
+            init=f"int {prefix}_{m}_init({prefix}_{m}_memory *mem, double t0, const double *x0, "
+                 f"double rtol, double atol)",
+            step=f"int {prefix}_{m}_step({prefix}_{m}_memory *mem, double h{params})")
+    return dict(step=dict(
+        methods=list(methods),
+        protos=protos,
+        params=params,
+        args=args,
+        n_p=L.n_p,
+        n_r=L.n_r,
+        n=max(L.n_x, 1),
+        max_steps=DEFAULT_MAX_STEPS,
+        non_autonomous=non_autonomous,
+        project=project,
+        dopri5=dopri5_view() if "dopri5" in methods else None,
+        rk4=rk4_view(),
+        rosenbrock=rosenbrock_view(ROSENBROCK) if "rosenbrock" in methods else None,
+    ))
+
+
+__all__ = ["step_methods", "adaptive_method", "step_context", "DEFAULT_MAX_STEPS"]

@@ -1,0 +1,375 @@
+"""Scenes: a model plus what to do with it.
+
+A scene file is a Python file with a function ``scene(**options) -> Scene``.
+Built-in scenes live in :mod:`mbgen.scenes`; a user's own file works the same
+way (``mbgen check path/to/my_scene.py``)::
+
+    from mbgen import Model, Scene
+
+    def scene(n: int = 3) -> Scene:
+        m = Model("my_model")
+        ...
+        return Scene(name="my_model", model=m, parameters={"g": 9.81},
+                     initial_state={"q1": 0.1, "u1": 0.0}, t_span=(0.0, 10.0))
+
+A scene is validated once, when it is made (every command loads scenes through
+here): its name follows the name rule (:mod:`mbgen.names`); every name in
+``parameters``, ``fixed``, ``initial_state``, ``inputs`` and ``points`` exists in
+the model (else a :class:`~mbgen.errors.SceneError` with "did you mean");
+every number is a finite real and ``t_span`` a finite, increasing pair.
+Options given as text (``-O n=4`` on the command line) are converted to the
+type of the option's default, finite and integral where the default is.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+import importlib.util
+import inspect
+import math
+import numbers
+import pkgutil
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from ..symbolic.equations import Equations
+from ..errors import ModelError, SceneError
+from .builder import Model, allow_large_models, check_size
+from ..names import check_name
+from ..abi import Output
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A model, its numbers, and what to generate.
+
+    Attributes
+    ----------
+    name : str
+        Scene name, following the name rule of :mod:`mbgen.names` (it names
+        output folders and files: ``mbgen-out/<name>/``, ``<name>.csv``).
+    model : Model or Equations
+        What to derive (a ``Model``) or already derived equations (e.g. from
+        :func:`mbgen.from_sympy`).
+    parameters : mapping str -> float
+        Default value of every parameter.
+    initial_state : mapping str -> float
+        Initial value of every state (missing states start at 0).
+    t_span : (float, float)
+        Default simulation interval.
+    outputs : tuple of Output
+        What the generated code computes (default: the right-hand side).
+    description : str
+        One line for ``mbgen scenes`` and generated headers.
+    closed_form : callable or None
+        ``closed_form(t, x0, p) -> x(t)`` with ``t`` of shape (k,) and the
+        result of shape (k, n_x): an exact solution to check simulations against.
+    conserves_energy : bool
+        True when T + V is constant along solutions (no inputs, no dissipation,
+        no prescribed motion).
+    fixed : mapping str -> float
+        Parameters baked into the generated code as constants (folded away);
+        the other parameters stay free (run-time values, defaults from
+        ``parameters``).
+    inputs : tuple of str or None
+        Inputs given at run time; the model's other inputs are zero and leave
+        the generated code.  ``None``: every input.
+    points : tuple of str
+        Points whose positions/velocities ``Output.POSITIONS``/``VELOCITIES`` report.
+    prefix : str or None
+        C prefix of the generated code (default: the model name); give two
+        slices of one model different prefixes to link them into one program.
+    options : mapping
+        The options the scene was built with.
+    source : str
+        File the scene came from (an absolute path for a scene file; generated
+        files record only its name, see :func:`source_label`).
+    method : Method or None
+        Derivation method (None: Kane's method; ``Method.NEWTON_EULER`` for
+        joint reactions and the articulated-body recursion of long chains).
+    """
+
+    name: str
+    model: Model | Equations
+    parameters: Mapping[str, float] = field(default_factory=dict)
+    initial_state: Mapping[str, float] = field(default_factory=dict)
+    t_span: tuple[float, float] = (0.0, 10.0)
+    outputs: tuple = (Output.RHS,)
+    description: str = ""
+    closed_form: Callable | None = None
+    conserves_energy: bool = False
+    fixed: Mapping[str, float] = field(default_factory=dict)
+    inputs: tuple[str, ...] | None = None
+    points: tuple[str, ...] = ()
+    prefix: str | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+    source: str = ""
+    method: Any = None
+
+    def __post_init__(self):
+        try:
+            check_name(self.name, "scene")
+            if self.prefix is not None:
+                check_name(self.prefix, "C prefix")
+        except ModelError as exc:
+            raise SceneError(str(exc)) from None
+        for what in ("parameters", "fixed", "initial_state"):
+            values = getattr(self, what)
+            if not isinstance(values, Mapping):
+                raise SceneError(f"scene {self.name!r}: {what} must be a mapping name -> number, "
+                                 f"got {type(values).__name__}")
+            for key, value in values.items():
+                finite_number(value, f"scene {self.name!r}: {what}[{key!r}]")
+        span = self.t_span
+        if not isinstance(span, (tuple, list)) or len(span) != 2:
+            raise SceneError(f"scene {self.name!r}: t_span must be (t0, t_end), got {span!r}")
+        t0 = finite_number(span[0], f"scene {self.name!r}: t_span[0]")
+        t1 = finite_number(span[1], f"scene {self.name!r}: t_span[1]")
+        check_span(t0, t1, f"scene {self.name!r}: t_span")
+        _check_symbol_names(self)
+        if isinstance(self.model, Equations):  # a Model checks its size as it is built
+            L = self.model.layout
+            check_size(L.n_u + L.n_d, f"scene {self.name!r}")
+
+    def x0(self, layout) -> np.ndarray:
+        """Initial state as an array in ``layout`` order; unknown names are an error."""
+        unknown = set(self.initial_state) - set(layout.state_names)
+        if unknown:
+            raise SceneError(f"scene {self.name!r}: initial_state names {sorted(unknown)} are not "
+                             f"states; states are {list(layout.state_names)}")
+        return np.array([float(self.initial_state.get(n, 0.0)) for n in layout.state_names])
+
+    def p(self, layout) -> np.ndarray:
+        """Parameter values in ``layout`` order; every parameter needs a value."""
+        values = {**self.parameters, **self.fixed}
+        missing = [n for n in layout.parameter_names if n not in values]
+        if missing:
+            raise SceneError(f"scene {self.name!r} gives no value for parameter(s) {missing}")
+        return np.array([float(values[n]) for n in layout.parameter_names])
+
+
+def finite_number(value, what: str) -> float:
+    """``value`` as a float if it is a finite real number, else a :class:`SceneError`."""
+    if isinstance(value, (bool, str, bytes)) or not isinstance(value, (numbers.Real, np.floating,
+                                                                      np.integer)):
+        try:  # sympy numbers
+            import sympy as sm
+
+            if isinstance(value, sm.Basic) and value.is_number and value.is_real:
+                value = float(value)
+            else:
+                raise TypeError
+        except (TypeError, ValueError):
+            raise SceneError(f"{what} must be a real number, got {type(value).__name__} "
+                             f"{_shown(value)}") from None
+    try:
+        number = float(value)
+    except (OverflowError, ValueError):
+        number = math.inf
+    if not math.isfinite(number):
+        raise SceneError(f"{what} is {_shown(value)}; it must be a finite number")
+    return number
+
+
+def check_span(t0: float, t_end: float, what: str = "time span") -> None:
+    """Refuse a span that is not finite or does not increase (``t_end > t0``)."""
+    for v in (t0, t_end):
+        if not math.isfinite(v):
+            raise SceneError(f"{what}: {t0!r} .. {t_end!r} is not finite; give a finite end time")
+    if not t_end > t0:
+        raise SceneError(f"{what}: the end time {t_end!r} must be after the start {t0!r}")
+
+
+def _shown(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:50] + "..."
+
+
+def _did_you_mean(name, choices) -> str:
+    close = difflib.get_close_matches(str(name), list(choices), 1)
+    return f"; did you mean {close[0]!r}?" if close else ""
+
+
+def model_names(model) -> dict[str, list[str]] | None:
+    """Names a scene may refer to, by kind (None: an object we cannot inspect)."""
+    if isinstance(model, Model):
+        return dict(parameters=[str(c) for c in model.constants_],
+                    states=[str(s.func) for s in model.coordinates_ + model.speeds_],
+                    inputs=[str(s.func) for s in model.inputs_],
+                    points=[p.name for p in model.points if p is not model.origin])
+    if isinstance(model, Equations):
+        L = model.layout
+        return dict(parameters=list(L.parameter_names),
+                    states=list(L.state_names) + [str(u) for u in L.dependent_speeds],
+                    inputs=list(L.input_names), points=[pk.name for pk in model.points])
+    return None
+
+
+def _check_symbol_names(scn: "Scene") -> None:
+    """Every name the scene gives must exist in its model (once, where the scene is made)."""
+    known = model_names(scn.model)
+    if known is None:
+        raise SceneError(f"scene {scn.name!r}: model must be an mbgen Model or Equations, got "
+                         f"{type(scn.model).__name__}")
+    checks = [("parameters", scn.parameters, "parameters", "a constant"),
+              ("fixed", scn.fixed, "parameters", "a constant"),
+              ("initial_state", scn.initial_state, "states", "a coordinate or speed"),
+              ("inputs", scn.inputs or (), "inputs", "an input"),
+              ("points", scn.points, "points", "a point")]
+    for field_name, given, kind, noun in checks:
+        if isinstance(given, str):
+            raise SceneError(f"scene {scn.name!r}: {field_name} must be a tuple of names, not "
+                             f"the string {given!r}")
+        for name in given:
+            if name not in known[kind]:
+                listed = ", ".join(known[kind][:12]) + (" ..." if len(known[kind]) > 12 else "")
+                raise SceneError(
+                    f"scene {scn.name!r}: {field_name} names {str(name)!r}, which is not "
+                    f"{noun} of model {getattr(scn.model, 'name', '?')!r}"
+                    f"{_did_you_mean(name, known[kind])} ({kind}: {listed or 'none'})")
+
+
+def source_label(scn: "Scene") -> str:
+    """The scene's name and file as generated files record them: ``scene 'x' (x.py)``.
+
+    Only the file's name is recorded, never the path as typed, so the
+    generated bytes do not depend on the folder mbgen was run from.
+    """
+    if not scn.source:
+        return f"scene {scn.name!r}"
+    source = scn.source if scn.source.startswith("mbgen/scenes/") else Path(scn.source).name
+    return f"scene {scn.name!r} ({source})"
+
+
+def builtin_names() -> list[str]:
+    """Names of the built-in scenes (modules of :mod:`mbgen.scenes`)."""
+    from .. import scenes
+
+    return sorted(m.name for m in pkgutil.iter_modules(scenes.__path__) if not m.name.startswith("_"))
+
+
+def _module_for(name_or_path: str):
+    path = Path(name_or_path)
+    if name_or_path in builtin_names():
+        return importlib.import_module(f"mbgen.scenes.{name_or_path}"), f"mbgen/scenes/{name_or_path}.py"
+    if path.suffix == ".py":
+        if not path.is_file():
+            raise SceneError(f"scene file {str(path)!r} does not exist")
+        spec = importlib.util.spec_from_file_location(f"mbgen_user_scene_{path.stem}", path)
+        module = importlib.util.module_from_spec(spec)
+        try:
+            spec.loader.exec_module(module)
+        except Exception as exc:
+            raise SceneError(f"scene file {str(path)!r} failed to import: "
+                             f"{type(exc).__name__}: {exc}") from exc
+        return module, str(path.resolve())
+    raise SceneError(f"no scene {name_or_path!r}: built-in scenes are "
+                     f"{', '.join(builtin_names())}; or give the path of a .py scene file")
+
+
+def scene_options(name_or_path: str) -> dict[str, Any]:
+    """Options of a scene and their defaults (from the signature of its ``scene``)."""
+    module, _ = _module_for(name_or_path)
+    fn = _scene_function(module, name_or_path)
+    return {k: v.default for k, v in inspect.signature(fn).parameters.items()
+            if v.default is not inspect.Parameter.empty}
+
+
+def _scene_function(module, name):
+    fn = getattr(module, "scene", None)
+    if not callable(fn):
+        raise SceneError(f"scene {name!r} defines no function scene(**options) -> Scene")
+    return fn
+
+
+def load_scene(name_or_path: str, *, force: bool = False, **options) -> Scene:
+    """Build a built-in scene by name, or a scene file by path.
+
+    Options are passed to the scene's ``scene(**options)``; string values (from
+    the command line) are converted to the type of the option's default: a
+    float option must be finite, an int option integral, a bool option one
+    of ``1 0 true false yes no``.  ``force=True`` builds models beyond the
+    size guard (:data:`mbgen.model.builder.MAX_SPEEDS`).
+
+    Raises
+    ------
+    SceneError
+        Unknown scene, missing file, unknown option or a bad option value, a
+        file that fails, or a scene that fails validation (see the module
+        docstring).
+    ModelSizeError
+        The scene's model is far too large (unless ``force``).
+    """
+    module, source = _module_for(name_or_path)
+    fn = _scene_function(module, name_or_path)
+    params = inspect.signature(fn).parameters
+    typed = {}
+    for key, value in options.items():
+        if key not in params:
+            raise SceneError(f"scene {name_or_path!r} has no option {key!r}; options: "
+                             f"{', '.join(params) or 'none'}")
+        default = params[key].default
+        if isinstance(value, str) and default is not inspect.Parameter.empty and \
+                not isinstance(default, str):
+            value = _option_value(key, value, default, name_or_path)
+        typed[key] = value
+    try:
+        if force:
+            with allow_large_models():
+                scn = fn(**typed)
+        else:
+            scn = fn(**typed)
+    except SceneError:
+        raise
+    except Exception as exc:
+        if type(exc).__module__.startswith("mbgen"):
+            raise
+        raise SceneError(f"scene {name_or_path!r} failed: {type(exc).__name__}: {exc}") from exc
+    if not isinstance(scn, Scene):
+        raise SceneError(f"scene {name_or_path!r}: scene() returned {type(scn).__name__}, "
+                         f"not a Scene")
+    merged = {k: v.default for k, v in params.items() if v.default is not inspect.Parameter.empty}
+    merged.update(typed)
+    return _with(scn, options=merged, source=scn.source or source)
+
+
+_BOOLS = {"1": True, "true": True, "yes": True, "on": True,
+          "0": False, "false": False, "no": False, "off": False}
+
+
+def _option_value(key: str, text: str, default, scene: str):
+    """Convert the option text ``text`` to the type of ``default`` (finite, integral, ...)."""
+    what = f"option {key}={text!r} of scene {scene!r}"
+    if isinstance(default, bool):
+        try:
+            return _BOOLS[text.strip().lower()]
+        except KeyError:
+            raise SceneError(f"{what} must be true or false (1/0, yes/no)") from None
+    if isinstance(default, int):
+        try:
+            return int(text.strip(), 10)
+        except ValueError:
+            raise SceneError(f"{what} must be an integer (e.g. {key}={default})") from None
+    if isinstance(default, float):
+        try:
+            number = float(text)
+        except ValueError:
+            raise SceneError(f"{what} must be a number (e.g. {key}={default!r})") from None
+        if not math.isfinite(number):
+            raise SceneError(f"{what} is not a finite number (inf, nan and overflowing values "
+                             f"such as 1e400 are refused)")
+        return number
+    try:
+        return type(default)(text)
+    except (TypeError, ValueError):
+        raise SceneError(f"{what} must be {type(default).__name__}") from None
+
+
+def _with(scn: Scene, **changes) -> Scene:
+    from dataclasses import replace
+
+    return replace(scn, **changes)

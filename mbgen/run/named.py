@@ -1,0 +1,213 @@
+"""Numbers by name: parameters, inputs and states given as mappings.
+
+Every runtime call takes ``p``, ``r`` and ``x`` either as arrays in the
+model's order (:class:`~mbgen.symbolic.layout.Layout`; the fast path, untouched) or as a
+mapping by name::
+
+    model.rhs(0.0, {"q1": 0.1}, p={"c": 0.5})          # other states 0, other p: defaults
+    model.integrate("dopri5", t, x0, p={"m": [1.0, 2.0, 3.0]})   # a batch of 3
+
+A name the model does not have is an :class:`~mbgen.errors.UnknownNameError`
+with the closest names ("did you mean").  A name left out takes
+
+* ``p``: the model's default (the scene's ``parameters``, a PyDy System's
+  ``constants``); a parameter without a default must be given;
+* ``r``: 0 (an input not driven);
+* ``x``: 0, as a scene's ``initial_state``.
+
+A value may be a number or a 1-D sequence of ``k`` numbers; any sequence makes
+the result a ``(k, n)`` batch (numbers are repeated over the batch).
+
+:class:`InputTable` is a piecewise-linear input ``r(t)``: the generated C
+integrators interpolate it at every stage time (no Python in the loop), the
+solve_ivp paths call it.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..errors import UnknownNameError
+
+
+def did_you_mean(name: str, names: Sequence[str]) -> str:
+    """``"; did you mean 'c'?"`` for the closest of ``names`` (empty when none is close)."""
+    lower = {}
+    for n in names:  # compared without case: 'f' finds 'F'
+        lower.setdefault(str(n).lower(), n)
+    close = [lower[c] for c in difflib.get_close_matches(str(name).lower(), list(lower), n=3,
+                                                         cutoff=0.5)]
+    if not close:
+        return ""
+    return "; did you mean " + " or ".join(repr(c) for c in close) + "?"
+
+
+def check_names(given, names: Sequence[str], what: str, model: str = "") -> None:
+    """Raise :class:`UnknownNameError` for the first of ``given`` not in ``names``."""
+    known = set(names)
+    for key in given:
+        if key not in known:
+            owner = f" of {model!r}" if model else ""
+            listing = ", ".join(names) if names else "none"
+            raise UnknownNameError(f"{key!r} is not one of the {what}{owner}"
+                                   f"{did_you_mean(key, names)} ({what}: {listing})")
+
+
+def vector(values: Mapping, names: Sequence[str], what: str, *,
+           defaults: Mapping[str, float] | None = None, fill: float | None = None,
+           model: str = "") -> np.ndarray:
+    """``values`` by name -> array in ``names`` order: shape ``(n,)``, or ``(k, n)`` for a batch.
+
+    Missing names take ``defaults[name]``, else ``fill``; with neither it is an
+    error naming them.
+    """
+    names = tuple(names)
+    check_names(values, names, what, model)
+    defaults = defaults or {}
+    columns, missing = [], []
+    for n in names:
+        if n in values:
+            v = values[n]
+        elif n in defaults:
+            v = defaults[n]
+        elif fill is not None:
+            v = fill
+        else:
+            missing.append(n)
+            continue
+        try:
+            a = np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise TypeError(f"{what} {n!r} must be a real number or a 1-D sequence of them; "
+                            f"got {v!r}") from None
+        if a.ndim > 1:
+            raise ValueError(f"{what} {n!r} must be a number or a 1-D sequence (a batch); got "
+                             f"shape {a.shape}")
+        columns.append(a)
+    if missing:
+        owner = f" {model!r}" if model else ""
+        raise UnknownNameError(f"no value for {what} {missing}: the model{owner} has no default "
+                               f"for them; give each by name")
+    sizes = {a.shape[0] for a in columns if a.ndim == 1}
+    if not sizes:
+        return np.array(columns, dtype=np.float64).reshape(len(names))
+    if len(sizes) > 1:
+        raise ValueError(f"{what} by name: batch sequences differ in length {sorted(sizes)}")
+    k = sizes.pop()
+    return np.ascontiguousarray(np.stack([np.broadcast_to(a, (k,)) for a in columns], axis=1))
+
+
+def states(model, x: Mapping) -> np.ndarray:
+    """``x`` by state name (missing states 0)."""
+    return vector(x, model.state_names, "states", fill=0.0, model=model.name)
+
+
+def parameters(model, p: Mapping) -> np.ndarray:
+    """``p`` by parameter name (missing parameters: the model's defaults)."""
+    return vector(p, model.parameter_names, "parameters",
+                  defaults=getattr(model, "parameter_defaults", None), model=model.name)
+
+
+def inputs(model, r: Mapping) -> np.ndarray:
+    """``r`` by input name (missing inputs 0)."""
+    return vector(r, model.input_names, "inputs", fill=0.0, model=model.name)
+
+
+def arrays(model, x, p, r):
+    """``(x, p, r)`` with every mapping turned into its array (anything else unchanged)."""
+    if isinstance(x, Mapping):
+        x = states(model, x)
+    if isinstance(p, Mapping):
+        p = parameters(model, p)
+    if isinstance(r, Mapping):
+        r = inputs(model, r)
+    return x, p, r
+
+
+@dataclass(frozen=True, eq=False)
+class InputTable:
+    """A piecewise-linear input ``r(t)``: ``values[i]`` at ``times[i]``, held outside.
+
+    Parameters
+    ----------
+    times : array_like, shape (k,)
+        Strictly increasing, finite.
+    values : array_like, shape (k, n_r), or mapping input name -> shape (k,)
+        By name, inputs left out are 0 (resolved by :meth:`for_model`).
+
+    ``table(t)`` (or ``table(t, x)``) is ``r(t)``, shape ``(n_r,)``, interpolated as
+    :func:`numpy.interp` per input: usable as the input function of
+    :func:`mbgen.run.simulate.simulate`; the C integrators do the same interpolation
+    at every stage time.
+    """
+
+    times: np.ndarray
+    values: object
+
+    def __post_init__(self):
+        t = np.asarray(self.times, dtype=np.float64)
+        if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)):
+            raise ValueError(f"InputTable times must be a 1-D array of finite times; got "
+                             f"{self.times!r}")
+        if np.any(np.diff(t) <= 0):
+            raise ValueError("InputTable times must be strictly increasing")
+        object.__setattr__(self, "times", np.ascontiguousarray(t))
+        if not isinstance(self.values, Mapping):
+            v = np.asarray(self.values, dtype=np.float64)
+            if v.ndim == 1:
+                v = v[:, None]
+            if v.ndim != 2 or v.shape[0] != t.size:
+                raise ValueError(f"InputTable values must have shape ({t.size}, n_r), one row "
+                                 f"per time; got {np.shape(self.values)}")
+            if not np.all(np.isfinite(v)):
+                raise ValueError("InputTable values must be finite")
+            object.__setattr__(self, "values", np.ascontiguousarray(v))
+
+    def for_model(self, model) -> "InputTable":
+        """This table with ``values`` as a ``(k, n_r)`` array in ``model``'s input order."""
+        if isinstance(self.values, Mapping):
+            check_names(self.values, model.input_names, "inputs", model.name)
+            k = self.times.size
+            cols = []
+            for n in model.input_names:
+                c = np.asarray(self.values.get(n, np.zeros(k)), dtype=np.float64)
+                if c.shape != (k,):
+                    raise ValueError(f"InputTable input {n!r} must have one value per time "
+                                     f"({k}); got shape {c.shape}")
+                cols.append(c)
+            return InputTable(self.times, np.stack(cols, axis=1).reshape(k, len(cols)))
+        if self.values.shape[1] != model.n_r:
+            raise ValueError(f"InputTable values have {self.values.shape[1]} columns; "
+                             f"{model.name!r} has {model.n_r} inputs {list(model.input_names)}")
+        return self
+
+    def __call__(self, t, x=None) -> np.ndarray:
+        if isinstance(self.values, Mapping):
+            raise TypeError("an InputTable by name must be resolved first: table.for_model(model)")
+        t = float(t)
+        return np.array([np.interp(t, self.times, col) for col in self.values.T])
+
+
+def driven(model, output, p: np.ndarray, r_of) -> Callable:
+    """``f(t, x) = output(t, x, p, r_of(t, x))``: inputs as a function of time and state.
+
+    An :class:`InputTable` is first put in the model's input order.  The
+    inputs are validated at every call (a wrong length is an error), so this
+    is slower than constant inputs: one Python call of ``r_of`` per evaluation.
+    """
+    if isinstance(r_of, InputTable):
+        r_of = r_of.for_model(model)
+    evaluate, check_r = model._evaluate, model._r
+
+    def f(t, x):
+        return evaluate(output, t, x, p, check_r(r_of(t, x)))
+
+    return f
+
+
+__all__ = ["InputTable", "arrays", "check_names", "did_you_mean", "driven", "inputs", "parameters",
+           "states", "vector"]

@@ -1,0 +1,244 @@
+r"""Equations of motion: one frozen value.
+
+.. math::
+
+    M(q, t)\,u' = F(q, u, r, t), \qquad q' = G(q, u, t)
+
+with ``M`` symmetric positive definite (``n_u x n_u``), ``F`` of length ``n_u``
+and ``G`` of length ``n_q``.  Time dependence is gone: ``q1(t)`` is the plain
+symbol ``q1`` here, and every symbol is in :attr:`Equations.layout`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import sympy as sm
+
+from ..errors import ModelError
+from .layout import Layout
+from .program import Program
+from .graph import applied_functions, free_symbols
+
+
+def acceleration_symbols(n: int) -> tuple[sm.Symbol, ...]:
+    """Placeholders for the accelerations ``u'`` (expressions that need them, e.g. joint
+    reactions, are evaluated after ``M u' = F`` is solved)."""
+    return tuple(sm.Symbol(f"mbgen:acc{i}") for i in range(n))
+
+
+def lambda_symbols(m: int) -> tuple[sm.Symbol, ...]:
+    """Placeholders for the constraint multipliers ``lambda`` (solved with the accelerations)."""
+    return tuple(sm.Symbol(f"mbgen:lam{i}") for i in range(m))
+
+
+@dataclass(frozen=True)
+class Constraints:
+    r"""Holonomic and motion constraints of a model, in the form the generated code solves.
+
+    With ``u = [u_s; u_r]`` (independent speeds, then ``layout.dependent_speeds``):
+
+    * configuration: ``holonomic`` :math:`f_h(q, t) = 0` (shape ``(m_h, 1)``), one
+      ``dependent_coordinates`` each, and its Jacobian ``holonomic_jacobian``
+      :math:`\partial f_h/\partial q` (``(m_h, n_q)``);
+    * velocity: ``A u + b = 0``, ``velocity_matrix`` ``A`` (``(m, n_u + n_d)``) and
+      ``velocity_bias`` ``b`` (``(m, 1)``), the holonomic rows first (their time
+      derivative), then the motion constraints; the block of ``A`` for the
+      dependent speeds must be invertible (checked numerically at run time);
+    * acceleration: ``A u' + acceleration_bias = 0`` (``(m, 1)``: the time
+      derivative of ``A u + b`` with ``u' = 0``).
+
+    ``names`` name the rows (and their multipliers, ``constraint_forces``).  With
+    ``lambda`` the multipliers, the equations of motion are
+    :math:`M u' = F + A^T\lambda`.  ``loads`` lists, per row, the point
+    realisation of point constraints ``(kind, point names, frame name, axis)`` or
+    None.
+    """
+
+    names: tuple[str, ...]
+    holonomic: sm.ImmutableMatrix
+    dependent_coordinates: tuple
+    holonomic_jacobian: sm.ImmutableMatrix
+    velocity_matrix: sm.ImmutableMatrix
+    velocity_bias: sm.ImmutableMatrix
+    acceleration_bias: sm.ImmutableMatrix
+    loads: tuple = ()
+
+    @property
+    def m(self) -> int:
+        return len(self.names)
+
+    @property
+    def m_h(self) -> int:
+        return self.holonomic.rows
+
+    def expressions(self) -> list:
+        return (list(self.holonomic) + list(self.holonomic_jacobian) + list(self.velocity_matrix)
+                + list(self.velocity_bias) + list(self.acceleration_bias))
+
+
+@dataclass(frozen=True)
+class JointLoads:
+    r"""The force and moment that every joint's parent exerts on its child.
+
+    Row ``i`` of ``matrix`` (shape ``(n_joints, 6)``) is joint ``names[i]``:
+    force components, then moment components about the joint point
+    ``points[i]``, all in frame ``frames[i]``.  Entries may contain the
+    acceleration placeholders :func:`acceleration_symbols` (they hold for the
+    actual accelerations) and program symbols.  Joints are in order from the
+    root: every parent before its children.  ``parents[i]`` is ``None`` for a
+    joint to the ground.
+    """
+
+    names: tuple[str, ...]
+    children: tuple[str, ...]
+    parents: tuple
+    points: tuple[str, ...]
+    frames: tuple[str, ...]
+    matrix: sm.ImmutableMatrix
+
+    def labels(self) -> tuple[str, ...]:
+        """One label per entry, row-major: ``hitch.Fx [car]`` ... ``hitch.Mz [car]``."""
+        out = []
+        for name, frame in zip(self.names, self.frames):
+            out += [f"{name}.{c} [{frame}]" for c in ("Fx", "Fy", "Fz", "Mx", "My", "Mz")]
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class PointKinematics:
+    """Position and velocity of a named point, 3x1 each, in Newtonian-frame components."""
+
+    name: str
+    position: sm.ImmutableMatrix
+    velocity: sm.ImmutableMatrix
+
+
+@dataclass(frozen=True)
+class Equations:
+    """Mass matrix, forcing and kinematics of a model, plus optional extras.
+
+    Attributes
+    ----------
+    name : str
+        Model name (the C prefix is derived from it).
+    layout : Layout
+        Order of states, parameters and inputs.
+    mass_matrix : ImmutableMatrix, shape (n_u, n_u)
+        ``M(q, t)``, symmetric.
+    forcing : ImmutableMatrix, shape (n_u, 1)
+        ``F(q, u, r, t)``.
+    kinematics : ImmutableMatrix, shape (n_q, 1)
+        ``G(q, u, t)`` with ``q' = G``.
+    kinetic_energy, potential_energy : Expr or None
+        Energies when the derivation knows them (potential: gravity and springs).
+    points : tuple of PointKinematics
+        Positions and velocities of the points asked for at derivation.
+    source : str
+        Where the equations came from (shown in generated headers).
+    method : str
+        Derivation method (``"kane"``, ``"sympy.KanesMethod"``, ...).
+    defaults : mapping
+        Default numeric values of parameters, by symbol name (may be partial).
+    program : Program
+        Named intermediate quantities (a recursive derivation's per-body
+        quantities); every other expression may use its symbols.  Empty for
+        Kane's method.
+    accelerations : ImmutableMatrix, shape (n_u, 1), or None
+        ``u'`` computed by a recursion (the articulated-body algorithm) in
+        program symbols: the alternative to solving ``M u' = F``.
+    reactions : JointLoads or None
+        Joint reaction forces and moments, when derived.
+    constraints : Constraints or None
+        Holonomic and motion constraints (None: an unconstrained model).  ``M``
+        and ``F`` are then those of the unconstrained system over every speed,
+        independent and dependent (``layout.all_speeds``).
+    """
+
+    name: str
+    layout: Layout
+    mass_matrix: sm.ImmutableMatrix
+    forcing: sm.ImmutableMatrix
+    kinematics: sm.ImmutableMatrix
+    kinetic_energy: sm.Expr | None = None
+    potential_energy: sm.Expr | None = None
+    points: tuple[PointKinematics, ...] = ()
+    source: str = ""
+    method: str = ""
+    defaults: Mapping[str, float] = field(default_factory=dict)
+    program: Program = field(default_factory=Program)
+    accelerations: sm.ImmutableMatrix | None = None
+    reactions: JointLoads | None = None
+    constraints: Constraints | None = None
+
+    def __post_init__(self):
+        L = self.layout
+        n = L.n_u + L.n_d
+        if self.mass_matrix.shape != (n, n):
+            raise ModelError(f"mass matrix has shape {self.mass_matrix.shape}, "
+                             f"expected ({n}, {n})")
+        if self.forcing.shape != (n, 1):
+            raise ModelError(f"forcing has shape {self.forcing.shape}, expected ({n}, 1)")
+        if L.n_d != (self.constraints.m if self.constraints is not None else 0):
+            raise ModelError(f"{L.n_d} dependent speeds for "
+                             f"{self.constraints.m if self.constraints else 0} constraints")
+        if self.kinematics.shape != (L.n_q, 1):
+            raise ModelError(f"kinematics has shape {self.kinematics.shape}, "
+                             f"expected ({L.n_q}, 1)")
+        if self.accelerations is not None and self.accelerations.shape != (n, 1):
+            raise ModelError(f"accelerations have shape {self.accelerations.shape}, "
+                             f"expected ({L.n_u}, 1)")
+        known = L.symbols() | set(self.program.symbols)
+        checked = [("mass matrix", self.mass_matrix), ("forcing", self.forcing),
+                   ("kinematics", self.kinematics)]
+        if self.program:
+            checked.append(("program", [e for _, e in self.program.assignments]))
+            # the placeholders of solved quantities (accelerations, multipliers) are internal
+            known = known | {s for s in free_symbols([e for _, e in self.program.assignments])
+                             if s.name.startswith("mbgen:")}
+        if self.accelerations is not None:
+            checked.append(("accelerations", self.accelerations))
+        if self.constraints is not None:
+            checked.append(("constraints", self.constraints.expressions()))
+        for what, exprs in checked:
+            unknown = free_symbols(exprs) - known
+            if unknown:
+                names = ", ".join(sorted(map(str, unknown)))
+                raise ModelError(f"the {what} contains symbol(s) {names} that are neither "
+                                 f"coordinates, speeds, parameters, inputs nor time; declare "
+                                 f"them (e.g. model.constants('{names.split(', ')[0]}'))")
+            funcs = applied_functions(exprs)
+            if funcs:
+                raise ModelError(f"the {what} still contains function(s) of time "
+                                 f"{sorted(map(str, funcs))}; declare them as coordinates, "
+                                 f"speeds or inputs")
+
+    def uses(self, exprs) -> set:
+        """Layout symbols that ``exprs`` depend on, through the program's definitions."""
+        return self.program.closure(exprs) if self.program else free_symbols(exprs)
+
+    @property
+    def energy(self) -> sm.Expr | None:
+        """Total mechanical energy ``T + V`` when both are known."""
+        if self.kinetic_energy is None or self.potential_energy is None:
+            return None
+        return self.kinetic_energy + self.potential_energy
+
+    def mass_matrix_full(self) -> sm.ImmutableMatrix:
+        """Block-diagonal ``diag(I_nq, M)`` of the first-order system ``[I 0; 0 M] x' = [G; F]``."""
+        L = self.layout
+        out = sm.zeros(L.n_x, L.n_x)
+        out[:L.n_q, :L.n_q] = sm.eye(L.n_q)
+        out[L.n_q:, L.n_q:] = self.mass_matrix
+        return sm.ImmutableMatrix(out)
+
+    def forcing_full(self) -> sm.ImmutableMatrix:
+        """``[G; F]`` of length ``n_x``."""
+        return sm.ImmutableMatrix(sm.Matrix.vstack(sm.Matrix(self.kinematics), sm.Matrix(self.forcing)))
+
+    def _repr_html_(self) -> str:
+        """Notebook summary: sizes, symbols, operation counts; never the matrices."""
+        from ..summary import equations_html
+
+        return equations_html(self)

@@ -1,0 +1,103 @@
+"""The checked-in generated code of the built-in scenes (``generated/<scene>/``).
+
+``mbgen golden`` compares the tree with freshly generated code and
+``mbgen golden --update`` rewrites it; ``tests/test_golden.py`` fails on any
+difference, so the checked-in files always match the generator.
+
+It is a developer's command: the tree is the one of the source checkout mbgen
+runs from (:func:`repository_root`, found from the package's own location, not
+from the current folder), and without a checkout it refuses.  The update
+removes files in a scene's folder that the generator no longer produces (the
+folders hold generated files only).
+"""
+
+from __future__ import annotations
+
+import difflib
+from pathlib import Path
+
+from ..errors import SceneError
+from ..codegen.targets.example import render_example
+from ..fileio import write_files
+from ..pipeline import run
+from ..model.scene import builtin_names, load_scene
+
+#: Scene options used for the checked-in code (kept small).
+GOLDEN_OPTIONS: dict[str, dict] = {"n_link_cart": {"n": 3}}
+
+
+def repository_root() -> Path:
+    """The source checkout mbgen is imported from (holding ``pyproject.toml`` and ``generated/``).
+
+    Raises
+    ------
+    SceneError
+        mbgen is installed, not run from a checkout: the golden tree is not there.
+    """
+    root = Path(__file__).resolve().parents[2]
+    project = root / "pyproject.toml"
+    if project.is_file() and (root / "generated").is_dir() and \
+            'name = "mbgen"' in project.read_text(encoding="utf-8", errors="replace"):
+        return root
+    raise SceneError("'mbgen golden' is a developer command for a source checkout of mbgen "
+                     f"(this mbgen runs from {root}, which has no pyproject.toml and "
+                     f"generated/); to write generated code, use 'mbgen generate SCENE -o DIR'")
+
+
+def default_root() -> Path:
+    """The checked-in tree: ``<repository>/generated``."""
+    return repository_root() / "generated"
+
+
+def scene_files(name: str) -> dict[str, str]:
+    """``{file name: text}`` generated for built-in scene ``name`` (with ``example.c``)."""
+    scene = load_scene(name, **GOLDEN_OPTIONS.get(name, {}))
+    result = run(scene, build=False)
+    files = dict(result.rendered.files)
+    example = render_example(scene, result)
+    if example is not None:
+        files["example.c"] = example
+    return files
+
+
+def expected(names=None) -> dict[str, dict[str, str]]:
+    """Generated files of every built-in scene (or of ``names``)."""
+    return {n: scene_files(n) for n in (names or builtin_names())}
+
+
+def update(root: Path, names=None) -> list[Path]:
+    """Rewrite ``root/<scene>/`` for every scene; returns the files that changed or were removed.
+
+    Files in a scene's folder that the generator no longer produces are removed.
+    """
+    changed = []
+    for name, files in expected(names).items():
+        folder = Path(root) / name
+        changed += write_files(folder, files)
+        for stale in sorted(folder.iterdir()):
+            if stale.name not in files and stale.is_file() and not stale.is_symlink():
+                stale.unlink()
+                changed.append(stale)
+    return changed
+
+
+def differences(root: Path, names=None) -> list[str]:
+    """Unified diffs (or 'missing'/'unexpected' lines) between ``root`` and the generator."""
+    root = Path(root)
+    out = []
+    for name, files in expected(names).items():
+        folder = root / name
+        for fname, text in sorted(files.items()):
+            path = folder / fname
+            if not path.exists():
+                out.append(f"missing: {path}")
+                continue
+            old = path.read_text(encoding="utf-8")
+            if old != text:
+                out.append("".join(difflib.unified_diff(
+                    old.splitlines(True), text.splitlines(True), str(path), f"{path} (generated)",
+                    n=1)))
+        if folder.exists():
+            extra = sorted(p.name for p in folder.iterdir() if p.name not in files)
+            out += [f"unexpected: {folder / e}" for e in extra]
+    return out

@@ -1,0 +1,152 @@
+r"""Numerical stress suite: stiffness, extreme parameters, singular configurations, long runs
+and floating point, for one scene.
+
+``stress(scene)`` compiles the scene once (all parameters free, so any of them can
+be varied at run time), generates the cases that apply to it from a list of case
+specifications, runs them and returns a :class:`StressReport`: one :class:`Case`
+per row with what was measured (the *figure*), the *bound* it had to meet, the
+verdict and a *reason*.  Every case either meets its stated bound or fails with
+a named reason; integrators that stop at a step or time budget, and states where
+the mass matrix is not positive definite, are results with a reason, never
+crashes and never NaNs.
+
+Which cases apply (the rules)
+-----------------------------
+Parameters are classified by name (:func:`classify_parameters`):
+
+* *mass-like*: ``m``, ``m3``, ``mass...``, ``J`` and moments of inertia ``I11``,
+  ``Ixx`` (two equal indices); products of inertia (``I12``) are not scaled;
+* *length-like*: ``l``, ``L``, ``l2``, ``a``, ``h``, ``s``, ``r``, ``R``, ``d``
+  (optionally followed by digits), ``len...``;
+* *gravity*: ``g``.
+
+``fp``
+    Every scene: the nominal state (the scene's initial state and parameters)
+    and seeded random states near it.
+``extreme``
+    The last mass-like parameter (``full``: also the first) and the last
+    length-like parameter scaled by the ratios of the size, relative to the
+    others; ``g`` scaled (tiny and huge gravity); every scene: the speeds scaled
+    to ``1e3 .. 1e6``.  Mass-like parameters are also set to ``0`` and ``-1``
+    times their value (non-physical: the mass matrix is then usually not
+    positive definite, which must be *reported* as such).  Each evaluation is
+    followed by a short simulation when the state is admissible.
+``singular``
+    Scenes with a known singular configuration (table :data:`SINGULAR_PATHS`:
+    gimbal lock of ``torque_free``, pole of ``spherical_rod``, axis of
+    ``paraboloid``, bob on the axis of ``disc_pendulum``, collapsed spring of
+    ``spring_pendulum``, meeting masses of ``stiff_chain``, aligned links of
+    ``n_link_cart``) are approached with offsets ``delta -> 0`` (and hit).
+    Every scene: a scan of each coordinate over ``x0 +- pi`` reporting the
+    largest ``cond(M)`` found.
+``stiff``
+    Scenes whose ``scene()`` has a ``stiffness`` option (``stiff_chain``,
+    ``spring_pendulum``), at the stiffnesses of the size: scipy RK45 vs Radau
+    and BDF with the compiled Jacobian, and C dopri5 vs C
+    rosenbrock.
+``long_run``
+    ``conserves_energy`` scenes with energy expressions: drift of ``T + V``;
+    scenes with a prescribed motion that do not depend explicitly on time, no
+    dampers and no inputs (they run with ``r = 0``): drift of the Jacobi
+    integral ``h = T2 - T0 + V``; scenes with ``closed_form``: error against it.
+
+Bounds
+------
+Each bound is documented in full in the module that checks it:
+
+* floating point (``fp``, and the evaluations of ``extreme`` and ``singular``),
+  :mod:`mbgen.verify.stress.precision`: the compiled right-hand side against a
+  50-digit reference, ``||f_C - f_HP||_inf <= C eps (cond(M) ||f_HP||_inf +
+  max_i s_i) + 30 e_formula``; a mass matrix that is not positive definite
+  and a non-finite reference must be reported as such;
+* stiff, :mod:`mbgen.verify.stress.stiff`: implicit methods succeed and agree with
+  Radau; explicit ones finish or stop at their budget, needing at least 10x
+  the steps at the largest stiffness;
+* long runs, :mod:`mbgen.verify.stress.long_runs`: drift of ``T + V`` or of the
+  Jacobi integral ``<= 1e-6``, error against the closed form ``<= 1e-7``;
+* short simulations after the ``extreme`` evaluations,
+  :mod:`mbgen.verify.stress.extreme`.
+
+Modules
+-------
+:mod:`~mbgen.verify.stress.report` (the rows and the table),
+:mod:`~mbgen.verify.stress.reference` (the 50-digit reference),
+:mod:`~mbgen.verify.stress.precision` (the floating-point bound),
+:mod:`~mbgen.verify.stress.context` (sizes, and the scene compiled once),
+:mod:`~mbgen.verify.stress.runs` (integrations with a budget), one module per case
+kind (:mod:`~mbgen.verify.stress.extreme`, :mod:`~mbgen.verify.stress.singular`,
+:mod:`~mbgen.verify.stress.stiff`, :mod:`~mbgen.verify.stress.long_runs`) and
+:mod:`~mbgen.verify.stress.cases` (the ``fp`` cases and the case list).  BLAS runs on
+one thread (``threadpoolctl``) for the whole suite, so timings are comparable.
+
+Example
+-------
+>>> report = stress("stiff_chain", size="ci")          # doctest: +SKIP
+>>> print(report.format()); report.ok                   # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable
+
+from ...errors import MbgenError
+from ...model.scene import Scene
+from .cases import case_specs
+from .context import SIZES, Context, Size, make_context
+from .extreme import classify_parameters
+from .precision import PointResult, check_point, evaluate_point, judge_point
+from .reference import HighPrecision, HighPrecisionValue, Reference
+from .report import Case, StressReport
+from .singular import SINGULAR_PATHS
+
+Progress = Callable[[str], None]
+
+
+def stress(scene: Scene | str, *, size: str = "ci",
+           progress: Progress | None = None) -> StressReport:
+    """Run the stress suite on a scene.
+
+    Parameters
+    ----------
+    scene : Scene or str
+        A scene, a built-in scene name, or the path of a scene file.
+    size : {"ci", "full"}
+        ``ci``: a few values of every variation (seconds); ``full``: the whole
+        grid (stiffness 1e4..1e8, ratios 1e-6..1e6, long runs over 10 t_span).
+    progress : callable(str), optional
+        Called with a line before each case.
+
+    Returns
+    -------
+    StressReport
+        ``.ok``, ``.format()``; a case that raises is reported as a failure
+        named by the exception, never raised.
+    """
+    from threadpoolctl import threadpool_limits
+
+    start = time.perf_counter()
+    say = progress or (lambda _msg: None)
+    notes: list[str] = []
+    name = scene if isinstance(scene, str) else scene.name
+    say(f"stress {name} ({size}): compiling")
+    with threadpool_limits(1):
+        ctx = make_context(scene, size, notes)
+        specs = case_specs(ctx)
+        cases: list[Case] = []
+        for i, spec in enumerate(specs, 1):
+            say(f"[{i}/{len(specs)}] {spec.kind}: {spec.label}")
+            t_case = time.perf_counter()
+            try:
+                cases += spec.run(ctx, *spec.args)
+            except MbgenError as exc:  # a named failure is a failed case; a bug propagates
+                cases.append(Case(spec.kind, spec.label, "crashed", "no exception", False,
+                                  f"{type(exc).__name__}: {exc}", {},
+                                  time.perf_counter() - t_case))
+    return StressReport(ctx.scene.name, size, tuple(cases), tuple(notes),
+                        time.perf_counter() - start)
+
+
+__all__ = ["stress", "StressReport", "Case", "Context", "make_context", "Size", "SIZES",
+           "classify_parameters", "HighPrecision", "HighPrecisionValue", "PointResult", "evaluate_point",
+           "judge_point", "check_point", "SINGULAR_PATHS"]
