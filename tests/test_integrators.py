@@ -12,7 +12,7 @@ from scipy.integrate._ivp.rk import RK45
 
 import mbgen
 from mbgen import IntegrationError, MbgenError, Output
-from mbgen.codegen.integrators.tableaux import ROSENBROCK, Dopri5, Rodas3, Rodas4
+from mbgen.integrators import ROSENBROCK, Dopri5, Rodas3, Rodas4
 from mbgen.model.scene import load_scene
 from mbgen.scenes import bead_wire
 

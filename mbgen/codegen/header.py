@@ -106,7 +106,7 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
         own = D * (6 * n + 5) + stats + I * 3
         bounds[f"{prefix}_rk4"] = F + own + max(rhs, helper)
     if "rosenbrock" in integ:
-        from .integrators.tableaux import ROSENBROCK
+        from ..integrators import ROSENBROCK
 
         own = D * ((8 + int(non_autonomous) + ROSENBROCK.n_stages()) * n + 18) + I * 4 \
             + stats                     # J, G and piv are in the caller's work struct

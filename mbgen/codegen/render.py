@@ -25,7 +25,7 @@ from .outputs import Form, acceleration_symbols, lambda_symbols
 from .printing import CPrinter, PyPrinter, math_functions
 from .solver import UNROLL_MAX, c_lines, factor_program, py_lines, solve_program
 from .templating import environment
-from .integrators.views import integrator_context
+from .integrators import integrator_context
 from .targets import Targets, batch, step
 from . import header as head
 

@@ -45,8 +45,8 @@ projection needs the integrators rendered (a scene with an integrator output).
 from __future__ import annotations
 
 from ...errors import ModelError
-from ..integrators.views import dopri5_view, explicit_time, projection, rk4_view, rosenbrock_view
-from ..integrators.tableaux import ROSENBROCK
+from ..integrators import dopri5_view, explicit_time, projection, rk4_view, rosenbrock_view
+from ...integrators import ROSENBROCK
 from ...abi import Output
 
 #: Default attempted-step limit per call (``mem->max_steps = 0``).

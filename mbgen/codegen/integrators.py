@@ -8,13 +8,23 @@ kernel.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ...errors import ModelError
-from ...abi import Output
-from .tableaux import DEFAULT_MAX_STEPS, ROSENBROCK, RK4, Dopri5, c_double
-from ...names import model_prefix
-from ..outputs import time_symbols
+from ..abi import Output
+from ..errors import ModelError
+from ..integrators import DEFAULT_MAX_STEPS, ROSENBROCK, RK4, Dopri5
+from ..names import model_prefix
+from .outputs import time_symbols
+
+
+def c_double(value) -> str:
+    """A C double literal that round-trips exactly."""
+    text = repr(float(value))
+    if not math.isfinite(float(value)):  # pragma: no cover - tableaux are finite
+        raise ValueError(f"coefficient {value!r} is not finite")
+    return text
 
 
 def _terms(coeffs, vector: str, skip_zero: bool = True) -> str:
@@ -148,5 +158,5 @@ def projection(kernel):
     return dict(m=c.m_h, n_q=L.n_q, dep=dep, names=[str(q) for q in c.dependent_coordinates])
 
 
-__all__ = ["integrator_context", "dopri5_view", "rk4_view", "rosenbrock_view", "explicit_time",
+__all__ = ["c_double", "integrator_context", "dopri5_view", "rk4_view", "rosenbrock_view", "explicit_time",
            "projection"]

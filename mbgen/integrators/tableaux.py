@@ -1,5 +1,5 @@
 r"""Integrators rendered into the generated C: the methods as data (this module) and their
-C-template views (:mod:`mbgen.codegen.integrators.views`), one template each.
+C-template views (:mod:`mbgen.codegen.integrators`), one template each.
 
 Asking for :attr:`~mbgen.abi.Output.DOPRI5`, ``RK4`` or ``ROSENBROCK``
 adds, next to the model's functions, C integrators that run a whole trajectory
@@ -54,23 +54,38 @@ so it costs nothing extra); it is 3rd-order accurate between steps.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+
+from ..abi import Output
 
 #: Default step limit when ``options.max_steps`` is 0.
 DEFAULT_MAX_STEPS = 1000000
 
 
-def c_double(value) -> str:
-    """A C double literal that round-trips exactly."""
-    text = repr(float(value))
-    if not math.isfinite(float(value)):  # pragma: no cover - tableaux are finite
-        raise ValueError(f"coefficient {value!r} is not finite")
-    return text
+class Method:
+    """What the rest of mbgen reads about an integrator, instead of testing its name.
+
+    Attributes
+    ----------
+    output : Output
+        The generated function ``<prefix>_<output>`` and the ``Output`` that asks for it.
+    adaptive : bool
+        Error-controlled steps (``rtol``, ``atol``); else a fixed step ``h`` is required.
+    implicit : bool
+        Linearly implicit: it solves with ``I/(h gamma) - J`` (stiff problems), takes a
+        caller-owned ``<prefix>_<output>_work`` and needs the Jacobian.
+    needs : tuple of Output
+        Outputs the generated integrator calls (``TIME_DERIVATIVE`` is added when the
+        equations depend on ``t`` explicitly and the method is implicit).
+    """
+
+    output: Output = NotImplemented
+    adaptive: bool = True
+    implicit: bool = False
+    needs: tuple = (Output.RHS,)
 
 
-class ExplicitRungeKutta:
+class ExplicitRungeKutta(Method):
     """Butcher tableau of an explicit Runge--Kutta method (scipy's attribute names)."""
 
     name: str = NotImplemented
@@ -90,6 +105,7 @@ class Dopri5(ExplicitRungeKutta):
     """
 
     name = "dopri5"
+    output = Output.DOPRI5
     order = 5
     error_estimator_order = 4
     n_stages = 6
@@ -126,6 +142,8 @@ class RK4(ExplicitRungeKutta):
     """The classic 4th-order Runge--Kutta method (fixed step)."""
 
     name = "rk4"
+    output = Output.RK4
+    adaptive = False
     order = 4
     n_stages = 4
     C = np.array([0, 1/2, 1/2, 1])
@@ -138,7 +156,7 @@ class RK4(ExplicitRungeKutta):
     B = np.array([1/6, 1/3, 1/3, 1/6])
 
 
-class Rosenbrock:
+class Rosenbrock(Method):
     """A Rosenbrock method in the KPP form (see the module docstring).
 
     Attributes
@@ -158,6 +176,9 @@ class Rosenbrock:
     """
 
     name: str = NotImplemented
+    output = Output.ROSENBROCK
+    implicit = True
+    needs = (Output.RHS, Output.JACOBIAN)
     reference: str = ""
     order: int = NotImplemented
     error_estimator_order: int = NotImplemented
@@ -301,5 +322,5 @@ class Rodas4(Rosenbrock):
 ROSENBROCK = Rodas4
 
 
-__all__ = ["ExplicitRungeKutta", "Dopri5", "RK4", "Rosenbrock", "Rodas3", "Rodas4", "ROSENBROCK",
-           "DEFAULT_MAX_STEPS", "c_double"]
+__all__ = ["Method", "ExplicitRungeKutta", "Dopri5", "RK4", "Rosenbrock", "Rodas3", "Rodas4",
+           "ROSENBROCK", "DEFAULT_MAX_STEPS"]

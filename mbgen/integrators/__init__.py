@@ -1,0 +1,57 @@
+"""The integrators mbgen can render into generated C, as data: tableaux and properties.
+
+``METHODS`` maps each integrator :class:`~mbgen.abi.Output` to its method class
+(:mod:`mbgen.integrators.tableaux`).  Every stage reads a method's properties
+here instead of testing its name:
+
+``adaptive``
+    error-controlled steps (``rtol``, ``atol``), else a fixed step ``h``;
+``implicit``
+    solves with ``I/(h gamma) - J``: needs the Jacobian and a caller-owned work struct;
+``needs``
+    the outputs its generated C calls.
+
+This package holds no code generation (:mod:`mbgen.codegen.integrators` turns a method
+into template context) and imports only :mod:`mbgen.abi`, so the run stage, the
+studies and the code generator can all read it.
+
+How to add an integrator
+------------------------
+1. ``abi.py``: an :class:`~mbgen.abi.Output` member named for the C function
+   (``<prefix>_<name>``), and the member in ``abi.INTEGRATORS``.
+2. ``integrators/tableaux.py``: a :class:`~mbgen.integrators.tableaux.Method` subclass
+   stating its coefficients and ``output``, ``adaptive``, ``implicit``, ``needs``; one
+   row in :data:`METHODS` below.
+3. ``codegen/integrators.py``: its template view (coefficients printed with
+   :func:`~mbgen.codegen.integrators.c_double`), and ``templates/integrators/<name>.c.j2``.
+4. ``tests/integrators/test_tableaux.py`` checks every ``INTEGRATORS`` member has a
+   row here (``test_every_integrator_has_a_method``) and the golden tree
+   (``tests/codegen/test_golden.py``) shows the rendered C.
+"""
+
+from ..abi import INTEGRATORS, Output
+from ..errors import ArgumentError
+from .tableaux import (DEFAULT_MAX_STEPS, RK4, ROSENBROCK, Dopri5, ExplicitRungeKutta, Method,
+                       Rodas3, Rodas4, Rosenbrock)
+
+#: Output -> method class of every integrator that can be rendered.
+METHODS: dict = {Output.DOPRI5: Dopri5, Output.RK4: RK4, Output.ROSENBROCK: ROSENBROCK}
+
+
+def method(name) -> type:
+    """The method class of an integrator given as an :class:`Output` or its name.
+
+    Raises :class:`~mbgen.errors.ArgumentError` naming the choices for anything else.
+    """
+    try:
+        output = name if isinstance(name, Output) else Output(str(name).lower())
+    except ValueError:
+        output = None
+    if output not in METHODS:
+        raise ArgumentError(f"{name!r:.60} is not an integrator; choose from "
+                            f"{', '.join(repr(o.value) for o in INTEGRATORS)}")
+    return METHODS[output]
+
+
+__all__ = ["METHODS", "method", "Method", "ExplicitRungeKutta", "Rosenbrock", "Dopri5", "RK4",
+           "Rodas3", "Rodas4", "ROSENBROCK", "DEFAULT_MAX_STEPS"]
