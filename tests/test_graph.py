@@ -71,9 +71,9 @@ def test_reproducer_through_optimize_render_and_build_in_seconds():
         sys.path.insert(0, {str(__import__('pathlib').Path(__file__).parent)!r})
         from test_graph import equations
         import mbgen
-        from mbgen.slicing import bake
-        from mbgen.optimize import optimize
-        from mbgen.render import render
+        from mbgen.codegen.slicing import bake
+        from mbgen.codegen.optimize import optimize
+        from mbgen.codegen.render import render
         t0 = time.perf_counter()
         eq = equations()
         k = optimize(bake(eq, {{}}), ("rhs", "jacobian", "parameter_jacobian"))
