@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from ..symbolic.layout import Layout
 from ..abi import Output
-from ..codegen.outputs import dynamic_parameters
+from ..symbolic.availability import dynamic_parameters
 from ..pipeline import PipelineResult, python_model, run
 from ..run.lambdified import LambdifiedModel
 from ..run.compiled import ModelBase
