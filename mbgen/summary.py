@@ -5,9 +5,7 @@ the symbols in array order, operation counts, the outputs; never the matrices
 (``M`` of a 32-link model is pages of text).  Long symbol lists are shortened
 to their first and last entries.  Every name is HTML-escaped.
 
-Operation counts of ``Equations`` are those of the expressions as a graph
-(:func:`mbgen.symbolic.graph.count_ops_dag`: each distinct subexpression once),
-computed in one pass linear in the graph.
+The summary of ``Equations`` is :func:`mbgen.symbolic.equations.equations_html`.
 """
 
 from __future__ import annotations
@@ -58,37 +56,6 @@ def model_html(m) -> str:
     if m.kinematic_equations_:
         rows.append(("kinematic equations", f"{len(m.kinematic_equations_)} given"))
     return table(f"Model {m.name!r}", rows)
-
-
-def equations_html(eq) -> str:
-    """Summary of :class:`mbgen.Equations` (sizes, symbols, operation counts)."""
-    from .symbolic.graph import count_ops_dag
-
-    L = eq.layout
-    n = L.n_u + L.n_d
-    rows = [("method", html.escape(eq.method or "-")),
-            ("states x", f"{L.n_x}: {names(L.state_names)}"),
-            ("parameters p", f"{L.n_p}: {names(L.parameter_names)}"),
-            ("inputs r", f"{L.n_r}: {names(L.input_names)}"),
-            ("M u' = F", f"M {n} x {n} ({count_ops_dag(list(eq.mass_matrix))} ops), "
-                         f"F {n} ({count_ops_dag(list(eq.forcing))} ops)"),
-            ("q' = G", f"G {L.n_q} ({count_ops_dag(list(eq.kinematics))} ops)")]
-    if eq.energy is not None:
-        rows.append(("energy", f"T, V ({count_ops_dag([eq.kinetic_energy, eq.potential_energy])}"
-                               f" ops)"))
-    if eq.points:
-        rows.append(("points", names(p.name for p in eq.points)))
-    if eq.program:
-        rows.append(("program", f"{len(eq.program.assignments)} named intermediates"))
-    if eq.reactions is not None:
-        rows.append(("joint reactions", names(eq.reactions.names)))
-    if eq.constraints is not None:
-        c = eq.constraints
-        rows.append(("constraints", f"{c.m} ({c.m_h} configuration): {names(c.names)}; "
-                                    f"dependent speeds {names(L.dependent_speeds)}"))
-    if eq.source:
-        rows.append(("source", html.escape(eq.source)))
-    return table(f"Equations {eq.name!r}", rows)
 
 
 def compiled_html(model) -> str:

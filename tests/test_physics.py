@@ -11,7 +11,7 @@ from sympy.physics import mechanics as me
 from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
-from mbgen.codegen.outputs import applicable
+from mbgen.symbolic.availability import applicable
 from mbgen.model.scene import builtin_names
 from mbgen.scenes import bent_pipe, n_link_cart, torque_free
 

@@ -16,7 +16,7 @@ from ..abi import Output
 from ..errors import ModelError
 from ..integrators import DEFAULT_MAX_STEPS, ROSENBROCK, RK4, Dopri5
 from ..names import model_prefix
-from .outputs import time_symbols
+from ..symbolic.availability import time_symbols
 
 
 def c_double(value) -> str:

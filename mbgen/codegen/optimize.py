@@ -16,12 +16,11 @@ from dataclasses import dataclass, replace
 import sympy as sm
 
 from .cse import CseBackend, cse
-from ..symbolic.equations import Equations
+from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
 from ..errors import ModelError
 from ..symbolic.layout import Layout
 from ..abi import INTEGRATORS, Output
-from .outputs import (Block, Form, Spec, acceleration_symbols, lambda_symbols, spec,
-                      with_dependencies)
+from .outputs import Block, Form, Spec, spec, with_dependencies
 from .solver import solve_ops
 from ..symbolic.graph import count_ops_dag, count_ops_tree, free_symbols, xreplace_dag
 

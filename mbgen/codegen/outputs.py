@@ -36,24 +36,51 @@ Outputs
     For every joint (from the root), the force and moment the parent exerts
     on the child at the joint point, in the joint's frame: shape
     ``(n_joints, 6)``, ``[Fx, Fy, Fz, Mx, My, Mz]``.
+``INPUT_JACOBIAN``
+    :math:`\partial f/\partial r` (``n_x x n_r``), like the Jacobians above.
+``CONSTRAINT_FORCES``, ``HOLONOMIC``, ``HOLONOMIC_JACOBIAN``
+    A constrained model's multipliers ``lambda`` of ``M u' = F + A^T lambda``,
+    the configuration constraints ``f_h(q, t)`` and ``df_h/dq``.
 ``DOPRI5``, ``RK4``, ``ROSENBROCK``
     Integrators rendered into the C with the model (no expressions of their
     own); they pull in the outputs they call.
+
+Each expression output is one :class:`OutputDef` row of :data:`OUTPUTS`: the
+name of its array and the function that builds its :class:`Spec`.  What it needs
+of the equations (and the error when they lack it) is its row of
+:data:`mbgen.symbolic.availability.REQUIREMENTS`, read by :func:`spec` and by the
+reference.
+
+How to add an output
+--------------------
+1. ``mbgen/abi.py``: a member of :class:`~mbgen.abi.Output` (the function's name
+   ``<prefix>_<value>``).
+2. ``mbgen/symbolic/availability.py``: its row of ``REQUIREMENTS`` when some
+   equations cannot give it (and of ``SENSITIVITIES`` for a ``df/dv``).
+3. Here: an :class:`OutputDef` row of :data:`OUTPUTS` and its builder, which
+   returns the :class:`Spec` (blocks, ``solve``, labels, doc).
+4. ``mbgen/run/lambdified.py``: its row of ``REFERENCES``, how the reference
+   computes it from the unoptimised equations.
+5. ``mbgen/run/base.py``: its accessor row (the method ``model.<value>(t, x, p, r)``
+   of every runtime model and its result's shape).
+6. ``tests/test_outputs.py`` fails while an output misses a row in any of these
+   tables; ``tests/test_golden.py`` then shows what the generated code gained.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
-from typing import Iterable
+from typing import Callable, Iterable
 
 import sympy as sm
 
-from ..abi import EXPRESSION_OUTPUTS, INTEGRATORS, Output
-from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
-from ..symbolic.program import Program, derivatives
+from ..abi import INTEGRATORS, Output
 from ..errors import ModelError
-from ..symbolic.graph import differentiate, symbols_back, to_symengine, to_sympy
+from ..symbolic.availability import SENSITIVITIES, imported, imported_hint, require, time_symbols
+from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
+from ..symbolic.graph import differentiate
+from ..symbolic.program import Program, derivatives
 
 
 def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[Output, ...]:
@@ -69,21 +96,6 @@ def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[
         if equations.layout.time in time_symbols(equations):
             wanted.add(Output.TIME_DERIVATIVE)
     return Output.parse(wanted)
-
-
-def time_symbols(equations: Equations) -> set:
-    return equations.uses(_motion_exprs(equations))
-
-
-def _motion_exprs(eq: Equations) -> list:
-    """Every expression the right-hand side may use (either form, constraints included)."""
-    out = list(eq.mass_matrix) + list(eq.forcing) + list(eq.kinematics)
-    if eq.accelerations is not None:
-        out += list(eq.accelerations)
-    if eq.constraints is not None:
-        c = eq.constraints
-        out += list(c.velocity_matrix) + list(c.velocity_bias) + list(c.acceleration_bias)
-    return out
 
 
 class Form(str, Enum):
@@ -134,6 +146,54 @@ class Spec:
         return size
 
 
+@dataclass(frozen=True)
+class OutputDef:
+    """One expression output: its array's name in the generated code and how to build its spec.
+
+    ``build(eq, row, form)`` returns the :class:`Spec`; ``doc`` is the generated
+    function's description where it does not depend on the equations.
+    """
+
+    output: Output
+    array: str
+    build: Callable[[Equations, "OutputDef", Form], Spec]
+    doc: str = ""
+
+
+def spec(eq: Equations, output: Output, form: Form = Form.SOLVE) -> Spec:
+    """What ``output`` computes for ``eq`` (integrators have no spec: see :data:`INTEGRATORS`).
+
+    ``form`` chooses how outputs that need the accelerations get them.  For a
+    constrained model, every output whose expressions use a dependent speed
+    first solves the velocity constraints for them (``Spec.velocity``).
+
+    Raises
+    ------
+    ModelError
+        The equations cannot give ``output`` (see
+        :data:`mbgen.symbolic.availability.REQUIREMENTS`), or have no recursion for
+        ``Form.RECURSIVE``.
+    """
+    form = Form(form)
+    if form is Form.RECURSIVE and eq.accelerations is None:
+        raise ModelError(f"the equations of {eq.name!r} have no recursive accelerations; "
+                         + (imported_hint("Form.RECURSIVE") + "; use Form.SOLVE"
+                            if imported(eq) else
+                            "derive with Method.NEWTON_EULER (relative joints) or use "
+                            "Form.SOLVE"))
+    row = OUTPUTS.get(output)
+    if row is None:
+        raise ModelError(f"output {output.value!r} has no expressions of its own")
+    require(eq, output)
+    out = row.build(eq, row, form)
+    if eq.constraints is not None and not out.velocity:
+        exprs = [e for b in out.pre + out.post for _, e in b.entries]
+        exprs += [e for _, e in out.extra.assignments]
+        if out.solve or set(eq.layout.dependent_speeds) & eq.uses(exprs):
+            out = replace(out, velocity=_velocity_blocks(eq))
+    return out
+
+
 def _mass_blocks(eq: Equations):
     """What the solve needs: ``M`` (lower triangle) and ``F``, and for a constrained model
     the acceleration bias ``BETA`` of ``A u' + beta = 0`` (over every speed)."""
@@ -156,198 +216,135 @@ def _velocity_blocks(eq: Equations) -> tuple[Block, ...]:
             Block("CB", c.m, tuple(enumerate(c.velocity_bias))))
 
 
-def spec(eq: Equations, output: Output, form: Form = Form.SOLVE) -> Spec:
-    """What ``output`` computes for ``eq`` (integrators have no spec: see :data:`INTEGRATORS`).
+def _rhs(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    L = eq.layout
+    if form is Form.RECURSIVE:
+        entries = tuple(enumerate(list(eq.kinematics) + list(eq.accelerations)))
+        return Spec(row.output, row.array, (L.n_x,), L.derivative_names,
+                    (Block("out", L.n_x, entries),),
+                    doc="First-order right-hand side dxdt = [G(q,u,t); u'] with u' from "
+                        "the articulated-body recursion.")
+    g = Block("out", L.n_x, tuple(enumerate(eq.kinematics)))
+    if eq.constraints is not None:
+        return Spec(row.output, row.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
+                    solve=True, velocity=_velocity_blocks(eq),
+                    doc="First-order right-hand side dxdt = [G(q,u,t); u_s'] of the "
+                        "constrained system: u_r from A u + b = 0 (LU of A_r), u_s' from "
+                        "the reduced equations T^T M T u_s' = T^T (F - M [0; d]).")
+    return Spec(row.output, row.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
+                solve=True,
+                doc="First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by "
+                    "L D L^T.")
 
-    ``form`` chooses how outputs that need the accelerations get them.  For a
-    constrained model, every output whose expressions use a dependent speed
-    first solves the velocity constraints for them (``Spec.velocity``).
-    """
-    out = _spec(eq, output, form)
-    if eq.constraints is not None and not out.velocity:
-        exprs = [e for b in out.pre + out.post for _, e in b.entries]
-        exprs += [e for _, e in out.extra.assignments]
-        if out.solve or set(eq.layout.dependent_speeds) & eq.uses(exprs):
-            from dataclasses import replace
 
-            out = replace(out, velocity=_velocity_blocks(eq))
-    return out
+def _mass_matrix(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    M = eq.mass_matrix
+    n, sp = M.rows, eq.layout.all_speeds
+    lower = tuple((i * n + j, M[i, j]) for i in range(n) for j in range(i + 1))
+    mirror = tuple((j * n + i, i * n + j) for i in range(n) for j in range(i))
+    labels = tuple(f"M[{sp[i]},{sp[j]}]" for i in range(n) for j in range(n))
+    return Spec(row.output, row.array, (n, n), labels, (Block("out", n * n, lower, mirror),),
+                doc="Mass matrix M(q,t), row-major, symmetric" + (
+                    " (of every speed, the dependent ones last: M u' = F + A^T lambda)."
+                    if eq.constraints is not None else "."))
 
 
-def _constraint_output(eq: Equations, output: Output) -> Spec:
+def _forcing(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    L = eq.layout
+    return Spec(row.output, row.array, (L.n_u + L.n_d,), tuple(f"F[{s}]" for s in L.all_speeds),
+                (Block("out", L.n_u + L.n_d, tuple(enumerate(eq.forcing))),),
+                doc="Forcing F(q,u,r,t) of M u' = F" + (
+                    " + A^T lambda (every speed, the dependent ones last)."
+                    if eq.constraints is not None else "."))
+
+
+def _energy(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    pot = eq.potential_energy if eq.potential_energy is not None else sm.S.Zero
+    return Spec(row.output, row.array, (2,), ("T", "V"),
+                (Block("out", 2, ((0, eq.kinetic_energy), (1, pot))),), doc=row.doc)
+
+
+def _positions(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    return _point_spec(eq, row, "position", "r", "Positions")
+
+
+def _velocities(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    return _point_spec(eq, row, "velocity", "v", "Velocities")
+
+
+def _point_spec(eq: Equations, row: OutputDef, attribute: str, letter: str, what: str) -> Spec:
+    """``attribute`` (of :class:`PointKinematics`) of the equations' points, ``k x 3``."""
+    entries = tuple((3 * k + i, getattr(pk, attribute)[i])
+                    for k, pk in enumerate(eq.points) for i in range(3))
+    labels = tuple(f"{letter}_{pk.name}.{axis}" for pk in eq.points for axis in ("x", "y", "z"))
+    return Spec(row.output, row.array, (len(eq.points), 3), labels,
+                (Block("out", 3 * len(eq.points), entries),),
+                doc=f"{what} of {', '.join(pk.name for pk in eq.points)} in Newtonian "
+                    f"components, row-major k x 3.")
+
+
+def _reactions(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    """Joint reactions: after the solve (they hold for the actual accelerations)."""
+    J = eq.reactions
+    nj = len(J.names)
+    entries = tuple(enumerate(J.matrix))
+    doc = (f"Joint reactions, row-major {nj} x 6: for each joint, the force and the moment "
+           f"(about the joint point) that the parent exerts on the child, in the joint's "
+           f"frame: Fx, Fy, Fz, Mx, My, Mz.")
+    if form is Form.RECURSIVE:
+        acc = acceleration_symbols(eq.layout.n_u)
+        defs = Program(tuple(zip(acc, eq.accelerations)))
+        return Spec(row.output, row.array, (nj, 6), J.labels(),
+                    (Block("out", 6 * nj, entries),), doc=doc, extra=defs)
+    return Spec(row.output, row.array, (nj, 6), J.labels(), _mass_blocks(eq),
+                solve=True, post=(Block("out", 6 * nj, entries),), doc=doc)
+
+
+def _constraint_forces(eq: Equations, row: OutputDef, form: Form) -> Spec:
     c = eq.constraints
-    if c is None:
-        raise ModelError(f"the model {eq.name!r} has no constraints, so no {output.value}")
-    if output is Output.CONSTRAINT_FORCES:
-        lam = lambda_symbols(c.m)
-        return Spec(output, "lam", (c.m,), tuple(f"lambda[{n}]" for n in c.names),
-                    _mass_blocks(eq), solve=True,
-                    post=(Block("out", c.m, tuple(enumerate(lam))),),
-                    velocity=_velocity_blocks(eq),
-                    doc="Constraint multipliers lambda of M u' = F + A^T lambda, one per "
-                        "constraint (a point constraint's: the force on the body at the point "
-                        "along the frame axis).")
-    if c.m_h == 0:
-        raise ModelError(f"the model {eq.name!r} has no configuration (holonomic) constraints")
-    if output is Output.HOLONOMIC:
-        return Spec(output, "fh", (c.m_h,), c.names[:c.m_h],
-                    (Block("out", c.m_h, tuple(enumerate(c.holonomic))),),
-                    doc="Residual f_h(q, t) of the configuration constraints (zero on the "
-                        "constraint manifold).")
-    L = eq.layout
-    H = c.holonomic_jacobian
+    lam = lambda_symbols(c.m)
+    return Spec(row.output, row.array, (c.m,), tuple(f"lambda[{n}]" for n in c.names),
+                _mass_blocks(eq), solve=True, post=(Block("out", c.m, tuple(enumerate(lam))),),
+                velocity=_velocity_blocks(eq), doc=row.doc)
+
+
+def _holonomic(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    c = eq.constraints
+    return Spec(row.output, row.array, (c.m_h,), c.names[:c.m_h],
+                (Block("out", c.m_h, tuple(enumerate(c.holonomic))),), doc=row.doc)
+
+
+def _holonomic_jacobian(eq: Equations, row: OutputDef, form: Form) -> Spec:
+    c, L = eq.constraints, eq.layout
     labels = tuple(f"d({n})/d({q})" for n in c.names[:c.m_h] for q in L.coordinates)
-    return Spec(output, "dfh", (c.m_h, L.n_q), labels,
-                (Block("out", c.m_h * L.n_q, tuple(enumerate(H))),),
-                doc="Jacobian of the configuration constraints, df_h/dq, row-major m_h x n_q.")
+    return Spec(row.output, row.array, (c.m_h, L.n_q), labels,
+                (Block("out", c.m_h * L.n_q, tuple(enumerate(c.holonomic_jacobian))),),
+                doc=row.doc)
 
 
-def _spec(eq: Equations, output: Output, form: Form) -> Spec:
-    L = eq.layout
-    n = L.n_u
-    names = L.state_names
-    form = Form(form)
-    if form is Form.RECURSIVE and eq.accelerations is None:
-        raise ModelError(f"the equations of {eq.name!r} have no recursive accelerations; "
-                         + (_IMPORTED.format(what="Form.RECURSIVE") + "; use Form.SOLVE"
-                            if _imported(eq) else
-                            "derive with Method.NEWTON_EULER (relative joints) or use "
-                            "Form.SOLVE"))
-    if output is Output.RHS:
-        if form is Form.RECURSIVE:
-            entries = tuple(enumerate(list(eq.kinematics) + list(eq.accelerations)))
-            return Spec(output, "dxdt", (L.n_x,), L.derivative_names,
-                        (Block("out", L.n_x, entries),),
-                        doc="First-order right-hand side dxdt = [G(q,u,t); u'] with u' from "
-                            "the articulated-body recursion.")
-        g = Block("out", L.n_x, tuple(enumerate(eq.kinematics)))
-        if eq.constraints is not None:
-            return Spec(output, "dxdt", (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
-                        solve=True, velocity=_velocity_blocks(eq),
-                        doc="First-order right-hand side dxdt = [G(q,u,t); u_s'] of the "
-                            "constrained system: u_r from A u + b = 0 (LU of A_r), u_s' from "
-                            "the reduced equations T^T M T u_s' = T^T (F - M [0; d]).")
-        return Spec(output, "dxdt", (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
-                    solve=True,
-                    doc="First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by "
-                        "L D L^T.")
-    if output in (Output.CONSTRAINT_FORCES, Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN):
-        return _constraint_output(eq, output)
-    if output is Output.REACTIONS:
-        return _reactions(eq, form)
-    if output is Output.MASS_MATRIX:
-        M = eq.mass_matrix
-        n, sp = M.rows, L.all_speeds
-        lower = tuple((i * n + j, M[i, j]) for i in range(n) for j in range(i + 1))
-        mirror = tuple((j * n + i, i * n + j) for i in range(n) for j in range(i))
-        labels = tuple(f"M[{sp[i]},{sp[j]}]" for i in range(n) for j in range(n))
-        return Spec(output, "M", (n, n), labels, (Block("out", n * n, lower, mirror),),
-                    doc="Mass matrix M(q,t), row-major, symmetric" + (
-                        " (of every speed, the dependent ones last: M u' = F + A^T lambda)."
-                        if eq.constraints is not None else "."))
-    if output is Output.FORCING:
-        return Spec(output, "F", (L.n_u + L.n_d,), tuple(f"F[{s}]" for s in L.all_speeds),
-                    (Block("out", L.n_u + L.n_d, tuple(enumerate(eq.forcing))),),
-                    doc="Forcing F(q,u,r,t) of M u' = F" + (
-                        " + A^T lambda (every speed, the dependent ones last)."
-                        if eq.constraints is not None else "."))
-    if output is Output.ENERGY:
-        if eq.kinetic_energy is None:
-            raise ModelError(f"the equations of {eq.name!r} carry no energy expressions; "
-                             + (_IMPORTED.format(what="Output.ENERGY") if _imported(eq) else
-                                "derive with energy=True or leave Output.ENERGY out"))
-        pot = eq.potential_energy if eq.potential_energy is not None else sm.S.Zero
-        return Spec(output, "energy", (2,), ("T", "V"),
-                    (Block("out", 2, ((0, eq.kinetic_energy), (1, pot))),),
-                    doc="Kinetic energy T and potential energy V (gravity, springs).")
-    if output in (Output.POSITIONS, Output.VELOCITIES):
-        if not eq.points:
-            raise ModelError(f"the equations of {eq.name!r} carry no points; "
-                             + (_IMPORTED.format(what=f"Output.{output.name}")
-                                if _imported(eq) else
-                                "list the points to report in the scene (Scene.points) or "
-                                "derive with points=..."))
-        position = output is Output.POSITIONS
-        entries = tuple((3 * k + i, (pk.position if position else pk.velocity)[i])
-                        for k, pk in enumerate(eq.points) for i in range(3))
-        labels = tuple(f"{'r' if position else 'v'}_{pk.name}.{axis}"
-                       for pk in eq.points for axis in ("x", "y", "z"))
-        name = "positions" if position else "velocities"
-        return Spec(output, name, (len(eq.points), 3), labels,
-                    (Block("out", 3 * len(eq.points), entries),),
-                    doc=f"{'Positions' if position else 'Velocities'} of "
-                        f"{', '.join(pk.name for pk in eq.points)} in Newtonian components, "
-                        f"row-major k x 3.")
-    if output is Output.JACOBIAN:
-        return _sensitivity(eq, output, L.states, "J", names,
-                            "Jacobian df/dx of the first-order right-hand side, row-major "
-                            "n_x x n_x.", form)
-    if output is Output.PARAMETER_JACOBIAN:
-        variables = dynamic_parameters(eq)
-        if not variables:
-            raise ModelError(f"the equations of motion of {eq.name!r} have no parameters, so "
-                             f"no parameter Jacobian")
-        return _sensitivity(eq, output, variables, "Jp", tuple(map(str, variables)),
-                            "Parameter Jacobian df/dp of the right-hand side, row-major "
-                            "n_x x n_p.", form)
-    if output is Output.TIME_DERIVATIVE:
-        return _sensitivity(eq, output, (L.time,), "dfdt", ("t",),
-                            "Partial time derivative df/dt of the right-hand side.", form)
-    if output is Output.INPUT_JACOBIAN:
-        if not L.inputs:
-            raise ModelError(f"the model {eq.name!r} has no inputs, so no input Jacobian")
-        return _sensitivity(eq, output, L.inputs, "Jr", L.input_names,
-                            "Input Jacobian df/dr of the right-hand side (B of a "
-                            "linearisation), row-major n_x x n_r.", form)
-    raise ModelError(f"output {output.value!r} has no expressions of its own")
-
-
-def dynamic_parameters(eq: Equations) -> tuple:
-    """Parameters that ``M``, ``F``, ``G`` (or the recursion) use: the others have zero sensitivity."""
-    used = eq.uses(_motion_exprs(eq))
-    return tuple(p for p in eq.layout.parameters if p in used)
-
-
-def applicable(eq: Equations) -> tuple[Output, ...]:
-    """Every expression output the equations can give (energy, parameters, points permitting)."""
-    skip = set()
-    if eq.kinetic_energy is None:
-        skip.add(Output.ENERGY)
-    if not dynamic_parameters(eq):
-        skip.add(Output.PARAMETER_JACOBIAN)
-    if not eq.points:
-        skip |= {Output.POSITIONS, Output.VELOCITIES}
-    if eq.reactions is None or not eq.reactions.names:
-        skip.add(Output.REACTIONS)
-    if not eq.layout.inputs:
-        skip.add(Output.INPUT_JACOBIAN)
-    if eq.constraints is None:
-        skip |= {Output.CONSTRAINT_FORCES, Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN}
-    elif eq.constraints.m_h == 0:
-        skip |= {Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN}
-    return tuple(o for o in EXPRESSION_OUTPUTS if o not in skip)
-
-
-def _sensitivity(eq: Equations, output: Output, variables, out_name: str, var_names,
-                 doc: str, form: Form = Form.SOLVE) -> Spec:
+def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     r"""``df/dv``: kinematic rows symbolic, dynamic rows from :math:`M^{-1}\,\partial R/\partial v`.
 
-    In the recursive form the accelerations themselves are differentiated
-    through the program (forward mode, :func:`mbgen.symbolic.program.derivatives`).
+    ``v``: the output's :data:`~mbgen.symbolic.availability.SENSITIVITIES` row.  In
+    the recursive form the accelerations themselves are differentiated through
+    the program (forward mode, :func:`mbgen.symbolic.program.derivatives`).
     """
     L = eq.layout
+    sensitivity = SENSITIVITIES[row.output]
+    variables = tuple(sensitivity.variables(eq, L))
+    var_names = ("t",) if sensitivity.vector else tuple(map(str, variables))
     nq, nu, nv = L.n_q, L.n_u, len(variables)
-    shape = (L.n_x,) if output is Output.TIME_DERIVATIVE else (L.n_x, nv)
+    shape = (L.n_x,) if sensitivity.vector else (L.n_x, nv)
     labels = tuple(f"d({s}')/d({v})" for s in L.state_names for v in var_names)
-    tag = f"{out_name.lower()}_"
+    tag = f"{row.array.lower()}_"
     if form is Form.RECURSIVE:
         extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
                                variables, tag)
         entries = tuple((i * nv + j, d[i][j]) for i in range(L.n_x) for j in range(nv))
-        return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, entries),),
-                    doc=doc, variables=tuple(variables), extra=extra)
+        return Spec(row.output, row.array, shape, labels, (Block("out", L.n_x * nv, entries),),
+                    doc=row.doc, variables=variables, extra=extra)
     if eq.constraints is not None:
-        return _implicit_sensitivity(eq, output, variables, out_name, shape, labels, doc, tag)
+        return _implicit_sensitivity(eq, row, variables, shape, labels, tag)
     acc = acceleration_symbols(nu)
     M, F = eq.mass_matrix, eq.forcing
     rows = [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)]
@@ -363,15 +360,16 @@ def _sensitivity(eq: Equations, output: Output, variables, out_name: str, var_na
     if all(e == 0 for _, e in d_entries):  # u' does not depend on v: no solve needed
         rows = g_entries + tuple(((nq + i) * nv + j, sm.S.Zero)
                                  for i in range(nu) for j in range(nv))
-        return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, rows),), doc=doc,
-                    variables=tuple(variables), extra=extra)
-    return Spec(output, out_name, shape, labels, (Block("out", L.n_x * nv, g_entries),
-                                                  *_mass_blocks(eq)),
-                solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv, doc=doc,
-                variables=tuple(variables), extra=extra)
+        return Spec(row.output, row.array, shape, labels, (Block("out", L.n_x * nv, rows),),
+                    doc=row.doc, variables=variables, extra=extra)
+    return Spec(row.output, row.array, shape, labels,
+                (Block("out", L.n_x * nv, g_entries), *_mass_blocks(eq)),
+                solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv, doc=row.doc,
+                variables=variables, extra=extra)
 
 
-def _implicit_sensitivity(eq, output, variables, out_name, shape, labels, doc, tag) -> Spec:
+def _implicit_sensitivity(eq: Equations, row: OutputDef, variables, shape, labels,
+                          tag) -> Spec:
     r"""``df/dv`` of a constrained model by implicit differentiation (evaluated in C).
 
     The right-hand side solves, at fixed ``x``: ``C = A u + b = 0`` for ``u_r``,
@@ -406,38 +404,37 @@ def _implicit_sensitivity(eq, output, variables, out_name, shape, labels, doc, t
     post = (block("PC", dC, 0, nv), block("PG", dG, 0, nv), block("PGR", dG, nv, m),
             block("PE", dE, 0, nv), block("PER", dE, nv, m), block("PB", dB, 0, nv),
             block("PBR", dB, nv, m))
-    return Spec(output, out_name, shape, labels, _mass_blocks(eq), solve=True, post=post,
-                doc=doc, variables=tuple(variables), extra=extra,
+    return Spec(row.output, row.array, shape, labels, _mass_blocks(eq), solve=True, post=post,
+                doc=row.doc, variables=variables, extra=extra,
                 velocity=_velocity_blocks(eq), implicit=nv)
 
 
-_IMPORTED = ("they come from from_sympy(), which converts the equations of motion only "
-             "(from_sympy(obj, name=, parameters=, dependent=) takes no option for more): leave "
-             "{what} out, or build the model with mbgen.Model to get it")
-
-
-def _imported(eq: Equations) -> bool:
-    """Equations converted by :func:`mbgen.from_sympy` (their ``method`` is ``sympy.*``)."""
-    return str(eq.method).startswith("sympy.")
-
-
-def _reactions(eq: Equations, form: Form) -> Spec:
-    """Joint reactions: after the solve (they hold for the actual accelerations)."""
-    J = eq.reactions
-    if J is None or not J.names:
-        raise ModelError(f"the equations of {eq.name!r} carry no joint reactions; "
-                         + (_IMPORTED.format(what="Output.REACTIONS") if _imported(eq) else
-                            "derive with reactions=True (Output.REACTIONS asks for it) from an "
-                            "mbgen.Model with at least one body"))
-    nj = len(J.names)
-    entries = tuple(enumerate(J.matrix))
-    doc = (f"Joint reactions, row-major {nj} x 6: for each joint, the force and the moment "
-           f"(about the joint point) that the parent exerts on the child, in the joint's "
-           f"frame: Fx, Fy, Fz, Mx, My, Mz.")
-    if form is Form.RECURSIVE:
-        acc = acceleration_symbols(eq.layout.n_u)
-        defs = Program(tuple(zip(acc, eq.accelerations)))
-        return Spec(Output.REACTIONS, "reactions", (nj, 6), J.labels(),
-                    (Block("out", 6 * nj, entries),), doc=doc, extra=defs)
-    return Spec(Output.REACTIONS, "reactions", (nj, 6), J.labels(), _mass_blocks(eq),
-                solve=True, post=(Block("out", 6 * nj, entries),), doc=doc)
+#: Every expression output: one row each (what it needs of the equations:
+#: :data:`mbgen.symbolic.availability.REQUIREMENTS`).
+OUTPUTS: dict[Output, OutputDef] = {d.output: d for d in (
+    OutputDef(Output.RHS, "dxdt", _rhs),
+    OutputDef(Output.MASS_MATRIX, "M", _mass_matrix),
+    OutputDef(Output.FORCING, "F", _forcing),
+    OutputDef(Output.ENERGY, "energy", _energy,
+              "Kinetic energy T and potential energy V (gravity, springs)."),
+    OutputDef(Output.JACOBIAN, "J", _sensitivity,
+              "Jacobian df/dx of the first-order right-hand side, row-major n_x x n_x."),
+    OutputDef(Output.PARAMETER_JACOBIAN, "Jp", _sensitivity,
+              "Parameter Jacobian df/dp of the right-hand side, row-major n_x x n_p."),
+    OutputDef(Output.TIME_DERIVATIVE, "dfdt", _sensitivity,
+              "Partial time derivative df/dt of the right-hand side."),
+    OutputDef(Output.POSITIONS, "positions", _positions),
+    OutputDef(Output.VELOCITIES, "velocities", _velocities),
+    OutputDef(Output.REACTIONS, "reactions", _reactions),
+    OutputDef(Output.INPUT_JACOBIAN, "Jr", _sensitivity,
+              "Input Jacobian df/dr of the right-hand side (B of a linearisation), row-major "
+              "n_x x n_r."),
+    OutputDef(Output.CONSTRAINT_FORCES, "lam", _constraint_forces,
+              "Constraint multipliers lambda of M u' = F + A^T lambda, one per constraint (a "
+              "point constraint's: the force on the body at the point along the frame axis)."),
+    OutputDef(Output.HOLONOMIC, "fh", _holonomic,
+              "Residual f_h(q, t) of the configuration constraints (zero on the constraint "
+              "manifold)."),
+    OutputDef(Output.HOLONOMIC_JACOBIAN, "dfh", _holonomic_jacobian,
+              "Jacobian of the configuration constraints, df_h/dq, row-major m_h x n_q."),
+)}

@@ -29,6 +29,7 @@ from sympy.printing.precedence import precedence
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import NonFiniteConstantError
+from ..symbolic.graph import walk_unique
 
 #: Largest integer power printed as repeated multiplication.
 MAX_UNROLLED_POWER = 8
@@ -151,8 +152,6 @@ class PyPrinter(_PowerMixin, PythonCodePrinter):
 
 def math_functions(exprs) -> set[str]:
     """Names of the sympy functions used in ``exprs`` (for includes and audits)."""
-    from ..symbolic.graph import walk_unique
-
     out = set()
     for node in walk_unique(exprs):
         if isinstance(node, sm.Function):

@@ -21,7 +21,8 @@ from ..abi import (CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODE
                    Output, Rendered)
 from ..names import model_prefix
 from .optimize import Kernel, KernelFunction
-from .outputs import Form, acceleration_symbols, lambda_symbols
+from .outputs import Form
+from ..symbolic.equations import acceleration_symbols, lambda_symbols
 from .printing import CPrinter, PyPrinter, math_functions
 from .solver import UNROLL_MAX, c_lines, factor_program, py_lines, solve_program
 from .templating import environment

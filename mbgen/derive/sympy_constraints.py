@@ -52,8 +52,7 @@ import sympy as sm
 
 from ..symbolic.equations import Constraints
 from ..errors import ModelError
-from ..codegen.outputs import differentiate
-from ..symbolic.graph import free_symbols, xreplace_dag
+from ..symbolic.graph import differentiate, free_symbols, xreplace_dag
 
 _TRIES = 3  # random states per rank test
 

@@ -11,26 +11,50 @@ Jacobians are derivatives of ``G`` and of ``R = F - M a`` (the accelerations
 ``a`` held fixed), lambdified, with
 :math:`\partial u'/\partial v = M^{-1} \partial R/\partial v` solved numerically.
 Every expression is lambdified on first use.
+
+Each output is one row of :data:`REFERENCES`: the method that computes it,
+with or without constraints.  Only the outputs the equations can give are
+offered (:func:`mbgen.symbolic.availability.applicable`).
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Callable, NamedTuple
 
 import numpy as np
 import sympy as sm
 
-from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
-from ..errors import ModelError
-from ..symbolic.layout import Layout
 from ..abi import Output
+from ..errors import ModelError
+from ..symbolic.availability import SENSITIVITIES, applicable
+from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
+from ..symbolic.graph import differentiate, free_symbols, split_shared
+from ..symbolic.layout import Layout
 from ..symbolic.program import Program
-from ..codegen.outputs import differentiate, dynamic_parameters
 from .compiled import ModelBase
-from ..symbolic.graph import free_symbols, split_shared
 
-_SENSITIVITY = (Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE,
-                Output.INPUT_JACOBIAN)
+
+class _At(NamedTuple):
+    """The arguments of one evaluation, checked: ``(t, x, p, r)``."""
+
+    t: float
+    x: np.ndarray
+    p: np.ndarray
+    r: np.ndarray
+
+
+class _Solved(NamedTuple):
+    """A constrained model solved at one state: ``A`` of ``A u + b = 0``, the dependent
+    speeds ``ur``, the saddle-point matrix ``K = [M -A^T; A 0]``, ``G``, the accelerations
+    ``acc`` (every speed) and the multipliers ``lam``."""
+
+    A: np.ndarray
+    ur: np.ndarray
+    K: np.ndarray
+    G: np.ndarray
+    acc: np.ndarray
+    lam: np.ndarray
 
 
 class LambdifiedModel(ModelBase):
@@ -50,14 +74,8 @@ class LambdifiedModel(ModelBase):
 
     def __init__(self, equations: Equations, outputs=tuple(Output), layout: Layout | None = None):
         L = layout or equations.layout
-        outputs = tuple(o for o in Output.parse(outputs) if not o.is_integrator and (
-            o is not Output.ENERGY or equations.kinetic_energy is not None) and (
-            o is not Output.PARAMETER_JACOBIAN or L.n_p) and (
-            o not in (Output.POSITIONS, Output.VELOCITIES) or equations.points) and (
-            o is not Output.REACTIONS or equations.reactions is not None))
-        outputs = tuple(o for o in outputs if equations.constraints is not None or o not in (
-            Output.CONSTRAINT_FORCES, Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN))
-        outputs = tuple(o for o in outputs if o is not Output.INPUT_JACOBIAN or L.n_r)
+        offered = set(applicable(equations))
+        outputs = tuple(o for o in Output.parse(outputs) if o in offered)
         super().__init__(equations.name, L, equations.defaults, outputs)
         self.equations = _inlined(equations)
         if equations.constraints is not None:
@@ -89,159 +107,188 @@ class LambdifiedModel(ModelBase):
             self._cache[key] = hit
         return hit
 
-    def _mf(self, t, x, p, r):
-        eq, n = self.equations, self._n_u
-        M = self._lambdify("M", lambda: eq.mass_matrix)(t, x, p, r)
-        F = self._lambdify("F", lambda: eq.forcing)(t, x, p, r)
-        return np.array(M, dtype=float).reshape(n, n), np.array(F, dtype=float).reshape(-1)
-
-    def _sensitivity(self, output, t, x, p, r):
-        eq, L = self.equations, self.layout
-        variables = {Output.JACOBIAN: L.states, Output.PARAMETER_JACOBIAN: L.parameters,
-                     Output.TIME_DERIVATIVE: (L.time,), Output.INPUT_JACOBIAN: L.inputs}[output]
-        if output is Output.PARAMETER_JACOBIAN:  # as generated: parameters of M, F and G
-            variables = tuple(v for v in variables if v in dynamic_parameters(eq))
-        acc = list(sm.symbols(f"acc0:{L.n_u}"))
-        dG = self._lambdify(("dG", output),
-                            lambda: sm.Matrix(differentiate(list(eq.kinematics), variables)),
-                            (acc,))
-        dR = self._lambdify(("dR", output), lambda: sm.Matrix(differentiate(list(
-            sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)), variables)),
-                            (acc,))
-        M, F = self._mf(t, x, p, r)
-        a = np.linalg.solve(M, F)
-        G_v = np.array(dG(t, x, p, r, a), dtype=float).reshape(-1, len(variables))
-        R_v = np.array(dR(t, x, p, r, a), dtype=float).reshape(self._n_u, len(variables))
-        out = np.vstack([G_v, np.linalg.solve(M, R_v)])
-        return out.reshape(-1) if output is Output.TIME_DERIVATIVE else out
+    def _value(self, at: _At, key, make_expr, ur=None, extra_args=(), extra=()) -> np.ndarray:
+        """``make_expr()`` at ``at`` (lambdified on first use under ``key``); ``extra`` are the
+        values of the symbols ``extra_args``.  A constrained model's expressions also take
+        the dependent speeds ``ur`` (zero where not given)."""
+        f = self._lambdify(key, make_expr, extra_args)
+        c = self.equations.constraints
+        if c is not None:
+            at = at + (np.zeros(c.m) if ur is None else ur,)
+        return np.array(f(*at, *extra), dtype=float)
 
     def _evaluate(self, output, t, x, p, r):
         self._require(output)
-        t = self._t(t)
-        xa, pa, ra = self._x(x), self._p(p), self._r(r)
-        eq = self.equations
-        if eq.constraints is not None:
-            out = self._constrained(output, t, xa, pa, ra)
-            if not np.all(np.isfinite(out)):
-                self._fail(2, output.value, t, xa)
-            return out
-        if output is Output.MASS_MATRIX:
-            out = self._mf(t, xa, pa, ra)[0]
-        elif output is Output.FORCING:
-            out = self._mf(t, xa, pa, ra)[1]
-        elif output is Output.ENERGY:
-            pot = eq.potential_energy if eq.potential_energy is not None else sm.S.Zero
-            f = self._lambdify("E", lambda: sm.Matrix([eq.kinetic_energy, pot]))
-            out = np.array(f(t, xa, pa, ra), dtype=float).reshape(-1)
-        elif output in (Output.POSITIONS, Output.VELOCITIES):
-            attr = "position" if output is Output.POSITIONS else "velocity"
-            f = self._lambdify(output, lambda: sm.Matrix.hstack(
-                *(getattr(pk, attr) for pk in eq.points)).T)
-            out = np.array(f(t, xa, pa, ra), dtype=float).reshape(len(eq.points), 3)
-        elif output in _SENSITIVITY:
-            out = self._sensitivity(output, t, xa, pa, ra)
-        elif output is Output.REACTIONS:
-            M, F = self._mf(t, xa, pa, ra)
-            acc = list(acceleration_symbols(self._n_u))
-            f = self._lambdify("reactions", lambda: eq.reactions.matrix, (acc,))
-            out = np.array(f(t, xa, pa, ra, np.linalg.solve(M, F)), dtype=float).reshape(-1, 6)
-        else:
-            M, F = self._mf(t, xa, pa, ra)
-            G = np.array(self._lambdify("G", lambda: eq.kinematics)(t, xa, pa, ra),
-                         dtype=float).reshape(-1)
-            try:
-                np.linalg.cholesky(M)
-            except np.linalg.LinAlgError:
-                self._fail(1, output.value, t, xa)
-            out = np.concatenate([G, np.linalg.solve(M, F)])
+        at = _At(self._t(t), self._x(x), self._p(p), self._r(r))
+        out = REFERENCES[output](self, output, at)
         if not np.all(np.isfinite(out)):
-            self._fail(2, output.value, t, xa)
+            self._fail(2, output.value, at.t, at.x)
         return out
 
+    # ------------------------------------------------------------ shared steps
+    def _mf(self, at: _At):
+        eq, n = self.equations, self._n_u
+        M = self._value(at, "M", lambda: eq.mass_matrix)
+        F = self._value(at, "F", lambda: eq.forcing)
+        return M.reshape(n, n), F.reshape(-1)
 
-def _constrained(self, output, t, x, p, r):
-    """Every output of a constrained model, with numpy's dense solves.
+    def _dependent_speeds(self, output, at: _At):
+        """``A`` and ``u_r`` from ``A_r u_r = -(A_s u_s + b)`` (None, None without constraints)."""
+        eq, L = self.equations, self.layout
+        c = eq.constraints
+        if c is None:
+            return None, None
+        A = self._value(at, "CA", lambda: c.velocity_matrix).reshape(c.m, L.n_u + L.n_d)
+        b = self._value(at, "CB", lambda: c.velocity_bias).reshape(-1)
+        Ar, As = A[:, L.n_u:], A[:, :L.n_u]
+        if np.linalg.matrix_rank(Ar) < c.m:
+            self._fail(7, output.value, at.t, at.x)
+        return A, np.linalg.solve(Ar, -(As @ at.x[L.n_q:] + b))
 
-    ``u_r`` from ``A_r u_r = -(A_s u_s + b)``; accelerations and multipliers from
-    the whole saddle-point system ``[M -A^T; A 0] [a; lambda] = [F; -beta]``
-    (the generated code reduces it instead); sensitivities by implicit
-    differentiation of the same equations with numpy.
-    """
-    eq, L = self.equations, self.layout
-    c = eq.constraints
-    n, m, ns = L.n_u + L.n_d, c.m, L.n_u
-    args = (t, x, p, r)
-    zero = np.zeros(m)
+    def _solve_constrained(self, output, at: _At) -> _Solved:
+        """Accelerations and multipliers from the whole saddle-point system
+        ``[M -A^T; A 0] [a; lambda] = [F; -beta]`` with numpy's dense solve (the generated
+        code reduces it instead)."""
+        eq, L = self.equations, self.layout
+        c = eq.constraints
+        n, m = L.n_u + L.n_d, c.m
+        A, ur = self._dependent_speeds(output, at)
+        M = self._value(at, "M", lambda: eq.mass_matrix).reshape(n, n)
+        F = self._value(at, "F", lambda: eq.forcing, ur).reshape(-1)
+        beta = self._value(at, "beta", lambda: c.acceleration_bias, ur).reshape(-1)
+        G = self._value(at, "G", lambda: eq.kinematics, ur).reshape(-1)
+        K = np.block([[M, -A.T], [A, np.zeros((m, m))]])
+        try:
+            np.linalg.cholesky(_null_space_matrix(M, A))
+        except np.linalg.LinAlgError:
+            self._fail(1, output.value, at.t, at.x)
+        sol = np.linalg.solve(K, np.concatenate([F, -beta]))
+        return _Solved(A, ur, K, G, sol[:n], sol[n:])
 
-    def ev(key, make, extra=(), ur=zero, *values):
-        f = self._lambdify(key, make, extra)
-        return np.array(f(*args, ur, *values), dtype=float)
+    # ------------------------------------------------------------ the outputs
+    def _rhs(self, output, at: _At):
+        if self.equations.constraints is not None:
+            s = self._solve_constrained(output, at)
+            return np.concatenate([s.G, s.acc[:self.layout.n_u]])
+        M, F = self._mf(at)
+        G = self._value(at, "G", lambda: self.equations.kinematics).reshape(-1)
+        try:
+            np.linalg.cholesky(M)
+        except np.linalg.LinAlgError:
+            self._fail(1, output.value, at.t, at.x)
+        return np.concatenate([G, np.linalg.solve(M, F)])
 
-    if output is Output.HOLONOMIC:
-        return ev("fh", lambda: c.holonomic).reshape(-1)
-    if output is Output.HOLONOMIC_JACOBIAN:
-        return ev("dfh", lambda: c.holonomic_jacobian).reshape(c.m_h, L.n_q)
-    if output is Output.MASS_MATRIX:
-        return ev("M", lambda: eq.mass_matrix).reshape(n, n)
-    if output is Output.POSITIONS:
-        return ev("pos", lambda: sm.Matrix.hstack(*(pk.position for pk in eq.points)).T
-                  ).reshape(len(eq.points), 3)
-    A = ev("CA", lambda: c.velocity_matrix).reshape(m, n)
-    b = ev("CB", lambda: c.velocity_bias).reshape(-1)
-    Ar, As = A[:, ns:], A[:, :ns]
-    if np.linalg.matrix_rank(Ar) < m:
-        self._fail(7, output.value, t, x)
-    ur = np.linalg.solve(Ar, -(As @ x[L.n_q:] + b))
-    if output is Output.VELOCITIES:
-        return ev("vel", lambda: sm.Matrix.hstack(*(pk.velocity for pk in eq.points)).T,
-                  (), ur).reshape(len(eq.points), 3)
-    if output is Output.ENERGY:
+    def _mass_matrix(self, output, at: _At):
+        n = self.layout.n_u + self.layout.n_d
+        return self._value(at, "M", lambda: self.equations.mass_matrix).reshape(n, n)
+
+    def _forcing(self, output, at: _At):
+        _, ur = self._dependent_speeds(output, at)
+        return self._value(at, "F", lambda: self.equations.forcing, ur).reshape(-1)
+
+    def _energy(self, output, at: _At):
+        eq = self.equations
+        _, ur = self._dependent_speeds(output, at)
         pot = eq.potential_energy if eq.potential_energy is not None else sm.S.Zero
-        return ev("E", lambda: sm.Matrix([eq.kinetic_energy, pot]), (), ur).reshape(-1)
-    M = ev("M", lambda: eq.mass_matrix).reshape(n, n)
-    F = ev("F", lambda: eq.forcing, (), ur).reshape(-1)
-    if output is Output.FORCING:
-        return F
-    beta = ev("beta", lambda: c.acceleration_bias, (), ur).reshape(-1)
-    G = ev("G", lambda: eq.kinematics, (), ur).reshape(-1)
-    K = np.block([[M, -A.T], [A, np.zeros((m, m))]])
-    try:
-        np.linalg.cholesky(_null_space_matrix(M, A))
-    except np.linalg.LinAlgError:
-        self._fail(1, output.value, t, x)
-    sol = np.linalg.solve(K, np.concatenate([F, -beta]))
-    acc, lam = sol[:n], sol[n:]
-    if output is Output.RHS:
-        return np.concatenate([G, acc[:ns]])
-    if output is Output.CONSTRAINT_FORCES:
-        return lam
-    if output is Output.REACTIONS:
-        accs, lams = list(acceleration_symbols(n)), list(lambda_symbols(m))
-        return ev("reactions", lambda: eq.reactions.matrix, (accs, lams), ur, acc, lam
-                  ).reshape(-1, 6)
-    # sensitivities: implicit differentiation of C = A u + b, E = M a - F - A^T lam, B = A a + beta
-    variables = {Output.JACOBIAN: L.states, Output.PARAMETER_JACOBIAN: L.parameters,
-                 Output.TIME_DERIVATIVE: (L.time,), Output.INPUT_JACOBIAN: L.inputs}[output]
-    if output is Output.PARAMETER_JACOBIAN:
-        variables = tuple(v for v in variables if v in dynamic_parameters(eq))
-    nv = len(variables)
-    accs, lams = list(sm.symbols(f"ra0:{n}")), list(sm.symbols(f"rl0:{m}"))
-    u = list(L.all_speeds)
-    Ms, As_ = sm.Matrix(eq.mass_matrix), sm.Matrix(c.velocity_matrix)
-    Cx = As_ * sm.Matrix(u) + sm.Matrix(c.velocity_bias)
-    Ex = Ms * sm.Matrix(accs) - sm.Matrix(eq.forcing) - As_.T * sm.Matrix(lams)
-    Bx = As_ * sm.Matrix(accs) + sm.Matrix(c.acceleration_bias)
-    everything = list(variables) + list(L.dependent_speeds)
-    D = ev(("implicit", output), lambda: sm.Matrix(differentiate(
-        list(Cx) + list(eq.kinematics) + list(Ex) + list(Bx), everything)),
-           (accs, lams), ur, acc, lam).reshape(-1, nv + m)
-    nq = L.n_q
-    dC, dG, dE, dB = D[:m], D[m:m + nq], D[m + nq:m + nq + n], D[m + nq + n:]
-    dur = -np.linalg.solve(Ar, dC[:, :nv])
-    rhs = -np.vstack([dE[:, :nv] + dE[:, nv:] @ dur, dB[:, :nv] + dB[:, nv:] @ dur])
-    da = np.linalg.solve(K, rhs)[:n]
-    out = np.vstack([dG[:, :nv] + dG[:, nv:] @ dur, da[:ns]])
-    return out.reshape(-1) if output is Output.TIME_DERIVATIVE else out
+        return self._value(at, "E", lambda: sm.Matrix([eq.kinetic_energy, pot]), ur).reshape(-1)
+
+    def _positions(self, output, at: _At):
+        points = self.equations.points
+        return self._value(at, "positions", lambda: sm.Matrix.hstack(
+            *(pk.position for pk in points)).T).reshape(len(points), 3)
+
+    def _velocities(self, output, at: _At):
+        points = self.equations.points
+        _, ur = self._dependent_speeds(output, at)
+        return self._value(at, "velocities", lambda: sm.Matrix.hstack(
+            *(pk.velocity for pk in points)).T, ur).reshape(len(points), 3)
+
+    def _reactions(self, output, at: _At):
+        eq = self.equations
+        if eq.constraints is not None:
+            s = self._solve_constrained(output, at)
+            symbols = (list(acceleration_symbols(len(s.acc))), list(lambda_symbols(len(s.lam))))
+            return self._value(at, "reactions", lambda: eq.reactions.matrix, s.ur, symbols,
+                               (s.acc, s.lam)).reshape(-1, 6)
+        M, F = self._mf(at)
+        acc = list(acceleration_symbols(self._n_u))
+        return self._value(at, "reactions", lambda: eq.reactions.matrix, None, (acc,),
+                           (np.linalg.solve(M, F),)).reshape(-1, 6)
+
+    def _constraint_forces(self, output, at: _At):
+        return self._solve_constrained(output, at).lam
+
+    def _holonomic(self, output, at: _At):
+        return self._value(at, "fh", lambda: self.equations.constraints.holonomic).reshape(-1)
+
+    def _holonomic_jacobian(self, output, at: _At):
+        c = self.equations.constraints
+        return self._value(at, "dfh", lambda: c.holonomic_jacobian).reshape(c.m_h, self.layout.n_q)
+
+    def _sensitivity(self, output, at: _At):
+        """``df/dv`` for the output's variables ``v`` (as generated: for the parameter
+        Jacobian, the parameters of ``M``, ``F`` and ``G``)."""
+        eq, L = self.equations, self.layout
+        sensitivity = SENSITIVITIES[output]
+        variables = tuple(sensitivity.variables(eq, L))
+        if eq.constraints is not None:
+            out = self._implicit_sensitivity(output, at, variables)
+        else:
+            acc = list(sm.symbols(f"acc0:{L.n_u}"))
+            dG = self._lambdify(("dG", output), lambda: sm.Matrix(
+                differentiate(list(eq.kinematics), variables)), (acc,))
+            dR = self._lambdify(("dR", output), lambda: sm.Matrix(differentiate(list(
+                sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)), variables)),
+                                (acc,))
+            M, F = self._mf(at)
+            a = np.linalg.solve(M, F)
+            G_v = np.array(dG(*at, a), dtype=float).reshape(-1, len(variables))
+            R_v = np.array(dR(*at, a), dtype=float).reshape(self._n_u, len(variables))
+            out = np.vstack([G_v, np.linalg.solve(M, R_v)])
+        return out.reshape(-1) if sensitivity.vector else out
+
+    def _implicit_sensitivity(self, output, at: _At, variables):
+        """Sensitivities of a constrained model: implicit differentiation, with numpy, of
+        ``C = A u + b``, ``E = M a - F - A^T lambda`` and ``B = A a + beta``."""
+        eq, L = self.equations, self.layout
+        c = eq.constraints
+        n, m, ns, nq, nv = L.n_u + L.n_d, c.m, L.n_u, L.n_q, len(variables)
+        s = self._solve_constrained(output, at)
+        accs, lams = list(sm.symbols(f"ra0:{n}")), list(sm.symbols(f"rl0:{m}"))
+        u = list(L.all_speeds)
+        Ms, As_ = sm.Matrix(eq.mass_matrix), sm.Matrix(c.velocity_matrix)
+        Cx = As_ * sm.Matrix(u) + sm.Matrix(c.velocity_bias)
+        Ex = Ms * sm.Matrix(accs) - sm.Matrix(eq.forcing) - As_.T * sm.Matrix(lams)
+        Bx = As_ * sm.Matrix(accs) + sm.Matrix(c.acceleration_bias)
+        everything = list(variables) + list(L.dependent_speeds)
+        D = self._value(at, ("implicit", output), lambda: sm.Matrix(differentiate(
+            list(Cx) + list(eq.kinematics) + list(Ex) + list(Bx), everything)),
+                        s.ur, (accs, lams), (s.acc, s.lam)).reshape(-1, nv + m)
+        dC, dG, dE, dB = D[:m], D[m:m + nq], D[m + nq:m + nq + n], D[m + nq + n:]
+        dur = -np.linalg.solve(s.A[:, ns:], dC[:, :nv])
+        rhs = -np.vstack([dE[:, :nv] + dE[:, nv:] @ dur, dB[:, :nv] + dB[:, nv:] @ dur])
+        da = np.linalg.solve(s.K, rhs)[:n]
+        return np.vstack([dG[:, :nv] + dG[:, nv:] @ dur, da[:ns]])
+
+
+#: How the reference computes every expression output: a method of :class:`LambdifiedModel`
+#: ``(model, output, at) -> array`` (it branches on constraints where the two differ).
+REFERENCES: dict[Output, Callable] = {
+    Output.RHS: LambdifiedModel._rhs,
+    Output.MASS_MATRIX: LambdifiedModel._mass_matrix,
+    Output.FORCING: LambdifiedModel._forcing,
+    Output.ENERGY: LambdifiedModel._energy,
+    Output.JACOBIAN: LambdifiedModel._sensitivity,
+    Output.PARAMETER_JACOBIAN: LambdifiedModel._sensitivity,
+    Output.TIME_DERIVATIVE: LambdifiedModel._sensitivity,
+    Output.POSITIONS: LambdifiedModel._positions,
+    Output.VELOCITIES: LambdifiedModel._velocities,
+    Output.REACTIONS: LambdifiedModel._reactions,
+    Output.INPUT_JACOBIAN: LambdifiedModel._sensitivity,
+    Output.CONSTRAINT_FORCES: LambdifiedModel._constraint_forces,
+    Output.HOLONOMIC: LambdifiedModel._holonomic,
+    Output.HOLONOMIC_JACOBIAN: LambdifiedModel._holonomic_jacobian,
+}
 
 
 def _null_space_matrix(M, A):
@@ -251,9 +298,6 @@ def _null_space_matrix(M, A):
     rank = int(np.sum(sv > 1e-12 * max(1.0, sv.max() if sv.size else 1.0)))
     Z = vt[rank:].T
     return Z.T @ M @ Z
-
-
-LambdifiedModel._constrained = _constrained
 
 
 def _inlined(eq: Equations) -> Equations:

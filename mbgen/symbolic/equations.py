@@ -11,15 +11,17 @@ symbol ``q1`` here, and every symbol is in :attr:`Equations.layout`.
 
 from __future__ import annotations
 
+import html
 from dataclasses import dataclass, field
 from typing import Mapping
 
 import sympy as sm
 
 from ..errors import ModelError
+from ..summary import names, table
+from .graph import applied_functions, count_ops_dag, free_symbols
 from .layout import Layout
 from .program import Program
-from .graph import applied_functions, free_symbols
 
 
 def acceleration_symbols(n: int) -> tuple[sm.Symbol, ...]:
@@ -239,6 +241,37 @@ class Equations:
 
     def _repr_html_(self) -> str:
         """Notebook summary: sizes, symbols, operation counts; never the matrices."""
-        from ..summary import equations_html
-
         return equations_html(self)
+
+
+def equations_html(eq: Equations) -> str:
+    """Notebook summary of :class:`mbgen.Equations`: sizes, symbols, operation counts.
+
+    The counts are those of the expressions as a graph (:func:`count_ops_dag`: each
+    distinct subexpression once), computed in one pass linear in the graph.
+    """
+    L = eq.layout
+    n = L.n_u + L.n_d
+    rows = [("method", html.escape(eq.method or "-")),
+            ("states x", f"{L.n_x}: {names(L.state_names)}"),
+            ("parameters p", f"{L.n_p}: {names(L.parameter_names)}"),
+            ("inputs r", f"{L.n_r}: {names(L.input_names)}"),
+            ("M u' = F", f"M {n} x {n} ({count_ops_dag(list(eq.mass_matrix))} ops), "
+                         f"F {n} ({count_ops_dag(list(eq.forcing))} ops)"),
+            ("q' = G", f"G {L.n_q} ({count_ops_dag(list(eq.kinematics))} ops)")]
+    if eq.energy is not None:
+        rows.append(("energy", f"T, V ({count_ops_dag([eq.kinetic_energy, eq.potential_energy])}"
+                               f" ops)"))
+    if eq.points:
+        rows.append(("points", names(p.name for p in eq.points)))
+    if eq.program:
+        rows.append(("program", f"{len(eq.program.assignments)} named intermediates"))
+    if eq.reactions is not None:
+        rows.append(("joint reactions", names(eq.reactions.names)))
+    if eq.constraints is not None:
+        c = eq.constraints
+        rows.append(("constraints", f"{c.m} ({c.m_h} configuration): {names(c.names)}; "
+                                    f"dependent speeds {names(L.dependent_speeds)}"))
+    if eq.source:
+        rows.append(("source", html.escape(eq.source)))
+    return table(f"Equations {eq.name!r}", rows)

@@ -32,7 +32,8 @@ from typing import Iterable, Sequence
 
 import sympy as sm
 
-from .graph import free_symbols, symbols_back, to_symengine, to_sympy, xreplace_dag
+from .graph import (free_symbols, postorder_unique, symbols_back, to_symengine, to_sympy,
+                    xreplace_dag)
 
 
 @dataclass(frozen=True)
@@ -91,8 +92,6 @@ class Program:
 
 
 def _rebuild(expr, defs, memo, evaluate):
-    from .graph import postorder_unique
-
     for node in postorder_unique([expr]):
         if node in memo:
             continue

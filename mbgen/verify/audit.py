@@ -26,7 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..abi import INTEGRATORS, Output
-from ..codegen.outputs import Form, applicable
+from ..codegen.outputs import Form
+from ..symbolic.availability import applicable
 from ..pipeline import PipelineResult, equations_of, run
 from ..model.scene import Scene
 from ..codegen.solver import UNROLL_MAX, fill_pattern

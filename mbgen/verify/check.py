@@ -33,10 +33,14 @@ import numpy as np
 from ..errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from ..symbolic.layout import Layout
 from ..abi import Output
-from ..codegen.outputs import dynamic_parameters
+from ..symbolic.availability import SENSITIVITIES
 from ..pipeline import PipelineResult, python_model, run
 from ..run.lambdified import LambdifiedModel
 from ..run.compiled import ModelBase
+
+
+#: The columns of ``df/dp``: the parameters of a layout that the equations' motion uses.
+_PARAMETER_COLUMNS = SENSITIVITIES[Output.PARAMETER_JACOBIAN].variables
 
 
 @dataclass(frozen=True)
@@ -224,7 +228,7 @@ class UnslicedReference(ModelBase):
         self.reaction_names, self.reaction_frames = full.reaction_names, full.reaction_frames
         # df/dp: the unsliced columns are the unsliced dynamic parameters; pick the sliced
         # model's (a parameter missing there has a zero column)
-        full_cols = [str(s) for s in dynamic_parameters(full.equations)]
+        full_cols = [str(s) for s in _PARAMETER_COLUMNS(full.equations, FL)]
         self._dp_cols = [(full_cols.index(n) if n in full_cols else None)
                          for n in sensitivity_columns]
 
@@ -245,8 +249,7 @@ class UnslicedReference(ModelBase):
 def reference_model(result: PipelineResult, outputs) -> ModelBase:
     """The reference of :func:`check`: the unsliced equations, with the sliced ABI."""
     full = LambdifiedModel(result.equations, outputs, layout=result.equations.layout)
-    dynamic = set(dynamic_parameters(result.baked))
-    columns = [str(s) for s in result.layout.parameters if s in dynamic]
+    columns = [str(s) for s in _PARAMETER_COLUMNS(result.baked, result.layout)]
     return UnslicedReference(full, result.layout, result.fixed, result.rendered.defaults, columns)
 
 
