@@ -26,7 +26,7 @@ from ..symbolic.layout import Layout
 from ..abi import Output
 from ..symbolic.program import Program
 from ..codegen.outputs import differentiate, dynamic_parameters
-from .compiled import ModelBase
+from .base import ModelBase
 from ..symbolic.graph import free_symbols, split_shared
 
 _SENSITIVITY = (Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE,
