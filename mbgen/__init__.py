@@ -19,14 +19,16 @@ from .run.named import InputTable
 from .model.builder import Model, t
 from .codegen.optimize import CseBackend
 from .abi import Output
-from .pipeline import compile, equations_of, python_model, run
+from .pipeline import compile, equations_of, run
 from .run.lambdified import LambdifiedModel
-from .run.compiled import CompiledModel, PythonModel
+from .run.compiled import CompiledModel
+from .run.python import PythonModel, python_model
 from .model.scene import Scene, load_scene
 from .codegen.targets import Targets
 from .codegen.targets.fmu import export_fmu
 from .studies.ensemble import ensemble
-from .run.simulate import Trajectory, simulate
+from .run.integration import Trajectory
+from .run.simulate import simulate
 from .run.stepper import Stepper
 from .viz.plots import plot_simulation
 from .viz.animate import animate_scene

@@ -12,9 +12,7 @@ outputs and the parameters they read (:mod:`mbgen.codegen.optimize`).
 
 from __future__ import annotations
 
-import builtins
 import time
-import types
 from dataclasses import dataclass, field, replace
 from typing import Iterable, Mapping, Sequence
 
@@ -27,7 +25,7 @@ from .codegen.optimize import CseBackend, Form, Kernel, optimize
 from .abi import Output
 from .abi import Rendered
 from .codegen.render import render
-from .run.compiled import CompiledModel, PythonModel
+from .run.compiled import CompiledModel
 from .model.scene import Scene, source_label
 from .codegen.slicing import bake
 
@@ -198,15 +196,3 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
     """
     return run(source, outputs, parameters=parameters, fixed=fixed, inputs=inputs, name=name,
                cse_backend=cse_backend, targets=targets, method=method, form=form).compiled
-
-
-def python_model(rendered: Rendered) -> PythonModel:
-    """Load the generated Python module of ``rendered`` (no files written).
-
-    The ABI layout, parameter defaults and outputs come from ``rendered``.
-    """
-    name = f"mbgen_generated_{rendered.prefix}"
-    module = types.ModuleType(name)
-    module.__file__ = f"<generated {rendered.prefix}.py>"
-    exec(builtins.compile(rendered.python, module.__file__, "exec"), module.__dict__)
-    return PythonModel(rendered, module, rendered.layout, rendered.defaults, rendered.outputs)

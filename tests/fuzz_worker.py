@@ -31,7 +31,8 @@ from hypothesis import strategies as st
 
 import mbgen
 from mbgen.errors import MbgenError
-from mbgen.pipeline import python_model, run
+from mbgen.pipeline import run
+from mbgen.run.python import python_model
 from mbgen.model.scene import load_scene
 
 SPECIAL = [np.nan, np.inf, -np.inf, 1e308, -1e308, 5e-324, -5e-324, 0.0, -0.0, 1e154, 1e-154,

@@ -15,7 +15,8 @@ import pytest
 
 import mbgen
 from mbgen.derive import Method
-from mbgen.pipeline import python_model, run
+from mbgen.pipeline import run
+from mbgen.run.python import python_model
 
 K, C, C0, M1, M2 = 40.0, 0.8, 0.3, 1.0, 2.0
 

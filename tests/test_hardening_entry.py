@@ -21,7 +21,8 @@ from mbgen.cli import EXIT_MODEL, EXIT_OK, main
 from mbgen.errors import ModelError, SceneError
 from mbgen.model.kinematics import vec
 from mbgen.model.builder import MAX_BODIES, MAX_SPEEDS, ModelSizeError, t
-from mbgen.pipeline import python_model, run
+from mbgen.pipeline import run
+from mbgen.run.python import python_model
 from mbgen.codegen.printing import (CPrinter, NonFiniteConstantError, PyPrinter, power_form,
                                     printed_base_count)
 from mbgen.model.scene import load_scene

@@ -17,7 +17,8 @@ import sympy as sm
 import mbgen
 from mbgen.errors import (ArgumentError, ArgumentTypeError, IntegrationError, MbgenError,
                           NonFiniteResultError, SingularMassMatrixError)
-from mbgen.pipeline import python_model, run
+from mbgen.pipeline import run
+from mbgen.run.python import python_model
 from mbgen.abi import INTEGRATOR_STATUS_CODES
 from mbgen.model.scene import load_scene
 

@@ -17,7 +17,8 @@ import pytest
 
 import mbgen
 from mbgen.derive import Method
-from mbgen.pipeline import python_model, run
+from mbgen.pipeline import run
+from mbgen.run.python import python_model
 
 
 def two_particles() -> mbgen.Scene:

@@ -363,7 +363,7 @@ def _print_constraint_start(model, x0, traj) -> None:
 class _NoModel:
     """Stands in for a model when only a method name is checked."""
 
-    outputs, backend, name = (), "none", ""
+    outputs, backend, name, c_integrators = (), "none", "", ()
 
 
 def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
@@ -380,7 +380,8 @@ def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
 def cmd_demo(args) -> int:
     from ..verify.check import check
     from ..fileio import write_files
-    from ..pipeline import python_model, run
+    from ..pipeline import run
+    from ..run.python import python_model
     from ..run.lambdified import LambdifiedModel
     from ..model.scene import load_scene
     from ..run.simulate import simulate, simulate_in_c

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..abi import status_message
 from ..errors import ArgumentError, ArgumentTypeError, IntegrationError, MbgenError
+from ..integrators import METHODS
 from .arguments import real_vector
 
 def _rows(model, value, n: int, what: str, names, k: int | None):
@@ -132,7 +133,7 @@ def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
     if model.n_r:
         args += [buf("double[]", ra), rs]
     start = time.perf_counter()
-    work = (ffi.new(f"{prefix}_rosenbrock_work *"),) if output.value == "rosenbrock" else ()
+    work = (ffi.new(f"{prefix}_{output.value}_work *"),) if METHODS[output].implicit else ()
     getattr(model.lib, f"{prefix}_{output.value}_batch")(
         *args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats,
         buf("int[]", status), *work)

@@ -1,362 +1,39 @@
-"""Runtime models: the compiled C, the generated Python and the lambdified reference.
+"""The compiled back end: the generated C, built and loaded with cffi.
 
-All three expose the same interface, so they can be compared and swapped:
-
-``rhs(t, x, p=None, r=None)``
-    ``dxdt``, shape ``(n_x,)``; works directly as ``solve_ivp(model.rhs, ...)``
-    (bind parameters with ``args=(p,)`` or :meth:`ModelBase.bind`).
-``mass_matrix``, ``forcing``, ``energy``
-    The other outputs, when they were generated.
-
-Every call returns a **new** array, validates ``t``, ``x``, ``p`` and ``r`` (a
-wrong length is an :class:`~mbgen.errors.ArgumentError`, also a ``ValueError``; a
-non-real dtype or a complex or string ``t`` an :class:`~mbgen.errors.ArgumentTypeError`,
-also a ``TypeError``; non-contiguous, read-only and byte-swapped input is accepted) and raises :class:`~mbgen.errors.SingularMassMatrixError` or
-:class:`~mbgen.errors.NonFiniteResultError` instead of returning NaNs.
+:class:`CompiledModel` has the :class:`~mbgen.run.base.ModelBase` interface.  Each
+generated function gets one closure (``_make_call``) whose common case (a float ``t``,
+a contiguous float64 ``x``, default or float64 ``p`` and ``r``) goes straight to C;
+anything else takes the validating path or the batch loop (:mod:`mbgen.run.batch`).
+:meth:`CompiledModel.integrate` runs a generated C integrator over the output times
+and returns a :class:`~mbgen.run.integration.Trajectory`.
 """
 
 from __future__ import annotations
 
-import numbers
+import html
+import re
 import time
-from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import (ArgumentError, ArgumentTypeError, IntegrationError, MbgenError,
-                      NonFiniteResultError, SingularConstraintError, SingularMassMatrixError)
-from .arguments import F64, real_number, real_vector, step_count, times
+from .. import summary
+from ..abi import INTEGRATORS, Output, status_message
+from ..errors import ArgumentError, ConstraintError, IntegrationError, MbgenError
+from ..integrators import method as integrator
 from ..symbolic.layout import Layout
 from . import named
-from .batch import batch_args, batch_times, evaluate, is_batch
+from .arguments import F64, real_number, step_count, times
+from .base import ModelBase
+from .batch import evaluate, is_batch
 from .batch import integrate as batch_integrate
-from ..abi import Output, status_message
-
-class ModelBase:
-    """Shared validation, parameter defaults and binding.
-
-    Attributes
-    ----------
-    name : str
-    layout : Layout
-    state_names, parameter_names, input_names : tuple of str
-    default_parameters : ndarray, shape (n_p,), or None when not every default is known
-    outputs : tuple of Output
-    """
-
-    backend = "base"
-
-    def __init__(self, name: str, layout: Layout, defaults: Mapping[str, float] | None,
-                 outputs: Sequence[Output]):
-        self.name = name
-        self.layout = layout
-        self.state_names = layout.state_names
-        self.parameter_names = layout.parameter_names
-        self.input_names = layout.input_names
-        self.n_x, self.n_p, self.n_r = layout.n_x, layout.n_p, layout.n_r
-        defaults = dict(defaults or {})
-        values = [defaults.get(n) for n in self.parameter_names]
-        self.default_parameters = (np.array(values, dtype=float)
-                                   if all(v is not None for v in values) else None)
-        self.parameter_defaults = {n: float(v) for n, v in zip(self.parameter_names, values)
-                                   if v is not None}
-        self.outputs = tuple(outputs)
-        self.reaction_names: tuple[str, ...] = ()
-        self.reaction_frames: tuple[str, ...] = ()
-        self.constraint_names: tuple[str, ...] = ()
-        self.dependent_coordinates: tuple[str, ...] = ()
-        self._zeros_r = np.zeros(self.n_r)
-
-    # -------------------------------------------------------------- validation
-    @staticmethod
-    def _vector(value, n: int, what: str, names) -> np.ndarray:
-        if (type(value) is np.ndarray and value.dtype is F64 and value.shape == (n,)
-                and value.flags.c_contiguous):
-            return value
-        return real_vector(value, n, what, names)
-
-    def _x(self, x) -> np.ndarray:
-        if isinstance(x, Mapping):  # by name (mbgen.run.named)
-            x = named.states(self, x)
-        return self._vector(x, self.n_x, "state x", self.state_names)
-
-    def _p(self, p) -> np.ndarray:
-        if p is None:
-            if self.default_parameters is None and self.n_p:
-                raise ArgumentError(f"model {self.name!r} has no default for every parameter "
-                                    f"{list(self.parameter_names)}; pass p")
-            return self.default_parameters if self.n_p else np.zeros(0)
-        if isinstance(p, Mapping):  # by name (mbgen.run.named)
-            p = named.parameters(self, p)
-        return self._vector(p, self.n_p, "parameters p", self.parameter_names)
-
-    def _r(self, r) -> np.ndarray:
-        if r is None:
-            return self._zeros_r
-        if isinstance(r, Mapping):  # by name (mbgen.run.named)
-            r = named.inputs(self, r)
-        return self._vector(r, self.n_r, "inputs r", self.input_names)
-
-    @staticmethod
-    def _t(t) -> float:
-        return real_number(t, "time t")
-
-    def _fail(self, status: int, what: str, t, x) -> None:
-        where = f"at t={t!r}, x={dict(zip(self.state_names, np.asarray(x).tolist()))}"
-        if status == 1:
-            raise SingularMassMatrixError(
-                f"{self.name}.{what}: the mass matrix is not positive definite {where}; "
-                f"check parameters (masses, inertias > 0) and avoid singular configurations")
-        if status == 2:
-            raise NonFiniteResultError(f"{self.name}.{what}: result is NaN or infinite {where}")
-        if status == 7:
-            raise SingularConstraintError(
-                f"{self.name}.{what}: the constraint Jacobian of the dependent speeds is singular "
-                f"{where}: a locked or singular configuration (a four-bar at its dead point, ...); "
-                f"choose other dependent speeds or avoid the configuration")
-        raise MbgenError(f"{self.name}.{what}: error status {status} {where}")  # pragma: no cover
-
-    # ------------------------------------------------------------------ outputs
-    def _evaluate(self, output: Output, t, x, p, r) -> np.ndarray:  # pragma: no cover
-        raise NotImplementedError
-
-    def _require(self, output: Output) -> None:
-        if output not in self.outputs:
-            raise MbgenError(f"output {output.value!r} was not generated for {self.name!r}; "
-                             f"compile with outputs including Output.{output.name}")
-
-    def rhs(self, t, x, p=None, r=None) -> np.ndarray:
-        """``dxdt = [G; M^-1 F]``, shape ``(n_x,)``."""
-        return self._evaluate(Output.RHS, t, x, p, r)
-
-    def mass_matrix(self, t, x, p=None, r=None) -> np.ndarray:
-        """``M(q, t)``, shape ``(n_u, n_u)``."""
-        return self._evaluate(Output.MASS_MATRIX, t, x, p, r)
-
-    def forcing(self, t, x, p=None, r=None) -> np.ndarray:
-        """``F(q, u, r, t)``, shape ``(n_u,)``."""
-        return self._evaluate(Output.FORCING, t, x, p, r)
-
-    def energy(self, t, x, p=None, r=None) -> np.ndarray:
-        """``[T, V]``: kinetic and potential energy."""
-        return self._evaluate(Output.ENERGY, t, x, p, r)
-
-    def jacobian(self, t, x, p=None, r=None) -> np.ndarray:
-        """``df/dx`` of the right-hand side, shape ``(n_x, n_x)`` (``jac=`` for solve_ivp)."""
-        return self._evaluate(Output.JACOBIAN, t, x, p, r)
-
-    def parameter_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
-        """``df/dp`` of the right-hand side, shape ``(n_x, n_p)``."""
-        return self._evaluate(Output.PARAMETER_JACOBIAN, t, x, p, r)
-
-    def time_derivative(self, t, x, p=None, r=None) -> np.ndarray:
-        """``df/dt`` of the right-hand side (explicit time dependence), shape ``(n_x,)``."""
-        return self._evaluate(Output.TIME_DERIVATIVE, t, x, p, r)
-
-    def positions(self, t, x, p=None, r=None) -> np.ndarray:
-        """Newtonian positions of the reported points, shape ``(k, 3)``."""
-        return self._evaluate(Output.POSITIONS, t, x, p, r)
-
-    def velocities(self, t, x, p=None, r=None) -> np.ndarray:
-        """Newtonian velocities of the reported points, shape ``(k, 3)``."""
-        return self._evaluate(Output.VELOCITIES, t, x, p, r)
-
-    def input_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
-        """``df/dr`` of the right-hand side, shape ``(n_x, n_r)`` (``B`` of a linearisation)."""
-        return self._evaluate(Output.INPUT_JACOBIAN, t, x, p, r)
-
-    def constraint_forces(self, t, x, p=None, r=None) -> np.ndarray:
-        """Constraint multipliers ``lambda`` of ``M u' = F + A^T lambda``, shape ``(m,)``.
-
-        For a point constraint (``no_slip``, ``coincident``) the force on the body at
-        the point along the frame axis; for a stated one the generalized force
-        conjugate to it.  Order: the model's constraints.
-        """
-        return self._evaluate(Output.CONSTRAINT_FORCES, t, x, p, r)
-
-    def holonomic(self, t, x, p=None, r=None) -> np.ndarray:
-        """Residual ``f_h(q, t)`` of the configuration constraints, shape ``(m_h,)``."""
-        return self._evaluate(Output.HOLONOMIC, t, x, p, r)
-
-    def holonomic_jacobian(self, t, x, p=None, r=None) -> np.ndarray:
-        """``df_h/dq``, shape ``(m_h, n_q)``."""
-        return self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)
-
-    def reactions(self, t, x, p=None, r=None) -> np.ndarray:
-        """Joint reactions, shape ``(n_joints, 6)``: per joint (in :attr:`reaction_names`
-        order, from the root) the force ``Fx, Fy, Fz`` and the moment ``Mx, My, Mz`` about the
-        joint point that the parent exerts on the child, in the joint's frame
-        (:attr:`reaction_frames`)."""
-        return self._evaluate(Output.REACTIONS, t, x, p, r)
-
-    def consistent(self, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-12,
-                   max_iterations: int = 50) -> np.ndarray:
-        """Complete ``x`` to a consistent state: solve the configuration constraints for
-        the dependent coordinates (Newton), keeping every other entry of ``x``.
-
-        Speeds need nothing: only the independent speeds are states; the
-        dependent ones always come from the velocity constraints.
-
-        Raises
-        ------
-        ConstraintError
-            Newton did not converge (the message gives the residual), or the
-            constraint Jacobian of the dependent coordinates is singular.
-        """
-        from ..errors import ConstraintError
-
-        x = self._x(x).copy()
-        tol = real_number(tol, "tol")
-        if not tol >= 0:
-            raise ArgumentError(f"tol must be a number >= 0; got {tol!r}")
-        max_iterations = step_count(max_iterations, "max_iterations")
-        if not self.dependent_coordinates:
-            return x
-        for o in (Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN):
-            self._require(o)
-        idx = [self.state_names.index(n) for n in self.dependent_coordinates]
-        res = np.inf
-        for _ in range(max_iterations):
-            f = self._evaluate(Output.HOLONOMIC, t, x, p, r)
-            res = float(np.max(np.abs(f)))
-            if res <= tol * (1.0 + float(np.max(np.abs(x[idx])))):
-                return x
-            J = self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)[:, idx]
-            try:
-                x[idx] -= np.linalg.solve(J, f)
-            except np.linalg.LinAlgError:
-                raise ConstraintError(
-                    f"{self.name}: the configuration constraints cannot be solved for "
-                    f"{list(self.dependent_coordinates)} at {dict(zip(self.state_names, x))}: "
-                    f"their Jacobian is singular (a locked configuration); start elsewhere"
-                ) from None
-            if not np.all(np.isfinite(x)):
-                break
-        raise ConstraintError(
-            f"{self.name}: Newton on the configuration constraints did not converge for "
-            f"{list(self.dependent_coordinates)} (residual {res:.3g} after {max_iterations} "
-            f"iterations); give initial values of the dependent coordinates closer to a "
-            f"solution")
-
-    def bind(self, p=None, r=None, output: Output = Output.RHS, *,
-             vectorized: bool = False) -> Callable:
-        """``f(t, x)`` with parameters and inputs fixed (for ``solve_ivp(f, ...)``).
-
-        ``vectorized=True``: ``f(t, y)`` takes and returns solve_ivp's ``(n_x, k)``
-        columns (``solve_ivp(f, ..., vectorized=True)``), evaluated by the batch
-        loop in C (compiled models) as ``rhs(t, y.T).T``.
-
-        ``p``, ``r``: arrays or mappings by name (:mod:`mbgen.run.named`); ``r`` may
-        also be a function ``r(t, x)`` (or an :class:`~mbgen.run.named.InputTable`),
-        called at every evaluation.
-        """
-        output = Output(output)
-        self._require(output)
-        if callable(r) and not vectorized:
-            return named.driven(self, output, self._p(p).copy(), r)
-        p_arr, r_arr = self._p(p).copy(), self._r(r).copy()
-
-        if vectorized:
-            def f(t, y):
-                y = np.asarray(y)
-                if y.ndim == 1:
-                    return self._evaluate(output, t, y, p_arr, r_arr)
-                if self.backend != "c":  # no batch loop: one call per column
-                    return np.stack([self._evaluate(output, t, col, p_arr, r_arr)
-                                     for col in y.T], axis=-1)
-                return self._evaluate(output, t, y.T, p_arr, r_arr).T
-            return f
-
-        def f(t, x):
-            return self._evaluate(output, t, x, p_arr, r_arr)
-
-        return f
-
-    def __repr__(self) -> str:
-        return (f"<{type(self).__name__} {self.name!r}: x={list(self.state_names)}, "
-                f"p={list(self.parameter_names)}, outputs={[o.value for o in self.outputs]}>")
-
-
-@dataclass(frozen=True)
-class Integration:
-    """A trajectory computed by a generated C integrator (:meth:`CompiledModel.integrate`).
-
-    It reads like scipy's ``OdeResult``: ``t``, ``y`` (shape ``(n_x, k)``),
-    ``success``, ``message``, ``status``, ``nfev``, ``njev``, ``nlu`` (also as
-    ``result["y"]``), plus mbgen's own fields below (``x`` is ``y.T``, ``n_rhs``
-    is ``nfev``, ...).
-
-    Attributes
-    ----------
-    t : ndarray, shape (k,)
-        The requested output times.
-    x : ndarray, shape (k, n_x)
-        The state at those times (row 0 is ``x0``); ``y`` is its transpose.
-    method : str
-        ``"dopri5"``, ``"rk4"`` or ``"rosenbrock"``.
-    status : int
-        The C status code (0: success; failures raise instead).
-    n_steps, n_rejected, n_rhs, n_jac, n_lu : int
-        Accepted and rejected steps, right-hand side and Jacobian calls, LU factorisations.
-    wall_time : float
-        Seconds spent in the C call (``time.perf_counter``).
-    max_residual : float
-        Constrained models: the largest configuration-constraint residual
-        ``max|f_h|`` met after a step, before projection (NaN without
-        configuration constraints).
-    """
-
-    t: np.ndarray
-    x: np.ndarray
-    method: str
-    status: int
-    n_steps: int
-    n_rejected: int
-    n_rhs: int
-    n_jac: int
-    n_lu: int
-    wall_time: float
-    max_residual: float = float("nan")
-
-    # scipy.integrate.OdeResult's names -------------------------------------
-    @property
-    def y(self) -> np.ndarray:
-        """States as columns, shape ``(n_x, k)`` (as ``solve_ivp``'s ``y``)."""
-        return self.x.T
-
-    @property
-    def success(self) -> bool:
-        return self.status == 0
-
-    @property
-    def message(self) -> str:
-        return ("The solver successfully reached the end of the integration interval."
-                if self.status == 0 else f"failed with status {self.status}")
-
-    @property
-    def nfev(self) -> int:
-        return self.n_rhs
-
-    @property
-    def njev(self) -> int:
-        return self.n_jac
-
-    @property
-    def nlu(self) -> int:
-        return self.n_lu
-
-    def __getitem__(self, key: str):
-        try:
-            return getattr(self, key)
-        except AttributeError:
-            raise KeyError(key) from None
+from .integration import SUCCESS, Trajectory
 
 
 class CompiledModel(ModelBase):
     """The generated C, compiled with cffi; see :func:`mbgen.compile`."""
 
     backend = "c"
+    batch_loop = True
 
     def __init__(self, rendered, module, layout: Layout, defaults, outputs):
         super().__init__(rendered.prefix, layout, defaults, outputs)
@@ -370,6 +47,11 @@ class CompiledModel(ModelBase):
         self._calls = {Output(info.output): self._make_call(info) for info in rendered.functions}
         self._rhs = self._calls.get(Output.RHS) or (
             lambda t, x, p=None, r=None: self._evaluate(Output.RHS, t, x, p, r))
+
+    @property
+    def c_integrators(self) -> tuple[Output, ...]:
+        """The generated C integrators :meth:`integrate` can run (its ``outputs``)."""
+        return tuple(o for o in INTEGRATORS if o in self.outputs)
 
     def _make_call(self, info):
         """``call(t, x, p=None, r=None)`` for one generated function.
@@ -492,8 +174,6 @@ class CompiledModel(ModelBase):
 
     def _check_consistent_start(self, t0, x0, p, r) -> None:
         """Refuse an initial state off the configuration constraints (ConstraintError)."""
-        from ..errors import ConstraintError
-
         res = float(np.max(np.abs(self.holonomic(float(t0), x0, p, r))))
         scale = 1.0 + float(np.max(np.abs(x0[:self.layout.n_q]))) if self.layout.n_q else 1.0
         if not res <= self.START_RESIDUAL_TOL * scale:
@@ -542,6 +222,13 @@ class CompiledModel(ModelBase):
             coordinates back onto the constraints after every step (``False``
             only records the drift, ``Integration.max_residual``).
 
+        Returns
+        -------
+        Trajectory
+            :class:`~mbgen.run.integration.Trajectory` (also named ``Integration``):
+            ``t``, ``x`` ``(k, n_x)``, ``method`` (``"dopri5"``, ...), step and call
+            counts; a :class:`~mbgen.run.batch.BatchIntegration` for a batch.
+
         Raises
         ------
         MbgenError
@@ -553,13 +240,8 @@ class CompiledModel(ModelBase):
             The C integrator failed (step too small, step limit, singular
             matrix, mass matrix not positive definite, non-finite result).
         """
-        try:
-            output = method if isinstance(method, Output) else Output(str(method).lower())
-        except ValueError:
-            output = None
-        if output is None or not output.is_integrator:
-            raise ArgumentError(f"{method!r:.60} is not an integrator; choose from 'dopri5', "
-                                f"'rk4', 'rosenbrock'")
+        spec = integrator(method)
+        output = spec.output
         self._require(output)
         t = times(t_eval)
         x0, p, r = named.arrays(self, x0, p, r)
@@ -569,9 +251,10 @@ class CompiledModel(ModelBase):
         xa = None if is_batch(x0, p, r) else self._x(x0)
         if xa is not None and not np.all(np.isfinite(xa)):
             raise ArgumentError(f"initial state x0 must be finite; got {xa.tolist()}")
-        if output is Output.RK4:
+        if not spec.adaptive:
             if h is None:
-                raise ArgumentError("the rk4 integrator takes a fixed step: pass h > 0")
+                raise ArgumentError(f"the {output.value} integrator takes a fixed step: "
+                                    f"pass h > 0")
         rtol, atol = real_number(rtol, "rtol"), real_number(atol, "atol")
         h_max = real_number(h_max, "h_max")
         h0 = 0.0 if h is None else real_number(h, "h")
@@ -611,7 +294,7 @@ class CompiledModel(ModelBase):
         if self.n_r:
             args.append(buf("double[]", self._r(r)))
         cfunc = getattr(self.lib, f"{prefix}_{output.value}")
-        work = (ffi.new(f"{prefix}_rosenbrock_work *"),) if output is Output.ROSENBROCK else ()
+        work = (ffi.new(f"{prefix}_{output.value}_work *"),) if spec.implicit else ()
         start = time.perf_counter()
         status = cfunc(*args, t.size, buf("double[]", t), buf("double[]", x_out), opt, stats,
                        *work)
@@ -622,72 +305,36 @@ class CompiledModel(ModelBase):
                 f"({status_message(prefix, status)}) at t_reached={stats.t_reached!r} after "
                 f"{stats.n_steps} steps ({stats.n_rejected} rejected, {stats.n_rhs} RHS calls)",
                 status, float(stats.t_reached))
-        return Integration(t, x_out, output.value, int(status), int(stats.n_steps),
-                           int(stats.n_rejected), int(stats.n_rhs), int(stats.n_jac),
-                           int(stats.n_lu), wall,
-                           float(stats.max_residual) if projects else float("nan"))
+        return Trajectory(t, x_out, tuple(self.state_names), int(stats.n_rhs), wall,
+                          output.value, njev=int(stats.n_jac), nlu=int(stats.n_lu),
+                          n_steps=int(stats.n_steps), message=SUCCESS,
+                          max_residual=float(stats.max_residual) if projects else float("nan"),
+                          status=int(status), n_rejected=int(stats.n_rejected))
 
     def _repr_html_(self) -> str:
         """Notebook summary: ABI sizes and names, outputs, operation counts."""
-        from ..summary import compiled_html
-
         return compiled_html(self)
 
 
-class PythonModel(ModelBase):
-    """The generated Python module (``<prefix>.py``) behind the same interface."""
+def compiled_html(model: CompiledModel) -> str:
+    """Summary of a :class:`CompiledModel` (ABI sizes, outputs, operation counts)."""
+    rendered = model.rendered
+    ops = re.search(r"Operations: (\d+) after CSE \((\d+) before\)", rendered.header)
+    rows = [("states x", f"{model.n_x}: {summary.names(model.state_names)}"),
+            ("parameters p", f"{model.n_p}: {summary.names(model.parameter_names)}"),
+            ("inputs r", f"{model.n_r}: {summary.names(model.input_names)}"),
+            ("outputs", summary.names(o.value for o in model.outputs))]
+    if ops:
+        rows.append(("operations", f"{ops.group(1)} after CSE ({ops.group(2)} before)"))
+    if model.default_parameters is not None and model.n_p:
+        rows.append(("default p", summary.names(
+            f"{n}={v:g}" for n, v in zip(model.parameter_names, model.default_parameters))))
+    if model.reaction_names:
+        rows.append(("joints", summary.names(model.reaction_names)))
+    if model.constraint_names:
+        rows.append(("constraints", summary.names(model.constraint_names)))
+    rows.append(("content hash", html.escape(rendered.content_hash[:16] or "-")))
+    return summary.table(f"CompiledModel {model.name!r} (C)", rows)
 
-    backend = "python"
 
-    def __init__(self, rendered, module, layout: Layout, defaults, outputs):
-        super().__init__(rendered.prefix, layout, defaults, outputs)
-        self.rendered = rendered
-        self.module = module
-        self.reaction_names = tuple(n for n, _ in rendered.joints)
-        self.reaction_frames = tuple(f for _, f in rendered.joints)
-        self.constraint_names, self.dependent_coordinates = (rendered.constraints,
-                                                             rendered.dependent)
-        self._args = {Output(info.output): info.args for info in rendered.functions}
-
-    def _evaluate(self, output, t, x, p, r):
-        self._require(output)
-        fn = getattr(self.module, output.value)
-        takes = self._args[output]
-        p_, r_ = (p if "p" in takes else None), (r if "r" in takes else None)
-        if not all(v is None or type(v) is np.ndarray and v.ndim == 1 for v in (x, p_, r_)):
-            if is_batch(x, p_, r_):  # as the C batch loop: item by item, the first failure raises
-                return self._batch(output, fn, t, x, p_, r_)
-        xa = self._x(x)
-        args = [self._t(t), xa]
-        if "p" in self._args[output]:
-            args.append(self._p(p))
-        if "r" in self._args[output]:
-            args.append(self._r(r))
-        return self._call(fn, output, args, t, xa)
-
-    def _call(self, fn, output, args, t, xa):
-        try:
-            return fn(*args)
-        except self.module.NotPositiveDefinite:
-            self._fail(1, output.value, t, xa)
-        except self.module.NonFinite:
-            self._fail(2, output.value, t, xa)
-        except getattr(self.module, "ConstraintSingular", ()):
-            self._fail(7, output.value, t, xa)
-
-    def _batch(self, output, fn, t, x, p, r):
-        k, (xa, xs), (pa, ps), (ra, rs) = batch_args(self, x, p, r)
-        ta, ts = batch_times(self, t, k)
-        info = next(f for f in self.rendered.functions if Output(f.output) is output)
-        out = np.empty((k,) + tuple(info.out_shape))
-        for i in range(k):
-            args = [float(ta[i * ts]), xa[i * (xs > 0)]]
-            if "p" in self._args[output]:
-                args.append(pa[i * (ps > 0)])
-            if "r" in self._args[output]:
-                args.append(ra[i * (rs > 0)])
-            try:
-                out[i] = self._call(fn, output, args, args[0], args[1])
-            except MbgenError as exc:
-                raise type(exc)(f"batch item {i} of {k}: {exc}") from None
-        return out
+__all__ = ["CompiledModel", "compiled_html"]

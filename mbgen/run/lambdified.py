@@ -32,7 +32,7 @@ from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
 from ..symbolic.graph import differentiate, free_symbols, split_shared
 from ..symbolic.layout import Layout
 from ..symbolic.program import Program
-from .compiled import ModelBase
+from .base import ModelBase
 
 
 class _At(NamedTuple):

@@ -18,24 +18,22 @@ choice.  Runs longer than about 2 s show a progress bar (tqdm, on stderr).
 
 from __future__ import annotations
 
-import csv
-import io
 import sys
 import threading
 import time
 import warnings
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
 from scipy import integrate as ivp
 
-from . import named
-from ..errors import ArgumentError, IntegrationError, UsageError
-from ..fileio import write_atomic
 from ..abi import INTEGRATORS, Output
-from .compiled import ModelBase
+from ..errors import ArgumentError, IntegrationError, UsageError
+from ..integrators import METHODS
+from . import named
+from .base import ModelBase
+from .integration import Trajectory
 
 SOLVE_IVP = {"RK23": ivp.RK23, "RK45": ivp.RK45, "DOP853": ivp.DOP853, "Radau": ivp.Radau,
              "BDF": ivp.BDF, "LSODA": ivp.LSODA}
@@ -52,76 +50,9 @@ class StiffnessWarning(RuntimeWarning):
     """An explicit method's steps are held down by stability, not accuracy."""
 
 
-@dataclass(frozen=True)
-class Trajectory:
-    """A simulated trajectory; reads like scipy's ``OdeResult`` too.
-
-    Attributes
-    ----------
-    t : ndarray, shape (k,)
-    x : ndarray, shape (k, n_x)
-        States at ``t``, columns in ``names`` order (``y`` is ``x.T``, as solve_ivp's).
-    names : tuple of str
-    nfev : int
-        Right-hand-side evaluations.
-    wall_time : float
-        Seconds spent in the integrator.
-    method : str
-        ``"C rosenbrock"``, ``"DOP853"``, ``"DOP853 -> Radau"`` (switched on stiffness), ...
-    njev, nlu, n_steps : int
-        Jacobian evaluations, LU factorisations, accepted steps.
-    message : str
-        Why this method (and any stiffness note).
-    max_residual : float
-        Models with configuration constraints: the largest ``|f_h(q, t)|`` met
-        (C integrators: after any step, before projection; solve_ivp, which
-        does not project: at the output times).  NaN without such constraints.
-    """
-
-    t: np.ndarray
-    x: np.ndarray
-    names: tuple[str, ...]
-    nfev: int
-    wall_time: float
-    method: str
-    njev: int = 0
-    nlu: int = 0
-    n_steps: int = 0
-    message: str = ""
-    max_residual: float = float("nan")
-
-    @property
-    def y(self) -> np.ndarray:
-        return self.x.T
-
-    @property
-    def success(self) -> bool:
-        return True  # failures raise
-
-    @property
-    def final(self) -> dict[str, float]:
-        return dict(zip(self.names, self.x[-1].tolist()))
-
-    def to_csv(self) -> str:
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        w.writerow(("t",) + self.names)
-        for ti, xi in zip(self.t, self.x):
-            w.writerow([repr(float(ti))] + [repr(float(v)) for v in xi])
-        return buf.getvalue()
-
-    def write_csv(self, path) -> Path:
-        """Write ``t`` and the states as CSV (atomically)."""
-        path = Path(path)
-        write_atomic(path, self.to_csv())
-        return path
-
-
 def holonomic_outputs(scene) -> tuple:
     """The outputs :func:`consistent_start` needs for ``scene`` (none without configuration
     constraints): ``(Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN)``."""
-    from ..abi import Output
-
     model = scene.model
     stated = getattr(model, "constraints_", None)
     if stated is not None:
@@ -172,8 +103,8 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
     """
     python_inputs = callable(r) and not isinstance(r, named.InputTable)
     if method is None or str(method).lower() == "auto":
-        own = [o.value for o in INTEGRATORS if o in model.outputs]
-        if own and model.backend == "c" and not python_inputs:
+        own = [o.value for o in model.c_integrators]
+        if own and not python_inputs:
             return own[0], f"the model's generated C integrator {own[0]!r}"
         why = ("inputs are a Python function (an InputTable would stay in C)" if python_inputs
                else "no generated C integrator")
@@ -181,7 +112,7 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
     name = str(method)
     if name.lower() in C_METHODS:
         name = name.lower()
-        if model.backend != "c" or Output(name) not in model.outputs:
+        if Output(name) not in model.c_integrators:
             raise UsageError(f"the C integrator {name!r} was not generated for {model.name!r}; "
                              f"compile with outputs including {name!r}, or name a solve_ivp "
                              f"method ({', '.join(SOLVE_IVP)})")
@@ -284,7 +215,7 @@ def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = 1e
 # ------------------------------------------------------------------ C integrators
 def _in_c(model, method, x0, p, r, t, rtol, atol, rk4_steps, progress, reason,
           project=True, max_steps=0) -> Trajectory:
-    h = (t[-1] - t[0]) / rk4_steps if method == "rk4" else None
+    h = None if METHODS[Output(method)].adaptive else (t[-1] - t[0]) / rk4_steps
     done: dict = {}
 
     def work():  # cffi releases the GIL: the bar below keeps time while C runs
@@ -307,10 +238,7 @@ def _in_c(model, method, x0, p, r, t, rtol, atol, rk4_steps, progress, reason,
                 bar.refresh()
     if "error" in done:
         raise done["error"]
-    res = done["result"]
-    return Trajectory(res.t, res.x, tuple(model.state_names), res.n_rhs, res.wall_time,
-                      f"C {method}", res.n_jac, res.n_lu, res.n_steps, reason,
-                      getattr(res, "max_residual", float("nan")))
+    return replace(done["result"], method=f"C {method}", message=reason)
 
 
 # ------------------------------------------------------------------ solve_ivp
@@ -383,9 +311,9 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
                     fy = f(solver.t, solver.y)
                     rho = _spectral_radius(jac, f, solver.t, solver.y, fy)
                     if h * rho > 0.5 * _STABILITY[method]:
-                        better = [o.value for o in INTEGRATORS if o in model.outputs]
-                        hint = (f"the C integrator {better[0]!r}" if better and
-                                model.backend == "c" else "Radau or BDF (" + (
+                        better = [o.value for o in model.c_integrators]
+                        hint = (f"the C integrator {better[0]!r}" if better
+                                else "Radau or BDF (" + (
                                     "they get the compiled Jacobian" if has_jac else
                                     "compile with outputs including 'jacobian' to pass them "
                                     "the Jacobian") + ") or the generated C 'rosenbrock'")
@@ -416,5 +344,5 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
                                 None if callable(r) or isinstance(r, named.InputTable) else r))
 
 
-__all__ = ["Trajectory", "simulate", "simulate_in_c", "consistent_start", "holonomic_outputs", "choose_method", "StiffnessWarning",
-           "SOLVE_IVP", "IMPLICIT", "C_METHODS"]
+__all__ = ["simulate", "simulate_in_c", "consistent_start", "holonomic_outputs",
+           "choose_method", "StiffnessWarning", "SOLVE_IVP", "IMPLICIT", "C_METHODS"]

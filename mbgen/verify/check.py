@@ -34,9 +34,10 @@ from ..errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from ..symbolic.layout import Layout
 from ..abi import Output
 from ..symbolic.availability import SENSITIVITIES
-from ..pipeline import PipelineResult, python_model, run
+from ..pipeline import PipelineResult, run
 from ..run.lambdified import LambdifiedModel
-from ..run.compiled import ModelBase
+from ..run.base import ModelBase
+from ..run.python import python_model
 
 
 #: The columns of ``df/dp``: the parameters of a layout that the equations' motion uses.

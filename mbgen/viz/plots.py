@@ -150,7 +150,7 @@ def plot_simulation(result, path, *, scene=None, names=None,
     Parameters
     ----------
     result
-        A trajectory: :class:`mbgen.run.simulate.Trajectory`, an ``Integration``
+        A trajectory: :class:`mbgen.run.integration.Trajectory`, an ``Integration``
         from ``CompiledModel.integrate``, scipy's ``solve_ivp`` result, or any
         object with ``t`` and ``x`` (``(k, n_x)``) or ``y`` (``(n_x, k)``).
     path : str or Path
