@@ -44,7 +44,7 @@ from collections import defaultdict
 
 import sympy as sm
 
-from ..model.builder import Force, Torque
+from ..model.elements import Force, Torque
 from ..symbolic.program import ProgramBuilder
 from .common import line_coefficient
 from .joints import GROUND, Body, BodyTree, build_bodies
