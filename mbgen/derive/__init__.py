@@ -16,9 +16,9 @@ Equations that sympy's own methods formed come in through
 What a derivation method gives
 ------------------------------
 A method is a function ``(prep: Prepared, wants: Wants) -> Equations``.  With
-``q`` the ``n_q`` coordinates, ``u`` the ``n_u`` speeds (independent and
-dependent), ``r`` the inputs and ``t`` time, in the order of ``prep.layout``,
-it fills
+``q`` the ``n_q`` coordinates, ``u`` the ``n_u`` speeds (all of them: step 3
+splits off the dependent ones), ``r`` the inputs and ``t`` time, in the order
+of ``prep.layout``, it fills
 
 * ``mass_matrix`` and ``forcing``: :math:`M(q, t)` (``n_u x n_u``, symmetric
   positive definite) and :math:`F(q, u, r, t)` (``n_u``) of the unconstrained
@@ -34,8 +34,9 @@ it fills
 
 and, where :class:`~mbgen.derive.common.Wants` asks for them,
 
-* ``kinetic_energy`` :math:`T` and ``potential_energy`` :math:`V` (gravity and
-  springs), so that :math:`\dot T + \dot V` is the power of the other loads
+* ``kinetic_energy`` and ``potential_energy`` (gravity and springs),
+  :math:`T = \tfrac12 \sum_k (m_k v_k\cdot v_k + \omega_k\cdot I_k\omega_k)` and
+  :math:`V = -\sum_k m_k\, g\cdot r_k + \sum_s \tfrac12 k_s (L_s - L_{0,s})^2`
   (:func:`~mbgen.derive.common.energies`);
 * ``points``: position and velocity of the named points in Newtonian
   components (:func:`~mbgen.derive.common.point_kinematics`);
