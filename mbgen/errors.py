@@ -21,7 +21,7 @@ class ModelSizeError(ModelError):
     """A model is far larger than mbgen can derive and compile in reasonable time.
 
     Raised while the model is built, before any derivation starts
-    (:data:`mbgen.model.builder.MAX_SPEEDS`, :data:`mbgen.model.builder.MAX_BODIES`); pass
+    (:data:`mbgen.model.limits.MAX_SPEEDS`, :data:`mbgen.model.limits.MAX_BODIES`); pass
     ``force=True`` (``--force`` on the command line) to go on anyway.
     """
 

@@ -18,9 +18,10 @@ from mbgen import Model, Scene
 from mbgen.codegen import escape
 from mbgen.verify import golden
 from mbgen.cli import EXIT_MODEL, EXIT_OK, main
-from mbgen.errors import ModelError, SceneError
+from mbgen.errors import ModelError, ModelSizeError, SceneError
 from mbgen.model.kinematics import vec
-from mbgen.model.builder import MAX_BODIES, MAX_SPEEDS, ModelSizeError, t
+from mbgen.model.builder import t
+from mbgen.model.limits import MAX_BODIES, MAX_SPEEDS
 from mbgen.pipeline import run
 from mbgen.run.python import python_model
 from mbgen.codegen.printing import (CPrinter, NonFiniteConstantError, PyPrinter, power_form,
@@ -501,13 +502,13 @@ def test_size_guard_can_be_forced():
 
 def test_size_guard_for_derived_equations(monkeypatch):
     """Equations from elsewhere (from_sympy) are checked when a scene holds them."""
-    import mbgen.model.builder
+    import mbgen.model.limits
     from mbgen import derive
-    from mbgen.model.builder import allow_large_models
+    from mbgen.model.limits import allow_large_models
 
     eq = derive(_pendulum())
     assert Scene(name="small", model=eq).model is eq
-    monkeypatch.setattr(mbgen.model.builder, "MAX_SPEEDS", 0)  # the pendulum's 1 speed is "too many"
+    monkeypatch.setattr(mbgen.model.limits, "MAX_SPEEDS", 0)  # the pendulum's 1 speed is "too many"
     with pytest.raises(ModelSizeError, match="1 speeds, more than 0"):
         Scene(name="big", model=eq)
     with allow_large_models():

@@ -20,7 +20,7 @@ import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from mbgen.model.builder import Force, Gravity, LineElement, Torque
+from mbgen.model.elements import Force, Gravity, LineElement, Torque
 from mbgen.pipeline import run
 from mbgen.model.scene import builtin_names, load_scene
 

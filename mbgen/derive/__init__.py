@@ -1,16 +1,79 @@
-"""Derivation of equations of motion: ``derive(model, Method.KANE) -> Equations``."""
+r"""Derivation of equations of motion: ``derive(model, Method.KANE) -> Equations``.
+
+The package turns a :class:`~mbgen.model.builder.Model` into
+:class:`~mbgen.symbolic.equations.Equations` in three steps, the same for
+every method:
+
+1. :mod:`~mbgen.derive.prepare` -- plain symbols instead of functions of time,
+   the kinematic differential equations solved for ``q'``, and the kinematic
+   tree (:mod:`~mbgen.derive.tree`);
+2. the derivation method, looked up in :data:`METHODS` -- the equations of motion;
+3. :mod:`~mbgen.derive.constraints` -- the model's stated constraints.
+
+Equations that sympy's own methods formed come in through
+:func:`~mbgen.derive.from_sympy.from_sympy` instead.
+
+What a derivation method gives
+------------------------------
+A method is a function ``(prep: Prepared, wants: Wants) -> Equations``.  With
+``q`` the ``n_q`` coordinates, ``u`` the ``n_u`` speeds (all of them: step 3
+splits off the dependent ones), ``r`` the inputs and ``t`` time, in the order
+of ``prep.layout``, it fills
+
+* ``mass_matrix`` and ``forcing``: :math:`M(q, t)` (``n_u x n_u``, symmetric
+  positive definite) and :math:`F(q, u, r, t)` (``n_u``) of the unconstrained
+  system
+
+  .. math:: M(q, t)\, u' = F(q, u, r, t)
+
+  (step 3 adds the constraints, :math:`M u' = F + A^T \lambda`, for every method);
+* ``kinematics``: :math:`G(q, u, t)` of :math:`q' = G` (``n_q``: ``prep.qdot``
+  in layout order);
+* ``layout`` (``prep.layout``), ``name``, ``source``, and ``method`` (the
+  :class:`Method` value);
+
+and, where :class:`~mbgen.derive.common.Wants` asks for them,
+
+* ``kinetic_energy`` and ``potential_energy`` (gravity and springs),
+  :math:`T = \tfrac12 \sum_k (m_k v_k\cdot v_k + \omega_k\cdot I_k\omega_k)` and
+  :math:`V = -\sum_k m_k\, g\cdot r_k + \sum_s \tfrac12 k_s (L_s - L_{0,s})^2`
+  (:func:`~mbgen.derive.common.energies`);
+* ``points``: position and velocity of the named points in Newtonian
+  components (:func:`~mbgen.derive.common.point_kinematics`);
+* ``reactions``: force and moment of every joint, in acceleration placeholders
+  (:func:`~mbgen.derive.reactions.reactions_for`).
+
+A recursive method may also fill ``program``, named intermediates
+:math:`w_k = e_k(q, u, r, t, w_1, \dots, w_{k-1})` that every other expression
+may use, and ``accelerations``, :math:`u' = A(q, u, r, t)` in program symbols
+(the alternative to solving :math:`M u' = F`).
+
+How to add a derivation
+-----------------------
+1. Write ``mbgen/derive/<method>.py`` with one function
+   ``<method>(prep: Prepared, wants: Wants) -> Equations`` that fills the
+   fields above (shared pieces: :mod:`~mbgen.derive.common`,
+   :mod:`~mbgen.derive.reactions`).
+2. Add a member to :class:`Method` and its row to :data:`METHODS` (the CLI's
+   ``--derivation`` choices and a scene's ``method`` follow :class:`Method`).
+3. Run ``tests/test_derive.py``: it fails for a member of :class:`Method`
+   without a row, and checks that every method's ``M``, ``F``, ``G`` and
+   energies agree with Kane's on small models.
+"""
 
 from __future__ import annotations
 
 from enum import Enum
+from typing import Callable
 
 from ..symbolic.equations import Equations
 from ..errors import ModelError
 from ..model.builder import Model
+from .common import Wants
 from .constraints import constrain
 from .kane import kane
 from .newton_euler import newton_euler
-from .prepare import prepare
+from .prepare import Prepared, prepare
 
 
 class Method(str, Enum):
@@ -18,6 +81,13 @@ class Method(str, Enum):
 
     KANE = "kane"
     NEWTON_EULER = "newton_euler"
+
+
+#: The derivation of each method, ``(prep, wants) -> Equations``.
+METHODS: dict[Method, Callable[[Prepared, Wants], Equations]] = {
+    Method.KANE: kane,
+    Method.NEWTON_EULER: newton_euler,
+}
 
 
 def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
@@ -48,17 +118,13 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
     if not isinstance(model, Model):
         raise ModelError(f"derive() needs an mbgen.Model, got {type(model).__name__}")
     try:
-        method = Method(method)
-    except ValueError:
+        derivation = METHODS[Method(method)]
+    except (ValueError, KeyError):
         raise ModelError(f"unknown derivation method {method!r}; choose from "
-                         f"{', '.join(m.value for m in Method)}") from None
+                         f"{', '.join(m.value for m in METHODS)}") from None
     prep = prepare(model)
-    if method is Method.KANE:
-        eq = kane(model, energy, tuple(points), reactions, prep=prep)
-    else:
-        eq = newton_euler(model, energy, tuple(points), reactions,
-                          articulated=not model.constraints_, prep=prep)
+    eq = derivation(prep, Wants(energy, tuple(points), reactions))
     return constrain(eq, prep)
 
 
-__all__ = ["Method", "derive"]
+__all__ = ["METHODS", "Method", "Wants", "derive"]

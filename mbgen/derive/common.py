@@ -1,12 +1,14 @@
 """Derivation pieces shared by Kane's method and Newton–Euler.
 
-Energies, point kinematics and the geometry of springs and dampers depend on
-the model's kinematic tree only, not on how the equations of motion are formed.
+What a derivation is asked for (:class:`Wants`), and the energies, point
+kinematics and geometry of springs and dampers, which depend on the model's
+kinematic tree only, not on how the equations of motion are formed.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import dataclass
 
 import sympy as sm
 
@@ -18,6 +20,20 @@ from .tree import S0, add, dot3, matvec, mul, vadd, vneg
 
 NEG = sm.S.NegativeOne
 HALF = sm.Rational(1, 2)
+
+
+@dataclass(frozen=True)
+class Wants:
+    """What a derivation is asked to add to ``M u' = F`` and ``q' = G``.
+
+    ``energy``: the kinetic and potential energy; ``points``: names of points
+    whose Newtonian position and velocity to carry; ``reactions``: the joint
+    reactions.
+    """
+
+    energy: bool = True
+    points: tuple[str, ...] = ()
+    reactions: bool = False
 
 
 class Grouping:

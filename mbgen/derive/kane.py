@@ -33,29 +33,26 @@ from collections import defaultdict
 import sympy as sm
 
 from ..symbolic.equations import Equations
-from ..model.builder import Model
 from ..symbolic.program import Program
-from .common import Grouping, energies, line_coefficient, point_kinematics
-from .newton_euler import reactions_for
-from .prepare import prepare
+from .common import Grouping, Wants, energies, line_coefficient, point_kinematics
+from .prepare import Prepared
+from .reactions import reactions_for
 from .tree import S0, add, cross, dot3, matvec, mul, vadd, vneg
 
 NEG = sm.S.NegativeOne
-HALF = sm.Rational(1, 2)
 
 
-def kane(model: Model, energy: bool = True, points=(), reactions: bool = False,
-         prep=None) -> Equations:
-    """Derive ``M u' = F``, ``q' = G`` for ``model`` with Kane's method.
+def kane(prep: Prepared, wants: Wants) -> Equations:
+    """Derive ``M u' = F``, ``q' = G`` for a prepared model with Kane's method.
 
-    With ``energy`` the kinetic energy and the potential of gravity and springs
-    are derived too (about a fifth of the derivation time on a long chain).
-    ``points`` names points whose position and velocity (Newtonian components)
-    the equations should carry.  With ``reactions`` the joint reactions are
-    derived by the Newton–Euler inward pass
-    (:func:`mbgen.derive.newton_euler.reactions_for`).
+    With ``wants.energy`` the kinetic energy and the potential of gravity and
+    springs are derived too (about a fifth of the derivation time on a long
+    chain).  ``wants.points`` names points whose position and velocity
+    (Newtonian components) the equations should carry.  With
+    ``wants.reactions`` the joint reactions are derived by the Newton–Euler
+    inward pass (:func:`mbgen.derive.reactions.reactions_for`).
     """
-    prep = prep or prepare(model)
+    model = prep.model
     tree, layout = prep.tree, prep.layout
     nu = layout.n_u
     grp = Grouping(prep)
@@ -131,8 +128,8 @@ def kane(model: Model, energy: bool = True, points=(), reactions: bool = False,
     for r in range(nu):
         for s in range(r):
             M[s][r] = M[r][s]
-    kinetic, potential = energies(prep, grp) if energy else (None, None)
-    program, loads = reactions_for(prep) if reactions else (Program(), None)
+    kinetic, potential = energies(prep, grp) if wants.energy else (None, None)
+    program, loads = reactions_for(prep) if wants.reactions else (Program(), None)
     return Equations(
         name=model.name,
         layout=layout,
@@ -141,7 +138,7 @@ def kane(model: Model, energy: bool = True, points=(), reactions: bool = False,
         kinematics=sm.ImmutableMatrix([prep.qdot[q] for q in layout.coordinates]),
         kinetic_energy=kinetic,
         potential_energy=potential,
-        points=point_kinematics(prep, points),
+        points=point_kinematics(prep, wants.points),
         source=f"mbgen.Model {model.name!r}",
         method="kane",
         program=program,

@@ -14,7 +14,8 @@ import sympy as sm
 
 from ..errors import ModelError
 from ..symbolic.layout import Layout
-from ..model.builder import Force, Gravity, LineElement, Model, Torque, t as TIME
+from ..model.builder import Model, t as TIME
+from ..model.elements import Force, Gravity, LineElement, Torque
 from ..symbolic.graph import applied_functions, free_symbols, walk_unique
 from .tree import Atom, FrameNode, KinematicTree, Vec3
 

@@ -45,6 +45,14 @@ def dot6(a, b):
     return add(*(mul(x, y) for x, y in zip(a, b)))
 
 
+def vadd6(a, b) -> tuple:
+    return tuple(add(x, y) for x, y in zip(a, b))
+
+
+def vneg6(a) -> tuple:
+    return tuple(mul(-1, x) for x in a)
+
+
 def motion_to_child(m, to_child, r) -> tuple:
     """``(R w, R(v + w x r))``; ``to_child`` maps parent to child components."""
     w, v = split(m)

@@ -1,1 +1,43 @@
-"""model"""
+"""The model stage: what a user writes, checked as it is written.
+
+* :mod:`~mbgen.model.builder` -- :class:`Model`, built method by method in the
+  SOPHIA style (coordinates, speeds, constants, inputs, frames by simple
+  rotations, points, particles and rigid bodies, loads, joints, constraints),
+  and the time symbol :data:`t`;
+* :mod:`~mbgen.model.elements` -- the frozen records a ``Model`` holds
+  (``FrameDef``, ``Particle``, ``Force``, ``LineElement``, ``Constraint``, ...);
+* :mod:`~mbgen.model.limits` -- the size guard (``MAX_SPEEDS``, ``MAX_BODIES``,
+  ``allow_large_models``);
+* :mod:`~mbgen.model.expressions` -- values given as text, parsed without ``eval``;
+* :mod:`~mbgen.model.kinematics` -- the SOPHIA-named vector helpers;
+* :mod:`~mbgen.model.scene` -- :class:`Scene` (a model plus its numbers and
+  outputs) and :func:`load_scene` for built-in scenes and scene files;
+* :mod:`~mbgen.model.summary` -- a model's notebook summary.
+
+Nothing here derives, generates or runs anything: this package imports only
+the layers below it (``symbolic``, ``names``, ``abi``, ``summary``, ``errors``).
+
+How to add a model element
+--------------------------
+(a new kind of load, mass or constraint; e.g. a torsional spring)
+
+1. ``model/elements.py``: a frozen record holding what the user gave.
+2. ``model/builder.py``: a :class:`Model` method that checks its arguments
+   (``_check_point``, ``_check_frame``, ``_scalar``, a name through ``_claim``)
+   and appends the record (a load goes to ``Model.loads``).
+3. ``derive/prepare.py``: turn the record into plain symbols and tree terms on
+   :class:`~mbgen.derive.prepare.Prepared` (an unknown load is refused there with
+   a ``ModelError``); then let every derivation method use it:
+   ``derive/kane.py`` (generalized forces), ``derive/recursion.py``
+   (``NewtonEuler._collect_loads``: body wrenches), and ``derive/common.py``
+   (``energies``) when it has a potential.
+4. Tests: add it to ``loaded()`` in ``tests/test_derive.py``, which fails when
+   a derivation method misses it (every method must agree with Kane), and
+   check its physics against a derivation by hand in ``tests/test_physics.py``.
+"""
+
+from . import kinematics
+from .builder import Model, t
+from .scene import Scene, load_scene
+
+__all__ = ["Model", "Scene", "kinematics", "load_scene", "t"]

@@ -18,6 +18,8 @@ Frames are :class:`sympy.physics.vector.ReferenceFrame` objects and vectors are
 :class:`sympy.physics.vector.Vector` objects, so everything sympy offers on them
 (``express``, ``dot``, ``cross``, ``dt``, ``ang_vel_in``, ``dcm``) works on a
 model's frames; :mod:`mbgen.model.kinematics` adds the SOPHIA-named helpers.
+Each method appends a frozen record (:mod:`mbgen.model.elements`) after checking
+its arguments and the model's size (:mod:`mbgen.model.limits`).
 
 Example
 -------
@@ -38,166 +40,22 @@ The pendulum hanging from a rotating disc (lecture 1, example 3)::
 
 from __future__ import annotations
 
-import contextvars
-import re
-from contextlib import contextmanager
-from dataclasses import dataclass
 from typing import Iterable, Mapping, Sequence
 
 import sympy as sm
 from sympy.matrices.exceptions import ShapeError
 from sympy.physics import vector as spv
 
-from ..errors import ModelError, ModelSizeError
-from .expressions import expression as _expression
+from ..errors import ModelError
 from ..names import check_name, model_prefix
+from .elements import (Constraint, Force, FrameDef, Gravity, Joint, LineElement, Particle, PointDef,
+                       RigidBody, Torque, axis_index)
+from .expressions import expression
+from .limits import MAX_BODIES, MAX_SPEEDS, check_count, guard_range
+from .summary import model_html
 
 #: The time symbol used by sympy.physics.vector's dynamicsymbols.
 t = spv.dynamicsymbols._t
-
-
-# --------------------------------------------------------------------------- records
-@dataclass(frozen=True)
-class FrameDef:
-    """How a frame was built: a simple rotation of ``parent`` by ``angle`` about ``axis``.
-
-    ``angle`` may depend on coordinates and time (a prescribed motion).  When
-    ``angular_velocity`` is set it overrides the rotation's own ``angle' * axis``
-    as the angular velocity of the frame in the Newtonian frame (body rates).
-    """
-
-    frame: spv.ReferenceFrame
-    parent: spv.ReferenceFrame | None
-    axis: int | None
-    angle: sm.Expr | None
-    angular_velocity: spv.Vector | None = None
-
-
-@dataclass(frozen=True)
-class PointDef:
-    """A point at ``offset`` (a vector) from ``parent``; the origin has no parent."""
-
-    point: spv.Point
-    parent: spv.Point | None
-    offset: spv.Vector
-
-
-@dataclass(frozen=True)
-class Particle:
-    """A point mass ``mass`` at ``point``."""
-
-    name: str
-    point: spv.Point
-    mass: sm.Expr
-
-
-@dataclass(frozen=True)
-class RigidBody:
-    """A rigid body: mass centre ``center``, body-fixed ``frame``, inertia about the centre.
-
-    ``inertia`` is the 3x3 inertia matrix (symmetric) in ``frame`` components.
-    """
-
-    name: str
-    frame: spv.ReferenceFrame
-    center: spv.Point
-    mass: sm.Expr
-    inertia: sm.ImmutableMatrix
-
-
-@dataclass(frozen=True)
-class Force:
-    """A force ``vector`` at ``point``; ``reaction`` receives ``-vector`` when given."""
-
-    point: spv.Point
-    vector: spv.Vector
-    reaction: spv.Point | None = None
-
-
-@dataclass(frozen=True)
-class Torque:
-    """A torque ``vector`` on ``frame``; ``reaction`` receives ``-vector`` when given."""
-
-    frame: spv.ReferenceFrame
-    vector: spv.Vector
-    reaction: spv.ReferenceFrame | None = None
-
-
-@dataclass(frozen=True)
-class Gravity:
-    """Uniform gravitational acceleration ``vector`` acting on every mass."""
-
-    vector: spv.Vector
-
-
-@dataclass(frozen=True)
-class LineElement:
-    """A linear spring and/or damper between points ``a`` and ``b``.
-
-    The force on ``a`` is ``-(stiffness * (L - natural_length) + damping * L') * e``
-    with ``L = |r_a - r_b|`` and ``e`` the unit vector from ``b`` to ``a``; ``b``
-    receives the opposite force.  With ``natural_length == 0`` the spring force
-    is the linear ``-stiffness * (r_a - r_b)`` (no division by ``L``).
-    """
-
-    name: str
-    a: spv.Point
-    b: spv.Point
-    stiffness: sm.Expr
-    damping: sm.Expr
-    natural_length: sm.Expr
-
-
-@dataclass(frozen=True)
-class Joint:
-    """How a body hangs from its parent, stated by the user (else inferred at derivation).
-
-    ``child`` and ``parent`` name particles or rigid bodies (``parent`` None:
-    inferred; the Newtonian frame: the ground).  ``point`` is the joint point,
-    fixed in the child; ``frame`` the frame in which the joint's reaction force
-    and moment are reported (default: the child's).
-    """
-
-    name: str
-    child: str
-    parent: object = None
-    point: spv.Point | None = None
-    frame: spv.ReferenceFrame | None = None
-
-
-@dataclass(frozen=True)
-class Constraint:
-    """A stated constraint, ``expression = 0`` (see :meth:`Model.holonomic`, :meth:`Model.nonholonomic`).
-
-    ``kind`` is ``"holonomic"`` (configuration: ``f(q, t)``) or ``"motion"``
-    (``f(q, u, t)``, linear in the speeds).  ``dependent`` is the dependent
-    coordinate (holonomic) or speed (motion); ``speed`` the dependent speed of a
-    holonomic constraint's time derivative (None: the speed ``u`` with
-    ``q' = u`` for the dependent coordinate).  ``points``, ``frame`` and
-    ``axis`` record a point constraint (``no_slip``: the velocity of
-    ``points[0]`` along ``axis`` of ``frame``; ``coincident``: the position of
-    ``points[0]`` minus ``points[1]``) so that its force can act on the bodies.
-    """
-
-    name: str
-    kind: str
-    expression: object
-    dependent: object
-    speed: object = None
-    points: tuple = ()
-    frame: spv.ReferenceFrame | None = None
-    axis: int | None = None
-    body: object = None
-
-
-_AXES = {1: 1, 2: 2, 3: 3, "x": 1, "y": 2, "z": 3, "X": 1, "Y": 2, "Z": 3}
-
-
-def _axis_index(axis) -> int:
-    try:
-        return _AXES[axis]
-    except (KeyError, TypeError):
-        raise ModelError(f"rotation axis {axis!r} is not 1, 2 or 3 (or 'x', 'y', 'z')") from None
 
 
 def _symbols(names, factory, what: str, force: bool = False) -> tuple:
@@ -209,7 +67,7 @@ def _symbols(names, factory, what: str, force: bool = False) -> tuple:
     out = []
     for part in parts:
         if what in ("coordinate", "speed") and not force:
-            _guard_range(part, what)
+            guard_range(part, what)
         try:
             made = factory(part)
         except ValueError:  # sympy: "no symbols given"
@@ -221,61 +79,6 @@ def _symbols(names, factory, what: str, force: bool = False) -> tuple:
     return out
 
 
-#: Most generalized speeds a model may have without ``force=True``.  Kane's
-#: equations of n speeds have ~n^2 mass-matrix entries; measured on the n-link
-#: cart (``mbgen.scenes.n_link_cart``): 64 links, 29,000 operations after CSE and
-#: 10 s from model to rendered code, growing as ~n^2.5 -- so 200 speeds take
-#: minutes, and 100,000 would take years.
-MAX_SPEEDS = 200
-#: Most particles and rigid bodies a model may have without ``force=True``.
-MAX_BODIES = 1000
-
-
-def _guard_range(names: str, what: str) -> None:
-    """Refuse ``'u:100001'`` before sympy creates 100,001 symbols (unless forced)."""
-    if _FORCE_SIZE.get():
-        return
-    for a, b in re.findall(r"(\d*):(\d+)", names):
-        count = int(b[:12]) - int(a[:12] or 0)
-        if count > MAX_SPEEDS:
-            raise ModelSizeError(f"{names!r} declares {count} {what}s; a model with more than "
-                                 f"{MAX_SPEEDS} speeds cannot be derived and compiled in "
-                                 f"reasonable time ({_COST}). {_FORCE_HINT}")
-
-
-_COST = ("measured: 64 speeds take 10 s from model to code and the time grows as about "
-         "n^2.5")
-_FORCE_HINT = ("If you really mean it, build it with Model(name, force=True), load the scene "
-               "with load_scene(..., force=True), or pass --force on the command line.")
-
-
-_FORCE_SIZE: contextvars.ContextVar[bool] = contextvars.ContextVar("mbgen_force_size",
-                                                                  default=False)
-
-
-def size_forced() -> bool:
-    """True inside :func:`allow_large_models` (e.g. while ``load_scene(..., force=True)`` runs)."""
-    return _FORCE_SIZE.get()
-
-
-def check_size(n_speeds: int, what: str) -> None:
-    """Refuse ``n_speeds`` above :data:`MAX_SPEEDS` unless forced (:class:`ModelSizeError`)."""
-    if n_speeds > MAX_SPEEDS and not size_forced():
-        raise ModelSizeError(f"{what} has {n_speeds} speeds, more than {MAX_SPEEDS}: far past "
-                             f"what mbgen derives and compiles in reasonable time ({_COST}). "
-                             f"{_FORCE_HINT}")
-
-
-@contextmanager
-def allow_large_models():
-    """Within this block, models larger than :data:`MAX_SPEEDS` / :data:`MAX_BODIES` are built."""
-    token = _FORCE_SIZE.set(True)
-    try:
-        yield
-    finally:
-        _FORCE_SIZE.reset(token)
-
-
 class Model:
     """A multibody model under construction.
 
@@ -285,8 +88,10 @@ class Model:
         Model name; it becomes the prefix of every generated C symbol, so it
         must follow the name rule (:mod:`mbgen.names`) and not be a C keyword.
     force : bool
-        Build the model even when it has more than :data:`MAX_SPEEDS` speeds or
-        :data:`MAX_BODIES` bodies (default: refuse with :class:`ModelSizeError`).
+        Build the model even when it has more than
+        :data:`~mbgen.model.limits.MAX_SPEEDS` speeds or
+        :data:`~mbgen.model.limits.MAX_BODIES` bodies (default: refuse with
+        :class:`~mbgen.errors.ModelSizeError`).
 
     Notes
     -----
@@ -330,7 +135,8 @@ class Model:
         a single name returns a tuple of one (unpack it: ``q, = m.coordinates("q")``).
         """
         syms = _symbols(names, spv.dynamicsymbols, "coordinate", self.force_size)
-        self._size(len(self.coordinates_) + len(syms), "coordinates", MAX_SPEEDS)
+        check_count(self.name, len(self.coordinates_) + len(syms), "coordinates", MAX_SPEEDS,
+                    self.force_size)
         self._claim((str(s.func) for s in syms), "coordinate")
         self.coordinates_.extend(syms)
         return syms
@@ -338,7 +144,8 @@ class Model:
     def speeds(self, names: str):
         """Declare generalized speeds (functions of time); see :meth:`coordinates`."""
         syms = _symbols(names, spv.dynamicsymbols, "speed", self.force_size)
-        self._size(len(self.speeds_) + len(syms), "speeds", MAX_SPEEDS)
+        check_count(self.name, len(self.speeds_) + len(syms), "speeds", MAX_SPEEDS,
+                    self.force_size)
         self._claim((str(s.func) for s in syms), "speed")
         self.speeds_.extend(syms)
         return syms
@@ -416,7 +223,7 @@ class Model:
             (its columns are the new basis vectors in ``parent`` components).
         """
         self._check_frame(parent)
-        k = _axis_index(axis)
+        k = axis_index(axis)
         angle = self._scalar(angle, f"angle of frame {name!r}")
         self._claim([name], "frame")
         unit = (parent.x, parent.y, parent.z)[k - 1]
@@ -490,7 +297,8 @@ class Model:
         """Add a point mass ``mass`` at ``point``."""
         self._check_point(point)
         mass = self._scalar(mass, f"mass of particle {name!r}")
-        self._size(len(self.particles) + len(self.bodies) + 1, "particles and bodies", MAX_BODIES)
+        check_count(self.name, len(self.particles) + len(self.bodies) + 1, "particles and bodies",
+                    MAX_BODIES, self.force_size)
         self._claim([name], "particle")
         p = Particle(name, point, mass)
         self.particles.append(p)
@@ -510,7 +318,8 @@ class Model:
         self._check_point(center)
         mass = self._scalar(mass, f"mass of body {name!r}")
         matrix = self._inertia_matrix(name, frame, inertia)
-        self._size(len(self.particles) + len(self.bodies) + 1, "particles and bodies", MAX_BODIES)
+        check_count(self.name, len(self.particles) + len(self.bodies) + 1, "particles and bodies",
+                    MAX_BODIES, self.force_size)
         self._claim([name], "body")
         b = RigidBody(name, frame, center, mass, matrix)
         self.bodies.append(b)
@@ -745,7 +554,7 @@ class Model:
                              f"{self.name!r}")
         frame = self.N if frame is None else frame
         self._check_frame(frame)
-        axes = [_axis_index(a) for a in self._listed(axes)]
+        axes = [axis_index(a) for a in self._listed(axes)]
         deps = self._listed(dependent)
         if len(deps) != len(axes):
             raise ModelError(f"no_slip at {point} over {len(axes)} axes needs {len(axes)} "
@@ -774,7 +583,7 @@ class Model:
         self._check_point(b)
         frame = self.N if frame is None else frame
         self._check_frame(frame)
-        axes = [_axis_index(x) for x in self._listed(axes)]
+        axes = [axis_index(x) for x in self._listed(axes)]
         deps = self._listed(dependent)
         spds = [None] * len(axes) if speeds is None else self._listed(speeds)
         if len(deps) != len(axes) or len(spds) != len(axes):
@@ -863,16 +672,10 @@ class Model:
         """``value`` (number, sympy expression, or string parsed without eval) as a scalar."""
         if isinstance(value, (spv.Vector, sm.MatrixBase, spv.Dyadic)):
             raise ModelError(f"{what} must be a scalar, got {type(value).__name__} {value!r}")
-        expr = _expression(value, self.symbol_table(), what)
+        expr = expression(value, self.symbol_table(), what)
         if not isinstance(expr, sm.Expr):
             raise ModelError(f"{what} must be a scalar, got {value!r}")
         return expr
-
-    def _size(self, count: int, what: str, limit: int) -> None:
-        if count > limit and not (self.force_size or _FORCE_SIZE.get()):
-            raise ModelSizeError(f"model {self.name!r} would have {count} {what}, more than "
-                                 f"{limit}: far past what mbgen derives and compiles in "
-                                 f"reasonable time ({_COST}). {_FORCE_HINT}")
 
     # --------------------------------------------------------------- summary
     def __repr__(self) -> str:
@@ -883,7 +686,5 @@ class Model:
                 f"{len(self.loads)} loads)")
 
     def _repr_html_(self) -> str:
-        """Notebook summary: sizes and names, never expressions (:mod:`mbgen.summary`)."""
-        from ..summary import model_html
-
+        """Notebook summary: sizes and names, never expressions (:mod:`mbgen.model.summary`)."""
         return model_html(self)

@@ -39,6 +39,7 @@ from typing import Mapping
 import sympy as sm
 
 from ..errors import ModelError
+from ..symbolic.graph import walk_unique
 
 __all__ = ["expression", "parse", "FUNCTIONS", "MAX_LENGTH", "MAX_DIGITS"]
 
@@ -101,8 +102,6 @@ def expression(value, symbols: Mapping[str, sm.Basic] | None, what: str) -> sm.E
 
 def _has_nonfinite(expr) -> bool:
     """True when ``expr`` contains inf, -inf, zoo or nan (one visit per distinct node)."""
-    from ..symbolic.graph import walk_unique
-
     for node in walk_unique([expr]):
         if node in _NONFINITE or (isinstance(node, sm.Float) and not math.isfinite(float(node))):
             return True

@@ -36,11 +36,13 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..symbolic.equations import Equations
-from ..errors import ModelError, SceneError
-from .builder import Model, allow_large_models, check_size
-from ..names import check_name
+from .. import scenes
 from ..abi import Output
+from ..errors import ModelError, SceneError
+from ..names import check_name
+from ..symbolic.equations import Equations
+from .builder import Model
+from .limits import allow_large_models, check_size
 
 
 @dataclass(frozen=True)
@@ -247,8 +249,6 @@ def source_label(scn: "Scene") -> str:
 
 def builtin_names() -> list[str]:
     """Names of the built-in scenes (modules of :mod:`mbgen.scenes`)."""
-    from .. import scenes
-
     return sorted(m.name for m in pkgutil.iter_modules(scenes.__path__) if not m.name.startswith("_"))
 
 
@@ -293,7 +293,7 @@ def load_scene(name_or_path: str, *, force: bool = False, **options) -> Scene:
     the command line) are converted to the type of the option's default: a
     float option must be finite, an int option integral, a bool option one
     of ``1 0 true false yes no``.  ``force=True`` builds models beyond the
-    size guard (:data:`mbgen.model.builder.MAX_SPEEDS`).
+    size guard (:data:`mbgen.model.limits.MAX_SPEEDS`).
 
     Raises
     ------

@@ -41,7 +41,8 @@ def _has_explicit_time(equations) -> bool:
 
 def jacobi_applies(ctx: Context) -> bool:
     """Prescribed motion, no explicit time, no dampers, energy available (inputs are zero)."""
-    from ...model.builder import LineElement, Model
+    from ...model.builder import Model
+    from ...model.elements import LineElement
 
     mdl = ctx.scene.model
     if not isinstance(mdl, Model) or not mdl.prescribed_ or ctx.scene.conserves_energy:

@@ -1,0 +1,167 @@
+"""The frozen records a :class:`~mbgen.model.builder.Model` is made of.
+
+Each ``Model`` method that adds something validates its arguments and appends
+one of these records: frames (:class:`FrameDef`) and points (:class:`PointDef`)
+of the kinematic tree; masses (:class:`Particle`, :class:`RigidBody`); loads
+(:class:`Force`, :class:`Torque`, :class:`Gravity`, :class:`LineElement`);
+stated joints (:class:`Joint`) and constraints (:class:`Constraint`).  Vectors
+are :class:`sympy.physics.vector.Vector` objects, scalars sympy expressions,
+and an axis is its number 1, 2 or 3 in its frame (:func:`axis_index`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sm
+from sympy.physics import vector as spv
+
+from ..errors import ModelError
+
+#: How an axis may be named: 1, 2, 3 or x, y, z (either case).
+AXES = {1: 1, 2: 2, 3: 3, "x": 1, "y": 2, "z": 3, "X": 1, "Y": 2, "Z": 3}
+
+
+def axis_index(axis) -> int:
+    """The axis number 1, 2 or 3 (as the records hold it) of an axis named as in :data:`AXES`."""
+    try:
+        return AXES[axis]
+    except (KeyError, TypeError):
+        raise ModelError(f"rotation axis {axis!r} is not 1, 2 or 3 (or 'x', 'y', 'z')") from None
+
+
+@dataclass(frozen=True)
+class FrameDef:
+    """How a frame was built: a simple rotation of ``parent`` by ``angle`` about ``axis``.
+
+    ``angle`` may depend on coordinates and time (a prescribed motion).  When
+    ``angular_velocity`` is set it overrides the rotation's own ``angle' * axis``
+    as the angular velocity of the frame in the Newtonian frame (body rates).
+    """
+
+    frame: spv.ReferenceFrame
+    parent: spv.ReferenceFrame | None
+    axis: int | None
+    angle: sm.Expr | None
+    angular_velocity: spv.Vector | None = None
+
+
+@dataclass(frozen=True)
+class PointDef:
+    """A point at ``offset`` (a vector) from ``parent``; the origin has no parent."""
+
+    point: spv.Point
+    parent: spv.Point | None
+    offset: spv.Vector
+
+
+@dataclass(frozen=True)
+class Particle:
+    """A point mass ``mass`` at ``point``."""
+
+    name: str
+    point: spv.Point
+    mass: sm.Expr
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A rigid body: mass centre ``center``, body-fixed ``frame``, inertia about the centre.
+
+    ``inertia`` is the 3x3 inertia matrix (symmetric) in ``frame`` components.
+    """
+
+    name: str
+    frame: spv.ReferenceFrame
+    center: spv.Point
+    mass: sm.Expr
+    inertia: sm.ImmutableMatrix
+
+
+@dataclass(frozen=True)
+class Force:
+    """A force ``vector`` at ``point``; ``reaction`` receives ``-vector`` when given."""
+
+    point: spv.Point
+    vector: spv.Vector
+    reaction: spv.Point | None = None
+
+
+@dataclass(frozen=True)
+class Torque:
+    """A torque ``vector`` on ``frame``; ``reaction`` receives ``-vector`` when given."""
+
+    frame: spv.ReferenceFrame
+    vector: spv.Vector
+    reaction: spv.ReferenceFrame | None = None
+
+
+@dataclass(frozen=True)
+class Gravity:
+    """Uniform gravitational acceleration ``vector`` acting on every mass."""
+
+    vector: spv.Vector
+
+
+@dataclass(frozen=True)
+class LineElement:
+    """A linear spring and/or damper between points ``a`` and ``b``.
+
+    The force on ``a`` is ``-(stiffness * (L - natural_length) + damping * L') * e``
+    with ``L = |r_a - r_b|`` and ``e`` the unit vector from ``b`` to ``a``; ``b``
+    receives the opposite force.  With ``natural_length == 0`` the spring force
+    is the linear ``-stiffness * (r_a - r_b)`` (no division by ``L``).
+    """
+
+    name: str
+    a: spv.Point
+    b: spv.Point
+    stiffness: sm.Expr
+    damping: sm.Expr
+    natural_length: sm.Expr
+
+
+@dataclass(frozen=True)
+class Joint:
+    """How a body hangs from its parent, stated by the user (else inferred at derivation).
+
+    ``child`` and ``parent`` name particles or rigid bodies (``parent`` None:
+    inferred; the Newtonian frame: the ground).  ``point`` is the joint point,
+    fixed in the child; ``frame`` the frame in which the joint's reaction force
+    and moment are reported (default: the child's).
+    """
+
+    name: str
+    child: str
+    parent: object = None
+    point: spv.Point | None = None
+    frame: spv.ReferenceFrame | None = None
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """A stated constraint, ``expression = 0`` (see :meth:`Model.holonomic`, :meth:`Model.nonholonomic`).
+
+    ``kind`` is ``"holonomic"`` (configuration: ``f(q, t)``) or ``"motion"``
+    (``f(q, u, t)``, linear in the speeds).  ``dependent`` is the dependent
+    coordinate (holonomic) or speed (motion); ``speed`` the dependent speed of a
+    holonomic constraint's time derivative (None: the speed ``u`` with
+    ``q' = u`` for the dependent coordinate).  ``points``, ``frame`` and
+    ``axis`` record a point constraint (``no_slip``: the velocity of
+    ``points[0]`` along ``axis`` of ``frame``; ``coincident``: the position of
+    ``points[0]`` minus ``points[1]``) so that its force can act on the bodies.
+    """
+
+    name: str
+    kind: str
+    expression: object
+    dependent: object
+    speed: object = None
+    points: tuple = ()
+    frame: spv.ReferenceFrame | None = None
+    axis: int | None = None
+    body: object = None
+
+
+__all__ = ["AXES", "axis_index", "FrameDef", "PointDef", "Particle", "RigidBody", "Force",
+           "Torque", "Gravity", "LineElement", "Joint", "Constraint"]
