@@ -32,7 +32,7 @@ import numpy as np
 from scipy import integrate as ivp
 
 from . import named
-from ..errors import ArgumentError, IntegrationError, UsageError
+from ..errors import ArgumentError, IntegrationError, StiffnessWarning, UsageError
 from ..fileio import write_atomic
 from ..abi import INTEGRATORS, Output
 from .compiled import ModelBase
@@ -46,10 +46,6 @@ _STABILITY = {"RK23": 2.5, "RK45": 3.3, "DOP853": 6.0}
 STIFF_MIN_STEPS = 2000      # below this many steps nothing is called stiffness-bound
 PROGRESS_DELAY = 2.0        # seconds before a progress bar appears
 MAX_STEPS = 1_000_000       # default step limit of the solve_ivp paths (C: the integrator's own)
-
-
-class StiffnessWarning(RuntimeWarning):
-    """An explicit method's steps are held down by stability, not accuracy."""
 
 
 @dataclass(frozen=True)
