@@ -31,6 +31,7 @@ DRIVER_FLAGS = ("-O3", "-march=native", "-DNDEBUG")
 
 def per_call_ns(fn: Callable[[], object], repeats: int) -> float:
     """Median nanoseconds of one ``fn()`` call: loops of at least MIN_LOOP_S, gc off."""
+
     def loop(number: int) -> float:
         t0 = time.perf_counter()
         for _ in range(number):
