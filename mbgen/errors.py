@@ -1,20 +1,60 @@
-"""Exceptions raised by mbgen.
+"""Exceptions raised by mbgen, and the exit code of each on the command line.
 
 Every error names the problem and what to do about it.  They all derive from
 :class:`MbgenError`, so a caller can catch the family with one clause; each
 also derives from the matching built-in (``ValueError``, ``TypeError``,
 ``ArithmeticError``, ...) so code that already catches those keeps working.
+
+Exit codes
+----------
+Each class carries ``exit_code``: what ``mbgen`` exits with when the error ends a
+command (``mbgen: <heading>: <message>`` on stderr).  A subclass inherits its
+parent's code unless it sets its own.
+
+0 (:data:`EXIT_OK`)
+    success.
+1 (:data:`EXIT_CHECK`)
+    a check failed: :class:`CheckFailed` (errors above tolerance, golden files out
+    of date).
+2 (:data:`EXIT_USAGE`)
+    usage: :class:`UsageError`, :class:`UnknownNameError`, :class:`CacheError`,
+    :class:`MissingExtraError`, :class:`BenchmarkError`; also (not an mbgen error) a
+    file or folder that cannot be written or read (``OSError``).
+3 (:data:`EXIT_MODEL`)
+    bad model or scene: :class:`ModelError` and its subclasses, :class:`SceneError`.
+4 (:data:`EXIT_BUILD`)
+    the C compiler failed: :class:`BuildError`.
+5 (:data:`EXIT_NUMERIC`)
+    numerical failure: :class:`MbgenError` itself and every class not named above
+    (a singular mass matrix or constraint Jacobian, a non-finite result, an
+    integrator failure, an inconsistent state, a bad runtime argument).
+6 (:data:`EXIT_INCONCLUSIVE`)
+    check inconclusive: :class:`CheckInconclusive` (nothing was compared: every
+    sample failed in every back end).
+
+:class:`StiffnessWarning` is a warning, not an error: it never ends a command.
+
+A new error derives from the matching class here (and built-in), sets ``exit_code``
+when it differs from its parent's, and gets its row in ``EXIT_CODES`` of
+``tests/test_errors.py`` (``test_every_error_has_its_exit_code`` fails otherwise).
 """
 
 from __future__ import annotations
+
+EXIT_OK, EXIT_CHECK, EXIT_USAGE, EXIT_MODEL, EXIT_BUILD, EXIT_NUMERIC = 0, 1, 2, 3, 4, 5
+EXIT_INCONCLUSIVE = 6
 
 
 class MbgenError(Exception):
     """Base class of every error raised by mbgen."""
 
+    exit_code = EXIT_NUMERIC
+
 
 class ModelError(MbgenError, ValueError):
     """A model is malformed: an unknown symbol, a body without inertia, ..."""
+
+    exit_code = EXIT_MODEL
 
 
 class ModelSizeError(ModelError):
@@ -37,14 +77,20 @@ class NonFiniteConstantError(ModelError):
 class SceneError(MbgenError, ValueError):
     """A scene cannot be found or loaded, or an option is invalid."""
 
+    exit_code = EXIT_MODEL
+
 
 class BuildError(MbgenError, RuntimeError):
     """The C compiler failed; the message carries the compiler's own output."""
+
+    exit_code = EXIT_BUILD
 
 
 class CacheError(BuildError):
     """The cache of compiled modules cannot be used: ``$MBGEN_CACHE_DIR`` (or every
     fallback folder) cannot be created or written.  The message names the folder."""
+
+    exit_code = EXIT_USAGE
 
 
 class SingularMassMatrixError(MbgenError, ArithmeticError):
@@ -88,6 +134,8 @@ class IntegrationError(MbgenError, ArithmeticError):
 class CheckFailed(MbgenError, AssertionError):
     """A verification found an error above its tolerance."""
 
+    exit_code = EXIT_CHECK
+
 
 class ArgumentError(MbgenError, ValueError):
     """An argument of a runtime call is invalid: a wrong shape or length, a number that
@@ -105,13 +153,35 @@ class CheckInconclusive(CheckFailed):
     mass, a NaN parameter, a singular mass matrix everywhere), or no samples were asked
     for.  Not a pass: ``mbgen check`` exits with its own code (6)."""
 
+    exit_code = EXIT_INCONCLUSIVE
+
 
 class UnknownNameError(MbgenError, ValueError):
     """A parameter, input or state given by a name the model does not have (or a
     needed name left out); the message lists the closest names ("did you mean")."""
+
+    exit_code = EXIT_USAGE
 
 
 class UsageError(MbgenError, ValueError):
     """A command-line mistake found after parsing: an output path that is a file, a
     folder that cannot be written, an unknown integration method, ...
     (``mbgen: error: ...``, exit code 2)."""
+
+    exit_code = EXIT_USAGE
+
+
+class MissingExtraError(MbgenError, ImportError):
+    """An optional dependency is not installed; the message names the extra that has it."""
+
+    exit_code = EXIT_USAGE
+
+
+class BenchmarkError(MbgenError, RuntimeError):
+    """A benchmark could not run: a missing optional dependency or a driver that failed."""
+
+    exit_code = EXIT_USAGE
+
+
+class StiffnessWarning(RuntimeWarning):
+    """An explicit method's steps are held down by stability, not accuracy."""

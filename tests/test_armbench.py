@@ -10,6 +10,7 @@ import pytest
 
 import mbgen
 from mbgen.bench import arm as armbench
+from mbgen.bench import arm_pinocchio
 from mbgen.scenes import spatial_arm
 
 
@@ -21,7 +22,7 @@ def test_arm_rhs_equals_pinocchio_aba(n):
         q, v = rng.uniform(-np.pi, np.pi, n), rng.uniform(-2.0, 2.0, n)
         ours = model.rhs(0.0, np.concatenate([q, v]))
         np.testing.assert_array_equal(ours[:n], v)                  # q' = u
-        theirs = armbench.pinocchio_aba(n, q, v)
+        theirs = arm_pinocchio.pinocchio_aba(n, q, v)
         assert np.abs(ours[n:] - theirs).max() <= 1e-10 * max(1.0, np.abs(theirs).max())
 
 
@@ -33,7 +34,7 @@ def test_arm_rhs_differs_from_pinocchio_when_a_parameter_differs():
     p = model.default_parameters.copy()
     p[list(model.layout.parameter_names).index(f"m{n}")] *= 1.01
     ours = model.rhs(0.0, np.concatenate([q, v]), p)
-    assert np.abs(ours[n:] - armbench.pinocchio_aba(n, q, v)).max() > 1e-6
+    assert np.abs(ours[n:] - arm_pinocchio.pinocchio_aba(n, q, v)).max() > 1e-6
 
 
 @pytest.fixture(scope="module")
@@ -89,9 +90,9 @@ def test_budget_stops_a_side_and_skips_larger_n():
 
 @pytest.mark.slow
 def test_cxx_aba_loop_matches_pin_aba(tmp_path):
-    exe = armbench.build_aba_driver(tmp_path, repeats=2)
+    exe = arm_pinocchio.build_aba_driver(tmp_path, repeats=2)
     for n in (2, 7):
         q, v = armbench.state(n)
-        ns, ddq = armbench.run_aba_driver(exe, n, q, v)
+        ns, ddq = arm_pinocchio.run_aba_driver(exe, n, q, v)
         assert ns > 0
-        np.testing.assert_allclose(ddq, armbench.pinocchio_aba(n, q, v), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(ddq, arm_pinocchio.pinocchio_aba(n, q, v), rtol=1e-12, atol=1e-12)

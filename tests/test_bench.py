@@ -51,3 +51,19 @@ def test_table(rows):
     assert float(cells[3]) == pytest.approx(rows[0].derive_ratio, abs=0.05)
     assert row64.split()[0] == "64" and row64.split().count("-") == 8
     assert lines[-1] == "BLAS threads pinned to 1 (threadpoolctl)."
+
+
+def test_child_process_entry_points_exist():
+    """Every ``python -m mbgen.bench.X`` a benchmark starts names a module that runs as one."""
+    import re
+    from pathlib import Path
+
+    import mbgen.bench
+
+    folder = Path(mbgen.bench.__file__).parent
+    started = {name for path in folder.glob("*.py")
+               for name in re.findall(r'"-m",\s*"mbgen\.bench\.(\w+)"', path.read_text())}
+    assert started >= {"arm", "constraints", "stages"}
+    for name in started:
+        text = (folder / f"{name}.py").read_text()
+        assert 'if __name__ == "__main__":' in text, name

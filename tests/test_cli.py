@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from mbgen.cli import EXIT_CHECK, EXIT_MODEL, EXIT_OK, main, parser
+from mbgen.cli import COMMANDS, EXIT_CHECK, EXIT_MODEL, EXIT_OK, command_module, main, parser
 
 
 def test_help_everywhere(capsys):
@@ -18,6 +18,40 @@ def test_help_everywhere(capsys):
             main(cmd + ["--help"])
         assert info.value.code == 0
         assert "usage: mbgen" in capsys.readouterr().out
+
+
+def test_every_command_module_has_configure_and_run():
+    for name in COMMANDS:
+        module = command_module(name)
+        assert callable(getattr(module, "configure", None)), f"{module.__name__}.configure"
+        assert callable(getattr(module, "run", None)), f"{module.__name__}.run"
+    assert set(COMMANDS) == {a.dest for a in
+                             parser()._subparsers._group_actions[0]._choices_actions}
+
+
+def test_every_benchmark_is_named_in_the_help():
+    from mbgen.cli.bench import BENCHMARKS
+
+    for name in BENCHMARKS:
+        assert f"'mbgen bench {name}'" in COMMANDS["bench"].help, name
+
+
+def _cli_modules_after(argv) -> set:
+    """The command modules of mbgen.cli imported by ``main(argv)`` in a fresh interpreter."""
+    code = ("import sys\nfrom mbgen.cli import main\ntry:\n    main(%r)\nexcept SystemExit:\n"
+            "    pass\nprint(sorted(m for m in sys.modules if m.startswith('mbgen.cli.')))" % argv)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    return set(eval(done.stdout.strip().splitlines()[-1]))
+
+
+def test_help_imports_no_command_module():
+    assert _cli_modules_after(["--help"]) == set()
+
+
+def test_a_command_imports_only_its_own_module():
+    assert _cli_modules_after(["scenes"]) == {"mbgen.cli.scenes"}
+    assert _cli_modules_after(["check", "--help"]) == {"mbgen.cli.check", "mbgen.cli._common"}
 
 
 def test_scenes_lists_builtins(capsys):

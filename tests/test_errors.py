@@ -155,3 +155,45 @@ def test_missing_compiler(tmp_path, monkeypatch):
     monkeypatch.setenv("CC", "no-such-compiler-xyz")
     with pytest.raises(BuildError, match="no C compiler"):
         load(run(pendulum("nocc"), build=False).rendered)
+
+
+# ------------------------------------------------------------------ exit codes of the CLI
+#: The exit code and message heading of every error on the command line.
+EXIT_CODES = {
+    "MbgenError": (5, "numerical error"),
+    "ModelError": (3, "error"), "ModelSizeError": (3, "error"),
+    "NonFiniteConstantError": (3, "error"), "SceneError": (3, "error"),
+    "BuildError": (4, "compiler error"), "CacheError": (2, "error"),
+    "SingularMassMatrixError": (5, "numerical error"),
+    "SingularConstraintError": (5, "numerical error"),
+    "ConstraintError": (5, "numerical error"), "NonFiniteResultError": (5, "numerical error"),
+    "IntegrationError": (5, "numerical error"), "ArgumentError": (5, "numerical error"),
+    "ArgumentTypeError": (5, "numerical error"),
+    "CheckFailed": (1, "check failed"), "CheckInconclusive": (6, "check inconclusive"),
+    "UnknownNameError": (2, "error"), "UsageError": (2, "error"),
+    "MissingExtraError": (2, "error"), "BenchmarkError": (2, "error"),
+}
+
+
+def test_every_error_has_its_exit_code():
+    import mbgen.errors as errors
+
+    classes = {name: cls for name, cls in vars(errors).items()
+               if isinstance(cls, type) and issubclass(cls, errors.MbgenError)}
+    assert set(classes) == set(EXIT_CODES)
+    assert {name: cls.exit_code for name, cls in classes.items()} == \
+        {name: code for name, (code, _) in EXIT_CODES.items()}
+
+
+@pytest.mark.parametrize("name", sorted(EXIT_CODES))
+def test_the_cli_exits_with_the_error_s_code(name, monkeypatch, capsys):
+    import mbgen.errors as errors
+    from mbgen.cli import command_module, main
+
+    def fail(args):
+        raise getattr(errors, name)("what went wrong")
+
+    monkeypatch.setattr(command_module("scenes"), "run", fail)
+    code, heading = EXIT_CODES[name]
+    assert main(["scenes"]) == code
+    assert capsys.readouterr().err == f"mbgen: {heading}: what went wrong\n"

@@ -165,7 +165,8 @@ def test_repr_html_is_a_summary_not_the_matrices():
 
 # ------------------------------------------------------------------ optional matplotlib
 def test_missing_matplotlib_names_the_extra(tmp_path, monkeypatch, capsys):
-    from mbgen.viz.plots import MissingExtraError, plot_simulation
+    from mbgen.errors import MissingExtraError
+    from mbgen.viz.plots import plot_simulation
 
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     with pytest.raises(MissingExtraError, match=r"mbgen\[plot\]"):

@@ -10,7 +10,8 @@ import mbgen
 from mbgen import Output, UsageError
 from mbgen.run import simulate as sim
 from mbgen.model.scene import load_scene
-from mbgen.run.simulate import StiffnessWarning, choose_method, simulate
+from mbgen.errors import StiffnessWarning
+from mbgen.run.simulate import choose_method, simulate
 
 
 @cache

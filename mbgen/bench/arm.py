@@ -26,7 +26,8 @@ Pinocchio (PyPI ``pin``, the ``bench`` extra)
     folders and the Eigen headers of ``cmeel-eigen``).  Its accelerations are
     compared with mbgen's RHS at the timed state.
 
-Timings are medians of ``repeats`` loops, each at least :data:`MIN_LOOP_S` long.
+Timings are medians of ``repeats`` loops, each at least
+:data:`mbgen.bench.timing.MIN_LOOP_S` long.
 Growth exponents are least-squares slopes of log(value) against log(n) over
 the ``n`` that finished.  Nothing is built into the repository: the drivers
 are compiled in temporary folders.
@@ -36,9 +37,6 @@ from __future__ import annotations
 
 import csv
 import json
-import shutil
-import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -47,22 +45,26 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
+import sympy as sm
+from sympy.physics import mechanics as me
+from threadpoolctl import threadpool_limits
 
+from ..abi import Output
+from ..build.extension import load
+from ..codegen.optimize import optimize
+from ..codegen.render import render
+from ..codegen.slicing import bake
+from ..derive import Method
+from ..errors import BenchmarkError
+from ..pipeline import equations_of
+from ..run.compiled import CompiledModel
+from ..scenes.spatial_arm import axis, link_parameters
+from ..scenes.spatial_arm import scene as arm_scene
+from ..symbolic.graph import count_ops_dag
+from ..viz.plots import require_matplotlib
 from . import children
-from ..errors import BuildError, MbgenError
-
-#: Shortest timed loop, seconds (C drivers and Python per-call loops).
-MIN_LOOP_S = 0.02
-#: Compiler flags of both drivers (the generated C and Pinocchio's C++ alike).
-DRIVER_FLAGS = ("-O3", "-march=native", "-DNDEBUG")
-#: Defines Pinocchio's CMake config exports (boost::variant with its 25 joint types).
-PINOCCHIO_DEFINES = ("-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
-                     "-DBOOST_MPL_CFG_NO_PREPROCESSED_HEADERS")
-
-
-class BenchmarkError(MbgenError, RuntimeError):
-    """A benchmark could not run: a missing optional dependency or a driver that failed."""
-
+from .arm_pinocchio import build_aba_driver, import_pinocchio, pinocchio_arm, run_aba_driver
+from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns
 
 @dataclass
 class ArmRow:
@@ -96,167 +98,9 @@ def state(n: int) -> tuple[np.ndarray, np.ndarray]:
     return rng.uniform(-1.0, 1.0, n), rng.uniform(-1.0, 1.0, n)
 
 
-def per_call_ns(fn: Callable[[], object], repeats: int) -> float:
-    """Median nanoseconds of one ``fn()`` call: loops of at least MIN_LOOP_S, gc off."""
-    import gc
-
-    def loop(number: int) -> float:
-        t0 = time.perf_counter()
-        for _ in range(number):
-            fn()
-        return time.perf_counter() - t0
-
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        number = 1
-        while loop(number) < MIN_LOOP_S:
-            number *= 2
-        return 1e9 * statistics.median(loop(number) / number for _ in range(repeats))
-    finally:
-        if was:
-            gc.enable()
-
-
-# ----------------------------------------------------------------------------- Pinocchio
-def _pinocchio():
-    try:
-        import pinocchio
-    except ImportError:
-        raise BenchmarkError("Pinocchio is not installed: pip install -e '.[bench]' (PyPI 'pin')") \
-            from None
-    return pinocchio
-
-
-def link_rows(n: int) -> list[tuple]:
-    """Per link ``(axis, a_prev, b, m, Ixx, Iyy, Izz, Ixy, Iyz, Izx)`` from the scene's values."""
-    from ..scenes.spatial_arm import axis, link_parameters
-
-    v = link_parameters(n)
-    return [(axis(i), v[f"a{i - 1}"] if i > 1 else 0.0, v[f"b{i}"], v[f"m{i}"],
-             *(v[f"{k}{i}"] for k in ("Ixx", "Iyy", "Izz", "Ixy", "Iyz", "Izx")))
-            for i in range(1, n + 1)]
-
-
-def pinocchio_arm(n: int):
-    """The arm as a ``pinocchio.Model`` (gravity ``-g`` along z) with its values."""
-    pin = _pinocchio()
-    from ..scenes.spatial_arm import link_parameters
-
-    model = pin.Model()
-    parent = 0
-    for i, (ax, a, b, m, ixx, iyy, izz, ixy, iyz, izx) in enumerate(link_rows(n), start=1):
-        joint = pin.JointModelRZ() if ax == 3 else pin.JointModelRY()
-        place = pin.SE3(np.eye(3), np.array([a, 0.0, 0.0]))
-        parent = model.addJoint(parent, joint, place, f"joint{i}")
-        inertia = np.array([[ixx, ixy, izx], [ixy, iyy, iyz], [izx, iyz, izz]])
-        model.appendBodyToJoint(parent, pin.Inertia(m, np.array([b, 0.0, 0.0]), inertia),
-                                pin.SE3.Identity())
-    model.gravity.linear = np.array([0.0, 0.0, -link_parameters(n)["g"]])
-    return model
-
-
-def pinocchio_aba(n: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Joint accelerations of the unactuated arm from ``pin.aba``."""
-    pin = _pinocchio()
-    model = pinocchio_arm(n)
-    return np.array(pin.aba(model, model.createData(), q, v, np.zeros(n)))
-
-
-def _cmeel_prefix() -> Path:
-    """The folder the ``pin`` wheel installed into (it holds ``include/`` and ``lib/``)."""
-    pin = _pinocchio()
-    prefix = next((p for p in Path(pin.__file__).resolve().parents
-                   if (p / "include" / "pinocchio").is_dir()), None)
-    if prefix is None:
-        raise BenchmarkError(f"no Pinocchio headers above {pin.__file__}; the C++ loop needs the "
-                             f"'pin' wheel's include and lib folders")
-    if not (prefix / "include" / "eigen3").is_dir():
-        raise BenchmarkError("no Eigen headers for the C++ loop: pip install -e '.[bench]' "
-                             "(PyPI 'cmeel-eigen')")
-    return prefix
-
-
-def build_aba_driver(folder: Path, repeats: int) -> Path:
-    """Compile the C++ ``aba`` loop against the wheel; returns the executable (about a minute)."""
-    from ..codegen.templating import environment
-
-    prefix = _cmeel_prefix()
-    cxx = shutil.which("g++") or shutil.which("c++")
-    if cxx is None:
-        raise BenchmarkError("no C++ compiler (g++) for Pinocchio's C++ loop")
-    source = folder / "bench_aba.cpp"
-    source.write_text(environment().get_template("bench/aba.cpp.j2").render(
-        min_loop_s=MIN_LOOP_S, repeats=repeats), encoding="utf-8")
-    exe = folder / "bench_aba"
-    cmd = [cxx, "-std=c++17", *DRIVER_FLAGS, *PINOCCHIO_DEFINES, f"-I{prefix / 'include'}",
-           f"-I{prefix / 'include' / 'eigen3'}", str(source), "-o", str(exe),
-           f"-L{prefix / 'lib'}", "-lpinocchio_default", f"-Wl,-rpath,{prefix / 'lib'}"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise BenchmarkError(f"compiling Pinocchio's C++ loop failed:\n{proc.stderr[-3000:]}")
-    return exe
-
-
-def run_aba_driver(exe: Path, n: int, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray]:
-    """``(median ns per aba call, accelerations)`` from the C++ loop."""
-    from ..scenes.spatial_arm import link_parameters
-
-    lines = [str(n)] + [" ".join(repr(float(x)) if k else str(x) for k, x in enumerate(row))
-                        for row in link_rows(n)]
-    lines += [repr(link_parameters(n)["g"]), " ".join(map(repr, map(float, q))),
-              " ".join(map(repr, map(float, v)))]
-    proc = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise BenchmarkError(f"Pinocchio's C++ loop failed: {proc.stderr.strip()}")
-    out = proc.stdout.splitlines()
-    times = [float(s) for s in out if s[:1].isdigit()]
-    ddq = next(s for s in out if s.startswith("ddq")).split()[1:]
-    return statistics.median(times), np.array([float(x) for x in ddq])
-
-
 # ----------------------------------------------------------------------------- mbgen (child)
-def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int,
-             folder: Path) -> float:
-    """Median ns per ``<prefix>_rhs`` call in a compiled C loop (driver from the template)."""
-    from ..build.extension import compiler
-    from ..codegen.templating import environment
-
-    layout = rendered.layout
-    for name, text in rendered.files.items():
-        if name.endswith((".c", ".h")):
-            (folder / name).write_text(text, encoding="utf-8")
-    args = ["0.0", "x"] + (["p"] if layout.n_p else []) + (["r"] if layout.n_r else []) + ["dxdt"]
-    driver = environment().get_template("bench/rhs.c.j2").render(
-        prefix=rendered.prefix, n_x=layout.n_x, n_p=layout.n_p, n_r=layout.n_r,
-        x=[repr(float(v)) for v in x], p=[repr(float(v)) for v in p],
-        r=[repr(float(v)) for v in r], call_args=", ".join(args), min_loop_s=MIN_LOOP_S,
-        repeats=repeats, flags=" ".join(DRIVER_FLAGS))
-    (folder / "bench_rhs.c").write_text(driver, encoding="utf-8")
-    exe = folder / "bench_rhs"
-    cmd = [compiler(), "-std=c99", *DRIVER_FLAGS, "-o", str(exe), "bench_rhs.c",
-           f"{rendered.prefix}.c", "-lm"]
-    proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise BuildError(f"compiling the RHS benchmark driver failed:\n{proc.stderr[-3000:]}")
-    run = subprocess.run([str(exe)], capture_output=True, text=True)
-    if run.returncode != 0:
-        raise BenchmarkError(f"the RHS driver failed: {run.stdout[-300:]} {run.stderr[-300:]}")
-    return statistics.median(float(s) for s in run.stdout.splitlines() if s[:1].isdigit())
-
-
 def _mbgen_child(n: int, repeats: int, method: str, emit) -> None:
     """mbgen's side for one ``n``; ``emit(key, value)`` reports each result as it is known."""
-    from ..build.extension import load
-    from ..derive import Method
-    from ..abi import Output
-    from ..codegen.optimize import optimize
-    from ..pipeline import equations_of
-    from ..codegen.render import render
-    from ..run.compiled import CompiledModel
-    from ..scenes.spatial_arm import scene as arm_scene
-    from ..codegen.slicing import bake
-
     def stage(key, fn, *args, **kw):
         t0 = time.perf_counter()
         value = fn(*args, **kw)
@@ -285,11 +129,6 @@ def _mbgen_child(n: int, repeats: int, method: str, emit) -> None:
 # ----------------------------------------------------------------------------- sympy (child)
 def sympy_arm(n: int):
     """The arm in ``sympy.physics.mechanics`` with symbolic parameters: ``(KanesMethod, values)``."""
-    import sympy as sm
-    from sympy.physics import mechanics as me
-
-    from ..scenes.spatial_arm import axis, link_parameters
-
     q, u = me.dynamicsymbols(f"q1:{n + 1}"), me.dynamicsymbols(f"u1:{n + 1}")
     g = sm.Symbol("g")
     N = me.ReferenceFrame("N")
@@ -319,10 +158,6 @@ def sympy_arm(n: int):
 
 
 def _sympy_child(n: int, repeats: int, method: str, emit) -> None:
-    import sympy as sm
-
-    from ..symbolic.graph import count_ops_dag
-
     t0 = time.perf_counter()
     kane, values = sympy_arm(n)
     M, F = kane.mass_matrix_full, kane.forcing_full
@@ -357,8 +192,6 @@ def _child_main(argv: Sequence[str]) -> int:
 
     def emit(key, value):
         print(json.dumps({key: value}), flush=True)
-
-    from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1):
         (_mbgen_child if side == "mbgen" else _sympy_child)(n, repeats, method, emit)
@@ -398,8 +231,6 @@ def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
     method : str
         mbgen's derivation method (``mbgen.Method`` value).
     """
-    from ..derive import Method
-
     if method not in {m.value for m in Method}:
         raise BenchmarkError(f"unknown derivation method {method!r}; methods: "
                              f"{', '.join(m.value for m in Method)}")
@@ -436,7 +267,7 @@ def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
                                     else "not run")
             if pinocchio:
                 say(f"n={n}: Pinocchio")
-                pin = _pinocchio()
+                pin = import_pinocchio()
                 model = pinocchio_arm(n)
                 data, tau = model.createData(), np.zeros(n)
                 row.pin_py_ns = per_call_ns(lambda: pin.aba(model, data, q, v, tau), repeats)
@@ -548,8 +379,6 @@ def write_csv(rows: Sequence[ArmRow], path: Path) -> Path:
 
 def plot(rows: Sequence[ArmRow], path: Path) -> Path:
     """Log-log plot: per-call RHS times (left) and operations after CSE (right) against n."""
-    from ..viz.plots import require_matplotlib
-
     require_matplotlib()   # a named error when the bench extra is not installed
     import matplotlib
     import matplotlib.ticker

@@ -43,13 +43,28 @@ import statistics
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
+import sympy as sm
+from sympy.physics import mechanics as me
+from threadpoolctl import threadpool_limits
 
+from ..abi import Output
+from ..build.extension import load
+from ..codegen.optimize import optimize
+from ..codegen.render import render
+from ..codegen.slicing import bake
+from ..model.scene import load_scene
+from ..pipeline import compile as compile_
+from ..pipeline import equations_of
+from ..run.compiled import CompiledModel
+from ..run.linearize import linearize
+from ..scenes.whipple import PARAMETERS, upright_state
 from . import children
+from .timing import c_rhs_ns, per_call_ns
 
 #: Speed (m/s) of the steady upright run where both sides linearise and evaluate.
 SPEED = 5.0
@@ -62,11 +77,8 @@ def operating_point() -> dict:
     """The state at which both sides are evaluated: upright at :data:`SPEED` with some roll,
     steer and their rates (so nothing vanishes by symmetry), completed by mbgen; plus all
     eight speeds (``q' = u``, so the RHS's first eight entries) and mbgen's ``u_s'``."""
-    import mbgen
-    from ..scenes.whipple import upright_state
-
-    scn = mbgen.load_scene("whipple")
-    c = mbgen.compile(scn, ("rhs", "holonomic", "holonomic_jacobian"), name="whipple_conbench")
+    scn = load_scene("whipple")
+    c = compile_(scn, ("rhs", "holonomic", "holonomic_jacobian"), name="whipple_conbench")
     x = np.zeros(c.n_x)
     named = dict(upright_state(SPEED), roll=0.05, steer=-0.03, w_roll=0.2, w_steer=-0.1)
     for k, v in named.items():
@@ -84,18 +96,6 @@ def operating_point() -> dict:
 
 # ------------------------------------------------------------------------------ mbgen (child)
 def _mbgen_child(point: dict, repeats: int, emit) -> None:
-    from .arm import c_rhs_ns
-    from ..build.extension import load
-    from ..run.linearize import linearize
-    from ..abi import Output
-    from ..codegen.optimize import optimize
-    from ..pipeline import compile as compile_
-    from ..pipeline import equations_of
-    from ..codegen.render import render
-    from ..run.compiled import CompiledModel
-    from ..model.scene import load_scene
-    from ..codegen.slicing import bake
-
     def stage(key, fn, *args, **kw):
         t0 = time.perf_counter()
         value = fn(*args, **kw)
@@ -132,11 +132,6 @@ def _mbgen_child(point: dict, repeats: int, emit) -> None:
 def sympy_whipple():
     """The Whipple bicycle of :mod:`mbgen.scenes.whipple` in ``sympy.physics.mechanics``:
     ``(KanesMethod after kanes_equations, q, u, {constant symbol: value})``."""
-    import sympy as sm
-    from sympy.physics import mechanics as me
-
-    from ..scenes.whipple import PARAMETERS
-
     q = me.dynamicsymbols("x y yaw roll pitch steer theta_r theta_f")
     u = me.dynamicsymbols("vx vy w_yaw w_roll w_pitch w_steer w_r w_f")
     x, y, yaw, roll, pitch, steer, th_r, th_f = q
@@ -193,10 +188,6 @@ def sympy_whipple():
 
 
 def _sympy_rhs_child(point: dict, repeats: int, emit) -> None:
-    import sympy as sm
-
-    from .arm import per_call_ns
-
     t0 = time.perf_counter()
     kane, q, u, values = sympy_whipple()
     emit("sympy_derive_s", time.perf_counter() - t0)
@@ -248,8 +239,6 @@ STAGES = {"mbgen": ["derive_s", "bake_s", "cse_s", "render_s", "compile_s", "rhs
 
 def _child_main(argv: Sequence[str]) -> int:
     """``python -m mbgen.bench.constraints SIDE REPEATS`` with the operating point as JSON on stdin."""
-    from threadpoolctl import threadpool_limits
-
     side, repeats = argv[0], int(argv[1])
     point = json.loads(sys.stdin.read())
 
@@ -289,10 +278,8 @@ class ResidualRow:
 def four_bar_residuals(rtols: Sequence[float] = FOUR_BAR_RTOLS, *, repeats: int = 5,
                        span_factor: float = 10.0) -> list[ResidualRow]:
     """The four-bar from its start over ``span_factor`` times its span, projection on and off."""
-    import mbgen
-
-    scn = mbgen.load_scene("four_bar")
-    c = mbgen.compile(scn, ("rhs", "energy", "dopri5"), name="four_bar_conbench")
+    scn = load_scene("four_bar")
+    c = compile_(scn, ("rhs", "energy", "dopri5"), name="four_bar_conbench")
     x0 = c.consistent(scn.x0(c.layout))
     t = np.linspace(scn.t_span[0], scn.t_span[0] + span_factor * (scn.t_span[1] - scn.t_span[0]),
                     201)
@@ -324,8 +311,6 @@ class ConstraintBench:
 
     def to_json(self) -> str:
         """Every raw result (per side: results, status, seconds; the four-bar rows)."""
-        from dataclasses import asdict
-
         return json.dumps(dict(point=self.point, sides={
             k: dict(results=r, status=s, seconds=sec) for k, (r, s, sec) in self.sides.items()},
             four_bar=[asdict(r) for r in self.four_bar]), indent=1) + "\n"

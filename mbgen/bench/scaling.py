@@ -47,27 +47,34 @@ Timings on a shared or small machine are noisy; compare ratios within one run.
 
 from __future__ import annotations
 
+import csv
 import gc
+import io
 import os
 import statistics
 import tempfile
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 import sympy as sm
+from sympy.physics.mechanics import dynamicsymbols
+from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 from threadpoolctl import threadpool_limits
 
-from ..build.extension import load
-from ..derive import derive
 from ..abi import Output
+from ..build.extension import load
 from ..codegen.optimize import optimize
 from ..codegen.render import render
+from ..derive import derive
+from ..fileio import write_atomic
 from ..run.compiled import CompiledModel
 from ..scenes.n_link_cart import build_model
 from ..symbolic.graph import count_ops_dag, count_ops_tree
+from ..viz.plots import figure, save_png
 
 #: Shortest loop (seconds) of RHS calls that counts as one timing.
 MIN_LOOP_S = 0.05
@@ -215,9 +222,6 @@ def _mbgen_side(n: int, repeats: int, say: Callable[[str], None]):
 
 def _sympy_side(n: int, repeats: int, layout, point, say: Callable[[str], None]):
     """Run and time the sympy baseline; returns ``(fields, dxdt)``."""
-    from sympy.physics.mechanics import dynamicsymbols
-    from sympy.physics.mechanics.models import n_link_pendulum_on_cart
-
     def derive_sympy():
         kane = n_link_pendulum_on_cart(n, cart_force=True)
         return kane, kane.mass_matrix_full, kane.forcing_full
@@ -349,12 +353,6 @@ CSV_FIELDS = ("n", "derive_s", "cse_s", "render_s", "compile_s", "rhs_s", "ops_b
 
 def write_scaling_csv(rows: Sequence[ScalingRow], path):
     """Write the rows as CSV (one line per ``n``, :data:`CSV_FIELDS`; empty: sympy skipped)."""
-    import csv
-    import io
-    from pathlib import Path
-
-    from ..fileio import write_atomic
-
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_FIELDS)
@@ -371,8 +369,6 @@ def plot_scaling(rows: Sequence[ScalingRow], path):
     mbgen solid, sympy dashed; every point is a measured row (sympy's only
     where it ran).
     """
-    from ..viz.plots import figure, save_png
-
     ns = [r.n for r in rows]
     fig = figure(13.0, 4.4)
     ax_time, ax_rhs, ax_ops = fig.subplots(1, 3)

@@ -25,6 +25,13 @@ import time
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
+from ..abi import Output
+from ..build.extension import load
+from ..codegen.optimize import optimize
+from ..codegen.render import render
+from ..codegen.slicing import bake
+from ..model.scene import load_scene
+from ..pipeline import equations_of
 from .children import memory_cap
 
 
@@ -41,14 +48,6 @@ class StageTime:
 
 
 def _child(scene_name: str, options: dict, outputs: Sequence[str]) -> None:
-    from ..build.extension import load
-    from ..abi import Output
-    from ..codegen.optimize import optimize
-    from ..pipeline import equations_of
-    from ..codegen.render import render
-    from ..model.scene import load_scene
-    from ..codegen.slicing import bake
-
     def emit(**event):
         event["rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20
         print(json.dumps(event), flush=True)

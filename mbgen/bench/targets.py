@@ -21,6 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..codegen.targets.fmu import export_fmu
+from ..model.scene import load_scene
+from ..pipeline import compile as compile_
+from ..pipeline import run
+from ..studies.ensemble import ensemble
+
 C_TIMER = r"""
 #define _POSIX_C_SOURCE 199309L
 #include <stdio.h>
@@ -75,10 +81,6 @@ int main(int argc, char **argv)
 
 
 def batch_rhs(scene_name: str = "disc_pendulum", ks=(1, 100, 10000)) -> list[dict]:
-    import mbgen
-    from ..pipeline import run
-    from ..model.scene import load_scene
-
     scene = load_scene(scene_name)
     result = run(scene)
     model, rendered = result.compiled, result.rendered
@@ -118,14 +120,10 @@ def batch_rhs(scene_name: str = "disc_pendulum", ks=(1, 100, 10000)) -> list[dic
                              ratio=batch_ns / single_ns,
                              py_loop_ns=statistics.median(py_loop),
                              py_batch_ns=statistics.median(py_batch)))
-    del mbgen
     return rows
 
 
 def ensembles(k: int = 10000) -> list[dict]:
-    from ..studies.ensemble import ensemble
-    from ..model.scene import load_scene
-
     from dask.distributed import Client, LocalCluster
 
     rows = []
@@ -170,16 +168,12 @@ def ensembles(k: int = 10000) -> list[dict]:
 def fmu_round_trip() -> list[dict]:
     from fmpy import simulate_fmu
 
-    import mbgen
-    from ..model.scene import load_scene
-    from ..codegen.targets.fmu import export_fmu
-
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, opts in (("disc_pendulum", {}), ("stiff_chain", {}), ("n_link_cart", {"n": 2})):
             scene = load_scene(name, **opts)
             path = export_fmu(scene, tmp)
-            model = mbgen.compile(scene)
+            model = compile_(scene)
             method = [o.value for o in model.outputs if o.is_integrator][0]
             for kind in ("CoSimulation", "ModelExchange"):
                 signal = None

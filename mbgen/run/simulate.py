@@ -29,7 +29,7 @@ import numpy as np
 from scipy import integrate as ivp
 
 from ..abi import INTEGRATORS, Output
-from ..errors import ArgumentError, IntegrationError, UsageError
+from ..errors import ArgumentError, IntegrationError, StiffnessWarning, UsageError
 from ..integrators import METHODS
 from . import named
 from .base import ModelBase
@@ -44,10 +44,6 @@ _STABILITY = {"RK23": 2.5, "RK45": 3.3, "DOP853": 6.0}
 STIFF_MIN_STEPS = 2000      # below this many steps nothing is called stiffness-bound
 PROGRESS_DELAY = 2.0        # seconds before a progress bar appears
 MAX_STEPS = 1_000_000       # default step limit of the solve_ivp paths (C: the integrator's own)
-
-
-class StiffnessWarning(RuntimeWarning):
-    """An explicit method's steps are held down by stability, not accuracy."""
 
 
 def holonomic_outputs(scene) -> tuple:
@@ -345,4 +341,4 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
 
 
 __all__ = ["simulate", "simulate_in_c", "consistent_start", "holonomic_outputs",
-           "choose_method", "StiffnessWarning", "SOLVE_IVP", "IMPLICIT", "C_METHODS"]
+           "choose_method", "SOLVE_IVP", "IMPLICIT", "C_METHODS"]

@@ -28,10 +28,16 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import sympy as sm
 
+from ..abi import Output
 from ..errors import MbgenError, SceneError
 from ..fileio import atomic_path
-from .plots import require_matplotlib
+from ..model.builder import Model
+from ..model.builder import t as time_symbol
+from ..pipeline import run
+from ..run.simulate import simulate, simulate_in_c
+from .plots import figure, require_matplotlib
 
 #: File suffixes :func:`animate_scene` writes.
 FORMATS = (".html", ".gif")
@@ -66,8 +72,6 @@ def animate_scene(scene, path, *, frames: int = 100, t_end: float | None = None,
         geometry), has no points but its origin, or the suffix is not
         :data:`FORMATS`; ``frames < 2``.
     """
-    from ..model.builder import Model
-
     require_matplotlib()   # before the simulation, not after
     path = Path(path)
     if path.suffix.lower() not in FORMATS:
@@ -92,10 +96,6 @@ def animate_scene(scene, path, *, frames: int = 100, t_end: float | None = None,
 def _simulate_positions(scene, names, frames, t_end):
     """Times ``(k,)``, positions ``(k, n_points, 3)`` of the named points, and the states
     ``{name: (k,)}``."""
-    from ..abi import Output
-    from ..pipeline import run
-    from ..run.simulate import simulate, simulate_in_c
-
     integrators = [o for o in scene.outputs if Output(o).is_integrator]
     method = Output(integrators[0]) if integrators else None
     outputs = ((Output.POSITIONS,) if names else ()) + ((method,) if method else (Output.RHS,))
@@ -126,10 +126,6 @@ def _body_axes(scene, model, t, states) -> list:
     The direction cosines of a frame depend only on the coordinates, constants and time
     (small expressions of the model's rotation chain, not derived quantities).
     """
-    import sympy as sm
-
-    from ..model.builder import t as time_symbol
-
     values = {**scene.parameters, **scene.fixed}
     coords = list(model.coordinates_)
     consts = [c for c in model.constants_ if str(c) in values]
@@ -148,8 +144,6 @@ def _body_axes(scene, model, t, states) -> list:
 def _write(scene, model, names, t, positions, triads, path: Path, fps: float) -> None:
     require_matplotlib()
     from matplotlib.animation import FuncAnimation
-
-    from .plots import figure
 
     index = {n: i for i, n in enumerate(names)}
     origin = np.zeros(3)

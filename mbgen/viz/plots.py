@@ -28,15 +28,13 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import MbgenError
+from ..abi import Output
+from ..errors import MbgenError, MissingExtraError
 from ..fileio import atomic_path
+from ..pipeline import compile
 
 #: The extra that installs matplotlib (``bench`` and ``test`` have it too).
 EXTRA = "plot"
-
-
-class MissingExtraError(MbgenError, ImportError):
-    """An optional dependency is not installed; the message names the extra that has it."""
 
 
 def require_matplotlib():
@@ -106,9 +104,6 @@ def diagnostics(scene, t, x, names, parameters: Mapping[str, float] | None = Non
     energies, and ``"residual"`` (``max_i |f_h,i|``, shape ``(k,)``) when it has
     configuration constraints; ``"notes"`` says what was left out and why.
     """
-    from ..abi import Output
-    from ..pipeline import compile
-
     out: dict = {"notes": []}
     wanted = []
     if scene.conserves_energy:

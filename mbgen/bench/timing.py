@@ -1,0 +1,76 @@
+"""Per-call timings of the benchmarks: a Python loop, and the generated RHS in a C loop.
+
+:func:`per_call_ns` times ``fn()`` from Python: the call count doubles until one loop
+lasts :data:`MIN_LOOP_S`, then the median over ``repeats`` such loops (garbage collection
+off) is divided by the count.  :func:`c_rhs_ns` writes the generated C next to a small
+driver (``templates/bench/rhs.c.j2``) that calls ``<prefix>_rhs`` in a loop timed with
+``clock_gettime`` the same way, compiles both with :data:`DRIVER_FLAGS` and runs it as a
+subprocess: the RHS's own time, no Python crossing.  Results are nanoseconds per call.
+"""
+
+from __future__ import annotations
+
+import gc
+import statistics
+import subprocess
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..build.extension import compiler
+from ..codegen.templating import environment
+from ..errors import BenchmarkError, BuildError
+
+#: Shortest timed loop, seconds (C drivers and Python per-call loops).
+MIN_LOOP_S = 0.02
+#: Compiler flags of both drivers (the generated C and Pinocchio's C++ alike).
+DRIVER_FLAGS = ("-O3", "-march=native", "-DNDEBUG")
+
+
+def per_call_ns(fn: Callable[[], object], repeats: int) -> float:
+    """Median nanoseconds of one ``fn()`` call: loops of at least MIN_LOOP_S, gc off."""
+
+    def loop(number: int) -> float:
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        return time.perf_counter() - t0
+
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        number = 1
+        while loop(number) < MIN_LOOP_S:
+            number *= 2
+        return 1e9 * statistics.median(loop(number) / number for _ in range(repeats))
+    finally:
+        if was:
+            gc.enable()
+
+
+def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int,
+             folder: Path) -> float:
+    """Median ns per ``<prefix>_rhs`` call in a compiled C loop (driver from the template)."""
+    layout = rendered.layout
+    for name, text in rendered.files.items():
+        if name.endswith((".c", ".h")):
+            (folder / name).write_text(text, encoding="utf-8")
+    args = ["0.0", "x"] + (["p"] if layout.n_p else []) + (["r"] if layout.n_r else []) + ["dxdt"]
+    driver = environment().get_template("bench/rhs.c.j2").render(
+        prefix=rendered.prefix, n_x=layout.n_x, n_p=layout.n_p, n_r=layout.n_r,
+        x=[repr(float(v)) for v in x], p=[repr(float(v)) for v in p],
+        r=[repr(float(v)) for v in r], call_args=", ".join(args), min_loop_s=MIN_LOOP_S,
+        repeats=repeats, flags=" ".join(DRIVER_FLAGS))
+    (folder / "bench_rhs.c").write_text(driver, encoding="utf-8")
+    exe = folder / "bench_rhs"
+    cmd = [compiler(), "-std=c99", *DRIVER_FLAGS, "-o", str(exe), "bench_rhs.c",
+           f"{rendered.prefix}.c", "-lm"]
+    proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise BuildError(f"compiling the RHS benchmark driver failed:\n{proc.stderr[-3000:]}")
+    run = subprocess.run([str(exe)], capture_output=True, text=True)
+    if run.returncode != 0:
+        raise BenchmarkError(f"the RHS driver failed: {run.stdout[-300:]} {run.stderr[-300:]}")
+    return statistics.median(float(s) for s in run.stdout.splitlines() if s[:1].isdigit())

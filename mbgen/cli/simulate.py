@@ -1,0 +1,99 @@
+"""``mbgen simulate SCENE``: integrate with the compiled RHS (a solve_ivp method or a
+generated C integrator) and write the trajectory as CSV, optionally a PNG."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..abi import Output
+from ..errors import EXIT_OK, UsageError
+from ..fileio import plain_name
+from ..model.scene import check_span
+from ..pipeline import compile
+from ..run.simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate
+from ..viz.plots import plot_simulation
+from ._common import (add_number_arguments, add_scene_arguments, check_file, initial_state,
+                      input_values, nonnegative_float, positive_int, scene_from, with_numbers)
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    add_scene_arguments(p)
+    p.add_argument("--t-end", type=float, help="final time (default: the scene's)")
+    p.add_argument("--method", default=None,
+                   help="a solve_ivp method (RK45, DOP853, Radau, BDF, LSODA, RK23; the implicit "
+                        "ones get the compiled Jacobian) or a generated C integrator (dopri5, "
+                        "rosenbrock, rk4: fixed step (t_end - t0)/10000); default auto: the "
+                        "scene's C integrator, else DOP853, switching to Radau when "
+                        "stiffness-bound")
+    p.add_argument("--rtol", type=nonnegative_float, default=1e-9)
+    p.add_argument("--atol", type=nonnegative_float, default=1e-12)
+    p.add_argument("--points", type=int, default=201, help="output times (default 201)")
+    p.add_argument("--csv", metavar="PATH", help="trajectory file (default SCENE.csv)")
+    p.add_argument("--plot", metavar="FILE",
+                   help="also write a PNG: states against time, energy drift when the scene "
+                        "conserves energy, constraint residual when it has constraints")
+    add_number_arguments(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--max-steps", type=positive_int, default=None, metavar="N",
+                   help="step limit (default: 1,000,000 for solve_ivp, the C integrator's own)")
+
+
+def run(args) -> int:
+    method = args.method
+    if method is not None:  # an unknown method is refused before any work
+        choose_method(_NoModel, method if method.lower() not in C_METHODS else None)
+    scene = with_numbers(scene_from(args), args)
+    check_span(scene.t_span[0], scene.t_span[1] if args.t_end is None else args.t_end, "--t-end")
+    csv = check_file(args.csv or plain_name(f"{scene.name}.csv", "default CSV name"), "--csv")
+    if args.points < 2:
+        raise UsageError(f"--points {args.points}: give at least 2 output times")
+    outputs = tuple(scene.outputs)
+    if method is not None and method.lower() in C_METHODS:
+        outputs += (Output(method.lower()),)
+    elif method is None or method.lower() in {m.lower() for m in IMPLICIT} \
+            or method.lower() == "auto":
+        outputs += (Output.JACOBIAN,)  # for the implicit methods (and the stiffness check)
+    outputs += holonomic_outputs(scene)   # consistent initial state (constrained scenes)
+    model = compile(scene, outputs)
+    x0 = initial_state(scene, model)
+    r = input_values(args, model)
+    t_end = args.t_end if args.t_end is not None else scene.t_span[1]
+
+    def note(msg: str) -> None:
+        print(f"mbgen: note: {msg}", file=sys.stderr, flush=True)
+
+    traj = simulate(model, x0, (scene.t_span[0], t_end), r=r, method=method, rtol=args.rtol,
+                    atol=args.atol, n_out=args.points, progress=not args.quiet, say=note,
+                    max_steps=args.max_steps)
+    path = traj.write_csv(csv)
+    why = f" ({traj.message})" if traj.message and traj.message != "as asked" else ""
+    print(f"{scene.name}: {traj.method}{why}, rtol={args.rtol:g} atol={args.atol:g}, "
+          f"t = {scene.t_span[0]:g} .. {t_end:g}, {traj.nfev} RHS calls"
+          + (f", {traj.njev} Jacobians" if traj.njev else "") + f", {traj.wall_time:.3f} s")
+    print("final state: " + ", ".join(f"{k} = {v:.10g}" for k, v in traj.final.items()))
+    _print_constraint_start(model, x0, traj)
+    print(f"trajectory: {path} ({len(traj.t)} rows)")
+    if args.plot:
+        print(f"plot: {plot_simulation(traj, args.plot, scene=scene)}")
+    return EXIT_OK
+
+
+def _print_constraint_start(model, x0, traj) -> None:
+    """Constrained models: the completed dependent coordinates and the largest residual."""
+    dependent = getattr(model, "dependent_coordinates", ())
+    if not dependent:
+        return
+    moved = [f"{n} {x0[model.state_names.index(n)]:.6g} -> {traj.x[0][model.state_names.index(n)]:.10g}"
+             for n in dependent]
+    print("consistent start (dependent coordinates solved from the constraints): "
+          + ", ".join(moved))
+    print(f"largest constraint residual |f_h|: {traj.max_residual:.3g}"
+          + ("" if traj.method.startswith("C ") else " (solve_ivp does not project)"))
+
+
+class _NoModel:
+    """Stands in for a model when only a method name is checked."""
+
+    outputs, backend, name = (), "none", ""
+    c_integrators = ()
