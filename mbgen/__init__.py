@@ -24,7 +24,7 @@ from .run.lambdified import LambdifiedModel
 from .run.compiled import CompiledModel, PythonModel
 from .model.scene import Scene, load_scene
 from .codegen.targets import Targets
-from .codegen.targets.fmu import export_fmu
+from .export import export_fmu
 from .studies.ensemble import ensemble
 from .run.simulate import Trajectory, simulate
 from .run.stepper import Stepper

@@ -172,7 +172,7 @@ def fmu_round_trip() -> list[dict]:
 
     import mbgen
     from ..model.scene import load_scene
-    from ..codegen.targets.fmu import export_fmu
+    from ..export import export_fmu
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

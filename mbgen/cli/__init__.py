@@ -202,7 +202,7 @@ def cmd_generate(args) -> int:
         raise SceneError(f"output folder {str(folder)!r} is a file; give a folder with -o")
     result = run(scene, outputs, build=False, sliced=not args.no_slice)
     files = dict(result.rendered.files)
-    example = render_example(scene, result)
+    example = render_example(scene, result.kernel)
     if example is not None:
         files["example.c"] = example
     changed, removed = write_generated(folder, files, overwrite=args.overwrite)
@@ -556,7 +556,7 @@ def cmd_golden(args) -> int:
 
 
 def cmd_fmu(args) -> int:
-    from ..codegen.targets.fmu import export_fmu
+    from ..export import export_fmu
 
     _check_folder(args.output, "-o")
     path = export_fmu(_scene(args), args.output)
