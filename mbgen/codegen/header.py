@@ -72,7 +72,7 @@ def _ldl_bytes(kernel) -> int:
 
 
 def _integrator_bytes(T, n: int, non_autonomous: bool) -> int:
-    """Automatic storage of a whole-trajectory integrator (``templates/integrators/<name>.c.j2``)."""
+    """Automatic storage of a whole-trajectory integrator (``integrators/<name>.c.j2``)."""
     stats = 5 * D + D
     if T.implicit:                      # J, G and piv are in the caller's work struct
         return D * ((8 + int(non_autonomous) + T.n_stages()) * n + 18) + I * 4 + stats
@@ -109,14 +109,16 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=()) -> dic
         project = F + D * (3 * m + m * n_q + m * m + 3) + I * 6 + max(
             fn.get("holonomic", 0), fn.get("holonomic_jacobian", 0), helper)
     rhs = max(rhs, project)           # called where the RHS is: after a step
-    non_autonomous = any(METHODS[o].implicit for o in kernel.integrators) and explicit_time(kernel)
+    non_autonomous = (any(METHODS[o].implicit for o in kernel.integrators)
+                      and explicit_time(kernel))
     for o in kernel.integrators:
         T = METHODS[o]
         calls = [rhs, helper]
         if T.adaptive:
             calls.append(initial)
         if T.implicit:
-            calls += [fn.get(need.value, 0) for need in T.needs] + [fn.get("time_derivative", 0), lu]
+            calls += [fn.get(need.value, 0) for need in T.needs]
+            calls += [fn.get("time_derivative", 0), lu]
         bounds[f"{prefix}_{o.value}"] = F + _integrator_bytes(T, n, non_autonomous) + max(calls)
     if step_methods and project:
         bounds[f"{prefix}_project_state"] = F + D * 14 + I * 2 + project

@@ -1,4 +1,4 @@
-"""C-template views of the integrators: what ``templates/integrators/`` and ``templates/step/`` print.
+"""C-template views of the integrators: what ``templates/integrators/``, ``templates/step/`` print.
 
 The methods themselves (tableaux, orders, ``adaptive``, ``implicit``, ``needs``) are data in
 :mod:`mbgen.integrators`; this module turns one method into the strings and flags its template

@@ -3,7 +3,7 @@ C-template views (:mod:`mbgen.codegen.integrators`), one template each.
 
 Asking for :attr:`~mbgen.abi.Output.DOPRI5`, ``RK4`` or ``ROSENBROCK``
 adds, next to the model's functions, C integrators that run a whole trajectory
-with no Python per step (see ``templates/integrators/integrators.c.j2``)::
+with no Python per step (see ``templates/integrators/<name>.c.j2``)::
 
     int <prefix>_dopri5(const double *x0[, const double *p][, const double *r],
                         int n_out, const double *t_out, double *x_out,

@@ -56,7 +56,7 @@ def example_settings(scene: Scene, kernel):
 
 
 def render_example(scene: Scene, kernel) -> str | None:
-    """The text of ``example.c`` for ``scene`` and its kernel (None when it asks for no integrator)."""
+    """The text of ``example.c`` for ``scene`` and its kernel (None without an integrator)."""
     settings = example_settings(scene, kernel)
     if settings is None:
         return None
