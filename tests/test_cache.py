@@ -24,7 +24,7 @@ from mbgen.model.scene import load_scene
 LOAD = textwrap.dedent("""
     import numpy as np
     import mbgen
-    from mbgen.scene import load_scene
+    from mbgen.model.scene import load_scene
     model = mbgen.compile(load_scene("n_link_cart", n=1))
     print(repr(model.rhs(0.0, np.array([0.1, 0.2, 0.0, 0.0])).tolist()))
 """)
