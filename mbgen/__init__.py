@@ -25,7 +25,7 @@ from .run.compiled import CompiledModel
 from .run.python import PythonModel, python_model
 from .model.scene import Scene, load_scene
 from .codegen.targets import Targets
-from .codegen.targets.fmu import export_fmu
+from .export import export_fmu
 from .studies.ensemble import ensemble
 from .run.integration import Trajectory
 from .run.simulate import simulate

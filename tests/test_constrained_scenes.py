@@ -336,7 +336,8 @@ def test_step_api_projects_after_every_step():
 def test_fmu_of_a_constrained_scene_stays_on_the_constraints(tmp_path, kind):
     fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra")
     from fmpy.validation import validate_fmu
-    from mbgen.codegen.targets.fmu import PROJECT_TOL, export_fmu
+    from mbgen.codegen.targets.fmu import PROJECT_TOL
+    from mbgen.export import export_fmu
 
     scn = mbgen.load_scene("slider_crank")
     path = export_fmu(scn, tmp_path)

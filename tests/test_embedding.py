@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mbgen.verify import golden
-from mbgen.codegen.targets.example import example_integration
+from mbgen.verify.golden import example_integration
 from mbgen.pipeline import run
 from mbgen.abi import Output
 from mbgen.model.scene import builtin_names, load_scene

@@ -12,7 +12,7 @@ import pytest
 
 import mbgen
 from mbgen.model.scene import load_scene
-from mbgen.codegen.targets.fmu import export_fmu
+from mbgen.export import export_fmu
 
 fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra: pip install -e '.[test]'")
 from fmpy import simulate_fmu  # noqa: E402

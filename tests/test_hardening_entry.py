@@ -160,7 +160,7 @@ def test_hostile_scene_file_name_and_description(tmp_path, monkeypatch):
     result = run(scene, build=False)
     python_model(result.rendered)
     assert not (tmp_path / "PWNED").exists()
-    files = dict(result.rendered.files, **{"example.c": render_example(scene, result)})
+    files = dict(result.rendered.files, **{"example.c": render_example(scene, result.kernel)})
     out = tmp_path / "out"
     out.mkdir()
     for name, text in files.items():

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import mbgen.codegen.render
+import mbgen.codegen.targets.model
 import mbgen.codegen.header
 from mbgen.verify.check import check
 from mbgen.pipeline import run
@@ -23,7 +23,7 @@ def _loops(rendered) -> bool:
 
 
 def test_threshold_as_a_parameter(monkeypatch):
-    monkeypatch.setattr(mbgen.codegen.render, "UNROLL_MAX", 1)
+    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
     monkeypatch.setattr(mbgen.codegen.header, "UNROLL_MAX", 1)
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "mass_matrix"))
     assert _loops(result.rendered) and "for j in range(n):" in result.rendered.python

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..codegen.targets.fmu import export_fmu
+from ..export import export_fmu
 from ..model.scene import load_scene
 from ..pipeline import compile as compile_
 from ..pipeline import run

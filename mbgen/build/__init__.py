@@ -1,1 +1,19 @@
-"""build"""
+"""Build: rendered texts to binaries, with the C compiler.
+
+:mod:`~mbgen.build.extension` compiles a :class:`~mbgen.abi.Rendered` into a cffi
+extension module, cached by content hash (``load``); :mod:`~mbgen.build.fmu` compiles an
+FMU's sources into this platform's shared library and writes the ``.fmu`` zip.  Nothing
+here renders code (:mod:`mbgen.codegen`) or calls a model (:mod:`mbgen.run`).
+
+How to add a build
+------------------
+1. ``build/<product>.py``: a function from texts (``{file name: text}``, or a
+   ``Rendered``) to the product, calling :func:`mbgen.build.extension.compiler` and
+   raising :class:`~mbgen.errors.BuildError` with the compiler's output on failure;
+   its flags as a module constant (as ``CFLAGS``, ``FMU_CFLAGS``).
+2. The caller one stage up: :mod:`mbgen.pipeline` for the extension, a root module such
+   as :mod:`mbgen.export` for a product made from a scene.
+3. ``tests/test_cflags.py`` (the extension's flags and cache key), ``tests/test_cache.py``
+   (a damaged or half-built module is rebuilt) and ``tests/test_fmu.py`` (the FMU builds
+   and FMPy runs it) fail when a build breaks; add the new product's test beside them.
+"""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..codegen.targets.fmu import export_fmu
+from ..export import export_fmu
 from ..errors import EXIT_OK
 from ._common import add_scene_arguments, check_folder, scene_from
 

@@ -42,7 +42,7 @@ def run(args) -> int:
         raise SceneError(f"output folder {str(folder)!r} is a file; give a folder with -o")
     result = run_pipeline(scene, outputs, build=False, sliced=not args.no_slice)
     files = dict(result.rendered.files)
-    example = render_example(scene, result)
+    example = render_example(scene, result.kernel)
     if example is not None:
         files["example.c"] = example
     changed, removed = write_generated(folder, files, overwrite=args.overwrite)

@@ -24,7 +24,9 @@ from __future__ import annotations
 import hashlib
 import re
 
+from ..integrators import METHODS, method
 from .escape import c_comment
+from .integrators import explicit_time
 from .solver import UNROLL_MAX, factor_program
 
 #: Allowance per call level: return address, saved registers, alignment, compiler spills.
@@ -69,9 +71,19 @@ def _ldl_bytes(kernel) -> int:
     return D * (n + 2) + I * 3
 
 
-def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
-                 non_autonomous: bool = False) -> dict[str, int]:
-    """``{C function name: bound in bytes}`` for every public function."""
+def _integrator_bytes(T, n: int, non_autonomous: bool) -> int:
+    """Automatic storage of a whole-trajectory integrator (``integrators/<name>.c.j2``)."""
+    stats = 5 * D + D
+    if T.implicit:                      # J, G and piv are in the caller's work struct
+        return D * ((8 + int(non_autonomous) + T.n_stages()) * n + 18) + I * 4 + stats
+    if T.adaptive:                      # y, y_new, xs, err, sc, K (FSAL: one stage more), w
+        return D * ((5 + T.n_stages + 1) * n + T.n_stages + 1 + 14) + stats + I * 4
+    return D * ((2 + T.n_stages) * n + 5) + stats + I * 3
+
+
+def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=()) -> dict[str, int]:
+    """``{C function name: bound in bytes}`` for every public function (``step_methods``:
+    the step API's, when it is rendered)."""
     n = max(kernel.layout.n_x, 1)
     F = FRAME_BYTES
     helper = F + D * 8 + I * 4        # rms, lu_solve, all_finite, integ_start, ...
@@ -90,39 +102,36 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=(),
     rhs = fn.get("rhs", 0)
     lu = F + D * 4 + I * 4
     initial = F + D * (3 * n + 8) + I * 2 + max(rhs, helper)
-    stats = 5 * D + D
-    integ = {o.value for o in kernel.integrators}
     c = kernel.equations.constraints
     project = 0                       # <prefix>_project: Newton on the dependent coordinates
-    if c is not None and c.m_h and integ:
+    if c is not None and c.m_h and kernel.integrators:
         m, n_q = c.m_h, kernel.layout.n_q
         project = F + D * (3 * m + m * n_q + m * m + 3) + I * 6 + max(
             fn.get("holonomic", 0), fn.get("holonomic_jacobian", 0), helper)
     rhs = max(rhs, project)           # called where the RHS is: after a step
-    if "dopri5" in integ:
-        own = D * (12 * n + 7 + 14) + stats + I * 4
-        bounds[f"{prefix}_dopri5"] = F + own + max(rhs, initial, helper)
-    if "rk4" in integ:
-        own = D * (6 * n + 5) + stats + I * 3
-        bounds[f"{prefix}_rk4"] = F + own + max(rhs, helper)
-    if "rosenbrock" in integ:
-        from ..integrators import ROSENBROCK
-
-        own = D * ((8 + int(non_autonomous) + ROSENBROCK.n_stages()) * n + 18) + I * 4 \
-            + stats                     # J, G and piv are in the caller's work struct
-        calls = max(rhs, fn.get("jacobian", 0), fn.get("time_derivative", 0), lu, initial,
-                    helper)
-        bounds[f"{prefix}_rosenbrock"] = F + own + calls
+    non_autonomous = (any(METHODS[o].implicit for o in kernel.integrators)
+                      and explicit_time(kernel))
+    for o in kernel.integrators:
+        T = METHODS[o]
+        calls = [rhs, helper]
+        if T.adaptive:
+            calls.append(initial)
+        if T.implicit:
+            calls += [fn.get(need.value, 0) for need in T.needs]
+            calls += [fn.get("time_derivative", 0), lu]
+        bounds[f"{prefix}_{o.value}"] = F + _integrator_bytes(T, n, non_autonomous) + max(calls)
     if step_methods and project:
         bounds[f"{prefix}_project_state"] = F + D * 14 + I * 2 + project
     for m in step_methods:
         bounds[f"{prefix}_{m}_init"] = F + D * 2 + helper
         own = D * 24 + I * 6
         calls = max(rhs, helper, F + D * 14 + I * 2 + project if project else 0)
-        if m != "rk4":
+        T = method(m)
+        if T.adaptive:                  # the initial step
             calls = max(calls, F + D * 8 + I * 2 + max(rhs, helper))
-        if m == "rosenbrock":
-            calls = max(calls, fn.get("jacobian", 0), fn.get("time_derivative", 0), lu)
+        if T.implicit:
+            calls = max(calls, *(fn.get(need.value, 0) for need in T.needs),
+                        fn.get("time_derivative", 0), lu)
         bounds[f"{prefix}_{m}_step"] = F + own + calls
     if kernel.layout.n_p and all(str(s) in kernel.equations.defaults
                                  for s in kernel.layout.parameters):

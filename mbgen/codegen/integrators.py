@@ -1,9 +1,16 @@
-"""C-template views of the integrators: the context ``templates/integrators/integrators.c.j2`` renders.
+"""C-template views of the integrators: what ``templates/integrators/``, ``templates/step/`` print.
 
-The methods themselves (tableaux, orders, the Rosenbrock reference step) are data in
-:mod:`mbgen.codegen.integrators.tableaux`; this module turns them into the strings and flags the
-template prints (coefficients with full precision, stage sums, prototypes) for one
-kernel.
+The methods themselves (tableaux, orders, ``adaptive``, ``implicit``, ``needs``) are data in
+:mod:`mbgen.integrators`; this module turns one method into the strings and flags its template
+prints (coefficients with full precision, stage sums, prototypes) for one kernel.  Which
+view and which template a method gets is read from its properties and its output's name,
+never from a test of the name:
+
+* an explicit Runge--Kutta method: :func:`explicit_view` (with the error estimate and
+  the dense output when ``adaptive``);
+* a linearly implicit (Rosenbrock) method: :func:`rosenbrock_view`;
+* its template: ``templates/integrators/<output>.c.j2`` (whole trajectory) and
+  ``templates/step/<output>.c.j2``, ``.h.j2`` (the step API).
 """
 
 from __future__ import annotations
@@ -14,9 +21,13 @@ import numpy as np
 
 from ..abi import Output
 from ..errors import ModelError
-from ..integrators import DEFAULT_MAX_STEPS, ROSENBROCK, RK4, Dopri5
+from ..integrators import DEFAULT_MAX_STEPS, METHODS, Method
 from ..names import model_prefix
 from ..symbolic.availability import time_symbols
+
+#: What a missing output is called in the message of an integrator that needs it.
+NEEDED = {Output.JACOBIAN: "the Jacobian",
+          Output.TIME_DERIVATIVE: "df/dt (the equations depend on t explicitly)"}
 
 
 def c_double(value) -> str:
@@ -42,34 +53,31 @@ def _terms(coeffs, vector: str, skip_zero: bool = True) -> str:
     return " ".join(out) if out else "0.0"
 
 
-def dopri5_view() -> dict:
-    T = Dopri5
-    stages = []
-    for s in range(1, T.n_stages):
-        stages.append(dict(index=s, c=c_double(T.C[s]),
-                           sum=_terms(T.A[s, :s], "K[{}][i]")))
-    return dict(
-        n_stages=T.n_stages,
-        stages=stages,
-        b=_terms(T.B, "K[{}][i]"),
-        e=_terms(T.E, "K[{}][i]"),
-        # dense output: y + h * sum_j K_j * (P_j0 s + P_j1 s^2 + P_j2 s^3 + P_j3 s^4)
-        p=[(j, [c_double(v) for v in T.P[j]]) for j in range(T.n_stages + 1) if np.any(T.P[j])],
-        order=T.error_estimator_order,
-        inv_order=c_double(1.0 / (T.error_estimator_order + 1)),
-        exponent=c_double(-1.0 / (T.error_estimator_order + 1)),
-        safety=c_double(T.SAFETY), min_factor=c_double(T.MIN_FACTOR), max_factor=c_double(T.MAX_FACTOR),
-    )
+def _control(T) -> dict:
+    """The step-size controller's constants of an adaptive method."""
+    return dict(inv_order=c_double(1.0 / (T.error_estimator_order + 1)),
+                exponent=c_double(-1.0 / (T.error_estimator_order + 1)),
+                safety=c_double(T.SAFETY), min_factor=c_double(T.MIN_FACTOR),
+                max_factor=c_double(T.MAX_FACTOR))
 
 
-def rk4_view() -> dict:
-    T = RK4
-    return dict(stages=[dict(index=s, c=c_double(T.C[s]), sum=_terms(T.A[s, :s], "K[{}][i]"))
+def explicit_view(T) -> dict:
+    """An explicit Runge--Kutta method: stages ``K_s``, the weights ``b``; when ``T.adaptive``
+    also the error weights ``E`` (FSAL: ``n_stages + 1`` entries), the dense output ``P`` and
+    the controller's constants."""
+    view = dict(stages=[dict(index=s, c=c_double(T.C[s]), sum=_terms(T.A[s, :s], "K[{}][i]"))
                         for s in range(1, T.n_stages)],
                 b=_terms(T.B, "K[{}][i]"), n_stages=T.n_stages)
+    if T.adaptive:
+        # dense output: y + h * sum_j K_j * (P_j0 s + P_j1 s^2 + P_j2 s^3 + P_j3 s^4)
+        view.update(e=_terms(T.E, "K[{}][i]"),
+                    p=[(j, [c_double(v) for v in T.P[j]]) for j in range(T.n_stages + 1)
+                       if np.any(T.P[j])], **_control(T))
+    return view
 
 
 def rosenbrock_view(T) -> dict:
+    """A Rosenbrock method in the KPP form (:class:`mbgen.integrators.Rosenbrock`)."""
     stages = []
     for s, new in enumerate(T.new_f()):
         stages.append(dict(
@@ -93,10 +101,15 @@ def rosenbrock_view(T) -> dict:
         e=_terms(T.E, "K[{}][i]"),
         order=T.order,
         embedded_order=T.error_estimator_order,
-        inv_order=c_double(1.0 / (T.error_estimator_order + 1)),
-        exponent=c_double(-1.0 / (T.error_estimator_order + 1)),
-        safety=c_double(T.SAFETY), min_factor=c_double(T.MIN_FACTOR), max_factor=c_double(T.MAX_FACTOR),
+        **_control(T),
     )
+
+
+def method_view(output: Output) -> dict:
+    """What the templates of one integrator read: its name, properties and coefficients."""
+    T = METHODS[output]
+    return dict(name=output.value, label=T.label, adaptive=T.adaptive, implicit=T.implicit,
+                view=rosenbrock_view(T) if T.implicit else explicit_view(T))
 
 
 def explicit_time(kernel) -> bool:
@@ -105,37 +118,54 @@ def explicit_time(kernel) -> bool:
     return eq.layout.time in time_symbols(eq)
 
 
+def require(kernel, outputs, what: str, time_message: str) -> bool:
+    """Check that ``kernel`` has what the integrators ``outputs`` call; whether df/dt is among it.
+
+    An implicit method also needs ``df/dt`` when the equations depend on ``t``
+    explicitly (``time_message`` is then what it is called).  ``what`` names the
+    caller in the message (``"integrator"``, ``"step"``).  Raises
+    :class:`~mbgen.errors.ModelError` naming the output to add.
+    """
+    name = kernel.equations.name
+    functions = {f.output for f in kernel.functions}
+    implicit = [METHODS[o] for o in outputs if METHODS[o].implicit]
+    non_autonomous = bool(implicit) and explicit_time(kernel)
+    if non_autonomous and Output.TIME_DERIVATIVE not in functions:
+        raise ModelError(f"the {implicit[0].label} {what} of {name!r} needs {time_message}; "
+                         f"add Output.TIME_DERIVATIVE")
+    for o in outputs:
+        for need in METHODS[o].needs:   # the RHS every method calls comes with any integrator
+            if need not in functions and need not in Method.needs:
+                raise ModelError(f"the {METHODS[o].label} {what} of {name!r} needs "
+                                 f"{NEEDED[need]}; add Output.{need.name}")
+    return non_autonomous
+
+
 def integrator_context(kernel) -> dict:
-    """Template context for ``integrators/integrators.h.j2`` / ``integrators/integrators.c.j2`` (key ``integ``)."""
+    """Template context for ``integrators/integrators.h.j2`` / ``.c.j2`` (key ``integ``)."""
     L = kernel.layout
     prefix = model_prefix(kernel.equations.name)
-    wanted = {o.value for o in kernel.integrators}
+    wanted = [o for o in METHODS if o in kernel.integrators]
     extra_params = "".join(f", const double *{a}" for a in ("p", "r")
                            if (a == "p" and L.n_p) or (a == "r" and L.n_r))
     extra_args = "".join(f", {a}" for a in ("p", "r")
                          if (a == "p" and L.n_p) or (a == "r" and L.n_r))
     tail = (f"int n_out, const double *t_out, double *x_out, const {prefix}_options *opt, "
             f"{prefix}_stats *stats")
-    prototypes = [(o.value, f"int {prefix}_{o.value}(const double *x0{extra_params}, {tail}"
-                            + (f", {prefix}_rosenbrock_work *work)" if o is Output.ROSENBROCK
-                               else ")"))
-                  for o in (Output.DOPRI5, Output.RK4, Output.ROSENBROCK) if o.value in wanted]
-    non_autonomous = Output.ROSENBROCK.value in wanted and explicit_time(kernel)
-    if non_autonomous and not any(f.output is Output.TIME_DERIVATIVE for f in kernel.functions):
-        raise ModelError(f"the Rosenbrock integrator of {kernel.equations.name!r} needs df/dt "
-                         f"(the equations depend on t explicitly); add Output.TIME_DERIVATIVE")
-    if Output.ROSENBROCK.value in wanted and not any(f.output is Output.JACOBIAN
-                                                     for f in kernel.functions):
-        raise ModelError(f"the Rosenbrock integrator of {kernel.equations.name!r} needs the "
-                         f"Jacobian; add Output.JACOBIAN")
+    non_autonomous = require(kernel, wanted, "integrator", NEEDED[Output.TIME_DERIVATIVE])
+    methods = []
+    for o in wanted:
+        m = method_view(o)
+        m.update(template=f"integrators/{o.value}.c.j2",
+                 proto=f"int {prefix}_{o.value}(const double *x0{extra_params}, {tail}"
+                       + (f", {prefix}_{o.value}_work *work)" if m["implicit"] else ")"),
+                 lu=m["implicit"] and not any(n["implicit"] for n in methods))
+        methods.append(m)
     return dict(integ=dict(
-        prototypes=prototypes,
-        proto=dict(prototypes),
-        wanted=sorted(wanted),
-        dopri5=dopri5_view() if "dopri5" in wanted else None,
-        rk4=rk4_view() if "rk4" in wanted else None,
-        rosenbrock=rosenbrock_view(ROSENBROCK) if "rosenbrock" in wanted else None,
-        adaptive="dopri5" in wanted or "rosenbrock" in wanted,
+        methods=methods,
+        names=[m["name"] for m in methods],
+        implicit=[m["name"] for m in methods if m["implicit"]],
+        adaptive=any(m["adaptive"] for m in methods),
         non_autonomous=non_autonomous,
         args=extra_args,
         params=extra_params,
@@ -158,5 +188,5 @@ def projection(kernel):
     return dict(m=c.m_h, n_q=L.n_q, dep=dep, names=[str(q) for q in c.dependent_coordinates])
 
 
-__all__ = ["c_double", "integrator_context", "dopri5_view", "rk4_view", "rosenbrock_view", "explicit_time",
-           "projection"]
+__all__ = ["c_double", "integrator_context", "explicit_view", "rosenbrock_view", "method_view",
+           "explicit_time", "require", "projection", "NEEDED"]

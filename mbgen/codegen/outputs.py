@@ -77,6 +77,7 @@ import sympy as sm
 
 from ..abi import INTEGRATORS, Output
 from ..errors import ModelError
+from ..integrators import METHODS
 from ..symbolic.availability import SENSITIVITIES, imported, imported_hint, require, time_symbols
 from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
 from ..symbolic.graph import differentiate
@@ -84,17 +85,18 @@ from ..symbolic.program import Program, derivatives
 
 
 def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[Output, ...]:
-    """``outputs`` plus what they call: integrators need the RHS, Rosenbrock the Jacobians."""
+    """``outputs`` plus what they call: what each integrator ``needs`` (the RHS; an implicit
+    one the Jacobian, and ``df/dt`` when the equations depend on ``t`` explicitly), and the
+    projection onto configuration constraints after each step."""
     wanted = set(Output.parse(outputs))
-    if wanted & set(INTEGRATORS):
-        wanted.add(Output.RHS)
-    c = equations.constraints
-    if wanted & set(INTEGRATORS) and c is not None and c.m_h:
-        wanted |= {Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN}   # projection after each step
-    if Output.ROSENBROCK in wanted:
-        wanted.add(Output.JACOBIAN)
-        if equations.layout.time in time_symbols(equations):
+    methods = [METHODS[o] for o in INTEGRATORS if o in wanted]
+    for m in methods:
+        wanted |= set(m.needs)
+        if m.implicit and equations.layout.time in time_symbols(equations):
             wanted.add(Output.TIME_DERIVATIVE)
+    c = equations.constraints
+    if methods and c is not None and c.m_h:
+        wanted |= {Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN}   # projection after each step
     return Output.parse(wanted)
 
 

@@ -20,13 +20,17 @@ How to add an integrator
 1. ``abi.py``: an :class:`~mbgen.abi.Output` member named for the C function
    (``<prefix>_<name>``), and the member in ``abi.INTEGRATORS``.
 2. ``integrators/tableaux.py``: a :class:`~mbgen.integrators.tableaux.Method` subclass
-   stating its coefficients and ``output``, ``adaptive``, ``implicit``, ``needs``; one
-   row in :data:`METHODS` below.
-3. ``codegen/integrators.py``: its template view (coefficients printed with
-   :func:`~mbgen.codegen.integrators.c_double`), and ``templates/integrators/<name>.c.j2``.
-4. ``tests/integrators/test_tableaux.py`` checks every ``INTEGRATORS`` member has a
-   row here (``test_every_integrator_has_a_method``) and the golden tree
-   (``tests/codegen/test_golden.py``) shows the rendered C.
+   stating its coefficients and ``output``, ``label``, ``adaptive``, ``implicit``,
+   ``needs``; one row in :data:`METHODS` below.
+3. Its C: ``templates/integrators/<name>.c.j2`` (the whole trajectory) and
+   ``templates/step/<name>.c.j2``, ``<name>.h.j2`` (the step API; an adaptive one extends
+   ``step/_adaptive.c.j2``).  :mod:`mbgen.codegen.integrators` gives it the view its
+   properties call for (an explicit Runge--Kutta tableau, or a Rosenbrock method); the
+   stack bound, the work struct, the step API's choice of methods and the studies read
+   the same properties.
+4. ``tests/test_targets.py`` (``test_every_integrator_has_its_templates``) fails when a
+   member of ``INTEGRATORS`` has no row here or no template, and the golden tree
+   (``tests/test_golden.py``) shows the rendered C.
 """
 
 from ..abi import INTEGRATORS, Output

@@ -3,7 +3,7 @@ C-template views (:mod:`mbgen.codegen.integrators`), one template each.
 
 Asking for :attr:`~mbgen.abi.Output.DOPRI5`, ``RK4`` or ``ROSENBROCK``
 adds, next to the model's functions, C integrators that run a whole trajectory
-with no Python per step (see ``templates/integrators/integrators.c.j2``)::
+with no Python per step (see ``templates/integrators/<name>.c.j2``)::
 
     int <prefix>_dopri5(const double *x0[, const double *p][, const double *r],
                         int n_out, const double *t_out, double *x_out,
@@ -69,6 +69,8 @@ class Method:
     ----------
     output : Output
         The generated function ``<prefix>_<output>`` and the ``Output`` that asks for it.
+    label : str
+        The method's name in messages (``"the Rosenbrock integrator of ..."``).
     adaptive : bool
         Error-controlled steps (``rtol``, ``atol``); else a fixed step ``h`` is required.
     implicit : bool
@@ -80,6 +82,7 @@ class Method:
     """
 
     output: Output = NotImplemented
+    label: str = NotImplemented
     adaptive: bool = True
     implicit: bool = False
     needs: tuple = (Output.RHS,)
@@ -106,6 +109,7 @@ class Dopri5(ExplicitRungeKutta):
 
     name = "dopri5"
     output = Output.DOPRI5
+    label = "DOPRI5"
     order = 5
     error_estimator_order = 4
     n_stages = 6
@@ -143,6 +147,7 @@ class RK4(ExplicitRungeKutta):
 
     name = "rk4"
     output = Output.RK4
+    label = "RK4"
     adaptive = False
     order = 4
     n_stages = 4
@@ -177,6 +182,7 @@ class Rosenbrock(Method):
 
     name: str = NotImplemented
     output = Output.ROSENBROCK
+    label = "Rosenbrock"
     implicit = True
     needs = (Output.RHS, Output.JACOBIAN)
     reference: str = ""

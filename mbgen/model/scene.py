@@ -279,6 +279,12 @@ def scene_options(name_or_path: str) -> dict[str, Any]:
             if v.default is not inspect.Parameter.empty}
 
 
+def scene_module(name_or_path: str):
+    """The module of a built-in scene (or a scene file), for the helpers it defines
+    besides ``scene()`` (e.g. ``scene_module("four_bar").dead_angle``)."""
+    return _module_for(name_or_path)[0]
+
+
 def _scene_function(module, name):
     fn = getattr(module, "scene", None)
     if not callable(fn):

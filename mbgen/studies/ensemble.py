@@ -39,7 +39,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..abi import Output, Rendered
+from ..build.extension import compiled_path, load
 from ..errors import MbgenError, SceneError
+from ..fileio import write_atomic
+from ..integrators import METHODS
+from ..pipeline import run
+from ..run import batch
 
 #: Members per task when ``chunk`` is not given: about 4 tasks per worker, at most this.
 MAX_CHUNK = 2000
@@ -132,8 +138,6 @@ class _Sources:
         self.extension, self.extension_cdef = d["extension"], d["extension_cdef"]
 
     def digest(self) -> str:
-        from ..abi import Rendered
-
         return Rendered.digest(self)
 
 
@@ -155,8 +159,6 @@ def _module(sources: dict):
     Returns ``(module, compiled)``: ``compiled`` is True only for the call that ran the
     compiler (so the compiles of a worker add up to what it really built).
     """
-    from ..build.extension import compiled_path, load
-
     src = _Sources(sources)
     if src.digest() != sources["digest"]:
         raise MbgenError("the rendered sources do not match their content hash; refusing to "
@@ -167,9 +169,6 @@ def _module(sources: dict):
 
 def run_chunk(sources: dict, spec: dict, x0: np.ndarray, p: np.ndarray) -> dict:
     """Integrate one chunk of members; every array in the result has one row per member."""
-    from ..abi import Output
-    from ..run import batch
-
     module, compiled = _module(sources)
     raw = _Raw(module, sources["prefix"], spec["n_x"], spec["n_p"], spec["n_r"])
     t = np.asarray(spec["t"], dtype=float)
@@ -252,8 +251,6 @@ class EnsembleResult:
 
     def write_csv(self, path):
         from pathlib import Path
-
-        from ..fileio import write_atomic
 
         write_atomic(Path(path), self.to_csv())
         return Path(path)
@@ -358,9 +355,6 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     progress : bool
         Show a progress bar (tqdm, on stderr).
     """
-    from ..abi import Output
-    from ..pipeline import run
-
     extra_outputs = Output.parse(outputs) if outputs else ()
     if any(o.is_integrator for o in extra_outputs):
         raise SceneError("outputs evaluated at the output times cannot be integrators; "
@@ -373,8 +367,8 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     if method not in integrators:
         raise SceneError(f"scene {scene.name!r} generates no C integrator "
                          f"{method!r}; pass method='dopri5' (or rosenbrock, rk4)")
-    if method == "rk4" and h is None:
-        raise SceneError("the rk4 ensemble needs its fixed step: pass h")
+    if not METHODS[Output(method)].adaptive and h is None:
+        raise SceneError(f"the {method} ensemble needs its fixed step: pass h")
     if t_eval is None:
         t0 = float(scene.t_span[0])
         t1 = float(scene.t_span[1] if t_end is None else t_end)

@@ -30,6 +30,7 @@ from ..codegen.outputs import Form
 from ..symbolic.availability import applicable
 from ..pipeline import PipelineResult, equations_of, run
 from ..model.scene import Scene
+from ..codegen.printing import math_functions
 from ..codegen.solver import UNROLL_MAX, fill_pattern
 
 
@@ -166,8 +167,6 @@ def _zeros(result: PipelineResult) -> str:
 
 
 def _math_reason(result: PipelineResult) -> str:
-    from ..codegen.printing import math_functions
-
     exprs = [e for f in result.kernel.functions for _, e in f.temporaries + f.post_temporaries]
     exprs += [e for f in result.kernel.functions for b in f.pre + f.post for _, e in b.entries]
     funcs = sorted(math_functions(exprs))

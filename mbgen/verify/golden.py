@@ -16,11 +16,11 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
+from ..codegen.targets.example import example_settings, render_example
 from ..errors import SceneError
-from ..codegen.targets.example import render_example
 from ..fileio import write_files
-from ..pipeline import run
 from ..model.scene import builtin_names, load_scene
+from ..pipeline import run
 
 #: Scene options used for the checked-in code (kept small).
 GOLDEN_OPTIONS: dict[str, dict] = {"n_link_cart": {"n": 3}}
@@ -54,10 +54,20 @@ def scene_files(name: str) -> dict[str, str]:
     scene = load_scene(name, **GOLDEN_OPTIONS.get(name, {}))
     result = run(scene, build=False)
     files = dict(result.rendered.files)
-    example = render_example(scene, result)
+    example = render_example(scene, result.kernel)
     if example is not None:
         files["example.c"] = example
     return files
+
+
+def example_integration(scene, result):
+    """The trajectory of ``example.c`` computed through Python (``CompiledModel.integrate``).
+
+    ``result`` is the scene's pipeline result, built; the settings are the example's
+    (:func:`mbgen.codegen.targets.example.example_settings`), so the two can be compared.
+    """
+    method, t, x0, p, r, options = example_settings(scene, result.kernel)
+    return result.compiled.integrate(method, t, x0, p, r, **options)
 
 
 def expected(names=None) -> dict[str, dict[str, str]]:

@@ -22,7 +22,8 @@ results are bit for bit those of ``k`` single calls.
 
 from __future__ import annotations
 
-from ..templating import environment
+from ...integrators import METHODS
+from .base import EXTENSION, Target
 
 
 def _tail(layout) -> tuple[str, str]:
@@ -33,23 +34,37 @@ def _tail(layout) -> tuple[str, str]:
     return params, args
 
 
-def batch_source(kernel, views: list[dict], prefix: str) -> tuple[str, str]:
-    """``(C source, cffi cdef)`` of the batch loops of ``kernel``."""
-    L = kernel.layout
-    params, args = _tail(L)
-    integrators = [o.value for o in kernel.integrators]
-    ctx = dict(prefix=prefix, upper=prefix.upper(), batch=dict(
-        functions=[dict(name=v["name"], out_size=v["out_size"]) for v in views],
-        integrators=integrators, params=params, args=args, n_x=L.n_x))
-    source = environment().get_template("batch/batch.c.j2").render(ctx)
-    cdef = [f"int {v['name']}_batch(long k, const double *t, long t_stride, const double *x, "
-            f"long x_stride{params}, double *out, int *status);" for v in views]
-    cdef += [f"int {prefix}_{m}_batch(long k, const double *x0, long x0_stride{params}, "
-             f"int n_out, const double *t_out, double *x_out, const {prefix}_options *opt, "
-             f"{prefix}_stats *stats, int *status"
-             + (f", {prefix}_rosenbrock_work *work);" if m == "rosenbrock" else ");")
-             for m in integrators]
-    return source, "\n".join(cdef) + "\n"
+class Batch(Target):
+    """The batch loops: always rendered, into the Python extension's own source."""
+
+    name = "batch"
+    files = (("batch.c.j2", EXTENSION),)
+
+    def context(self, kernel, views: list[dict], prefix: str) -> dict:
+        """Key ``batch``: the functions and integrators to loop over, the strided arguments."""
+        L = kernel.layout
+        params, args = _tail(L)
+        integrators = [dict(name=o.value, implicit=METHODS[o].implicit)
+                       for o in kernel.integrators]
+        return dict(batch=dict(
+            functions=[dict(name=v["name"], out_size=v["out_size"]) for v in views],
+            integrators=integrators, params=params, args=args, n_x=L.n_x))
+
+    def declarations(self, ctx: dict) -> list[str]:
+        """The cffi declarations of the loops (the extension's cdef)."""
+        prefix, B = ctx["prefix"], ctx["batch"]
+        params = B["params"]
+        cdef = [f"int {v['name']}_batch(long k, const double *t, long t_stride, const double *x, "
+                f"long x_stride{params}, double *out, int *status);" for v in B["functions"]]
+        cdef += [f"int {prefix}_{m['name']}_batch(long k, const double *x0, long x0_stride"
+                 f"{params}, int n_out, const double *t_out, double *x_out, "
+                 f"const {prefix}_options *opt, {prefix}_stats *stats, int *status"
+                 + (f", {prefix}_{m['name']}_work *work);" if m["implicit"] else ");")
+                 for m in B["integrators"]]
+        return cdef
 
 
-__all__ = ["batch_source"]
+#: The batch target.
+BATCH = Batch()
+
+__all__ = ["BATCH", "Batch"]

@@ -1,13 +1,13 @@
-r"""FMI 2.0 export: a scene as a Functional Mock-up Unit (model exchange and co-simulation).
+r"""FMI 2.0 export, the render half: an FMU's model description and C glue from ``templates/fmu/``.
 
-``export_fmu(scene, "out/")`` (``mbgen fmu SCENE -o DIR``) writes
-``<prefix>.fmu``, a zip with::
+:func:`fmu_files` returns ``{path inside the FMU: text}`` for a scene and its kernel
+rendered with the step API target; :func:`mbgen.export.export_fmu` runs the pipeline,
+and :mod:`mbgen.build.fmu` compiles the sources and writes the zip::
 
     modelDescription.xml            variables, capabilities, model structure
     sources/<prefix>.h, .c          the model (with the step API target)
     sources/<prefix>_fmi2.h         FMI 2.0 types (written from the standard)
     sources/<prefix>_fmu.c          the FMI functions (templates/fmu/fmu.c.j2)
-    binaries/<platform>/<prefix>.so|.dylib|.dll   built here with the C compiler
 
 Variables (all ``Real``; value references in this order)::
 
@@ -21,7 +21,8 @@ Variables (all ``Real``; value references in this order)::
              and forcing when the scene requests them: output, continuous, calculated
 
 Co-simulation steps with the scene's adaptive method (``rosenbrock`` when it
-asks for it, else ``dopri5``) through the step API: ``rtol`` is the
+asks for it, else ``dopri5``: :func:`~mbgen.codegen.targets.step.adaptive_method`) through
+the step API: ``rtol`` is the
 experiment's tolerance (``fmi2SetupExperiment``; default the scene's
 ``DefaultExperiment``, 1e-6), ``atol = 1e-3 rtol``; inputs are held constant
 over a communication step.  Model exchange exposes the RHS to the importer's
@@ -46,21 +47,13 @@ compiler.
 from __future__ import annotations
 
 import hashlib
-import os
-import platform
-import struct
-import subprocess
-import tempfile
-import zipfile
-from pathlib import Path
 
 from ..._version import __version__
-from ...errors import BuildError, ModelError
+from ...abi import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES, Output
+from ...errors import ModelError
 from ..escape import xml_attr
-from ...abi import Output
-from ...abi import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
 from ..templating import environment
-from . import Targets
+from .base import Target
 from .step import adaptive_method
 
 #: Model exchange: residual (relative to 1 + max|q_r|) above which a step event projects.
@@ -68,22 +61,18 @@ PROJECT_TOL = 1e-9
 #: Outputs that become FMU output variables (the others are derivatives or integrators).
 FMU_OUTPUTS = (Output.ENERGY, Output.POSITIONS, Output.VELOCITIES, Output.MASS_MATRIX,
                Output.FORCING)
-#: Flags of the FMU's shared library.
-FMU_CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-fPIC", "-shared")
 
 
-def platform_folder() -> str:
-    """FMI 2.0 platform name of this machine (``linux64``, ``darwin64``, ``win64``, ...)."""
-    bits = 8 * struct.calcsize("P")
-    system = platform.system()
-    name = {"Linux": "linux", "Darwin": "darwin", "Windows": "win"}.get(system)
-    if name is None:
-        raise BuildError(f"FMI 2.0 defines no binary folder for {system}; use the sources/")
-    return f"{name}{bits}"
+class Fmu(Target):
+    """The FMU's texts: rendered after the pipeline from the scene (see :func:`fmu_files`)."""
+
+    name = "fmu"
+    files = (("modelDescription.xml.j2", "modelDescription.xml"),
+             ("fmi2.h.j2", "sources/{prefix}_fmi2.h"), ("fmu.c.j2", "sources/{prefix}_fmu.c"))
 
 
-def _library_suffix() -> str:
-    return {"Darwin": ".dylib", "Windows": ".dll"}.get(platform.system(), ".so")
+#: The FMU target.
+FMU = Fmu()
 
 
 def _guid(text: str) -> str:
@@ -95,11 +84,13 @@ def _c(v) -> str:
     return repr(float(v))
 
 
-def fmu_files(scene, result) -> dict[str, str]:
-    """``{path inside the FMU: text}`` (all but the binary) for a pipeline result."""
-    rendered, L = result.rendered, result.layout
+def fmu_files(scene, kernel, rendered) -> dict[str, str]:
+    """``{path inside the FMU: text}`` (all but the binary) of ``scene``.
+
+    ``kernel`` and ``rendered`` are the scene's, rendered with ``Targets(step=True)``.
+    """
+    L = kernel.layout
     prefix = rendered.prefix
-    kernel = result.kernel
     if not rendered.step_methods:
         raise ModelError("an FMU needs the step API: render with Targets(step=True)")
     method = adaptive_method(kernel)
@@ -153,12 +144,13 @@ def fmu_files(scene, result) -> dict[str, str]:
                        + [index[i] for i in range(vr["out"], start)]))
     sources = [f"{prefix}.c", f"{prefix}_fmu.c"]
     env = environment()
+    (xml_t, xml), (types_t, types), (glue_t, glue_c) = FMU.templates(prefix)
     t0, t1 = (float(v) for v in scene.t_span)
     ctx = dict(version=__version__, prefix=prefix, upper=prefix.upper(), guid="GUID",
                model_name=xml_attr(scene.name), description=xml_attr(scene.description),
                sources=sources, start_time=_c(t0), stop_time=_c(t1), tolerance="1e-06",
                variables=variables, structure=structure)
-    description = env.get_template("fmu/modelDescription.xml.j2").render(ctx)
+    description = env.get_template(xml_t).render(ctx)
     guid = _guid(rendered.digest() + description)
     description = description.replace('guid="GUID"', f'guid="{guid}"')
     codes = [(n, v, t.replace('"', "'")) for n, v, t in STATUS_CODES + INTEGRATOR_STATUS_CODES
@@ -170,73 +162,20 @@ def fmu_files(scene, result) -> dict[str, str]:
                                      c.dependent_coordinates],
                        holonomic=infos[Output.HOLONOMIC].c_name,
                        args="".join(f", m->{a}" for a in infos[Output.HOLONOMIC].args[2:]))
-    glue = env.get_template("fmu/fmu.c.j2").render(dict(
+    glue = env.get_template(glue_t).render(dict(
         version=__version__, prefix=prefix, upper=prefix.upper(), guid=guid, method=method,
         n_x=n_x, n_p=n_p, n_r=n_r, vr=vr, outputs=outputs, x0=[_c(v) for v in x0],
         p0=[_c(v) for v in p0], rtol="1e-06", codes=codes, project_tol=_c(PROJECT_TOL),
         rhs_args="".join(f", c->{a}" for a in infos[Output.RHS].args[2:]),
         step_args="".join(f", m->{a}" for a, n in (("p", n_p), ("r", n_r)) if n),
         project=project))
-    files = {"modelDescription.xml": description,
-             f"sources/{prefix}_fmi2.h": env.get_template("fmu/fmi2.h.j2").render(
+    files = {xml: description,
+             types: env.get_template(types_t).render(
                  version=__version__, prefix=prefix, upper=prefix.upper()),
-             f"sources/{prefix}_fmu.c": glue}
+             glue_c: glue}
     files.update({f"sources/{name}": text for name, text in rendered.files.items()
                   if not name.endswith(".py")})
     return files
 
 
-def build_binary(files: dict[str, str], prefix: str) -> bytes:
-    """Compile the FMU's sources into a shared library for this platform; its bytes."""
-    from ...build.extension import compiler
-
-    cc = compiler()
-    with tempfile.TemporaryDirectory(prefix=f"mbgen-fmu-{prefix}-") as tmp:
-        folder = Path(tmp)
-        for name, text in files.items():
-            if name.startswith("sources/"):
-                (folder / name[len("sources/"):]).write_text(text, encoding="utf-8")
-        lib = folder / (prefix + _library_suffix())
-        cmd = [cc, *FMU_CFLAGS, "-o", str(lib), f"{prefix}_fmu.c", f"{prefix}.c", "-lm"]
-        done = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise BuildError(f"compiling the FMU of {prefix!r} failed ({' '.join(cmd)}):\n"
-                             f"{done.stdout}{done.stderr}")
-        return lib.read_bytes()
-
-
-def export_fmu(scene, output_dir, *, name: str | None = None) -> Path:
-    """Write ``<output_dir>/<prefix>.fmu`` for ``scene`` (a Scene); returns its path.
-
-    The FMU holds the scene's outputs (its fixed parameters baked in) plus the
-    step API; see the module docstring for what the model description lists.
-    """
-    from ...pipeline import run
-
-    result = run(scene, build=False, name=name, targets=Targets(step=True))
-    files = fmu_files(scene, result)
-    prefix = result.rendered.prefix
-    binary = build_binary(files, prefix)
-    out = Path(output_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / f"{prefix}.fmu"
-    entries = sorted(files.items()) + [
-        (f"binaries/{platform_folder()}/{prefix}{_library_suffix()}", binary)]
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=out)
-    os.close(fd)
-    try:
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-            for arcname, data in entries:
-                info = zipfile.ZipInfo(arcname, date_time=(1980, 1, 1, 0, 0, 0))
-                info.compress_type = zipfile.ZIP_DEFLATED
-                info.external_attr = 0o644 << 16
-                zf.writestr(info, data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
-
-
-__all__ = ["export_fmu", "fmu_files", "build_binary", "platform_folder", "FMU_OUTPUTS"]
+__all__ = ["FMU", "Fmu", "fmu_files", "FMU_OUTPUTS", "PROJECT_TOL"]

@@ -4,8 +4,8 @@ For a control loop or a co-simulation master that owns the clock.  Rendered
 into ``<prefix>.h`` / ``<prefix>.c`` by ``templates/step/step.h.j2`` and
 ``templates/step/step.c.j2`` when :class:`~mbgen.codegen.targets.Targets` has ``step``.
 
-Per method ``m`` (``rk4`` always; ``dopri5`` unless the scene asks for
-``rosenbrock`` only; ``rosenbrock`` when the scene asks for it)::
+Per method ``m`` (:func:`step_methods`: ``rk4`` always; ``dopri5`` unless the scene
+asks for ``rosenbrock`` only; ``rosenbrock`` when the scene asks for it)::
 
     typedef struct { double t; double x[N_X]; double h; ...; } <prefix>_<m>_memory;
     int <prefix>_<m>_init(<prefix>_<m>_memory *mem, double t0, const double *x0,
@@ -44,45 +44,40 @@ projection needs the integrators rendered (a scene with an integrator output).
 
 from __future__ import annotations
 
+from ...abi import INTEGRATOR_STATUS_CODES, Output
 from ...errors import ModelError
-from ..integrators import dopri5_view, explicit_time, projection, rk4_view, rosenbrock_view
-from ...integrators import ROSENBROCK
-from ...abi import Output
+from ...integrators import METHODS, method
+from ..integrators import method_view, projection, require
+from .base import HEADER, SOURCE, Target
 
 #: Default attempted-step limit per call (``mem->max_steps = 0``).
 DEFAULT_MAX_STEPS = 1000000
 
 
 def step_methods(kernel) -> tuple[str, ...]:
-    """The step functions rendered for ``kernel``: ``rk4`` and the adaptive ones."""
+    """The step functions rendered for ``kernel``, fixed-step first, then the adaptive ones.
+
+    Every fixed-step method; an adaptive one when the scene asks for its integrator;
+    the explicit adaptive ones also when it asks for no implicit one.
+    """
     wanted = set(kernel.integrators)
-    methods = ["rk4"]
-    if Output.DOPRI5 in wanted or Output.ROSENBROCK not in wanted:
-        methods.append("dopri5")
-    if Output.ROSENBROCK in wanted:
-        methods.append("rosenbrock")
-    return tuple(methods)
+    stiff = any(METHODS[o].implicit for o in wanted)
+    chosen = [o for o, T in METHODS.items()
+              if not T.adaptive or o in wanted or not (T.implicit or stiff)]
+    return tuple(o.value for o in sorted(chosen, key=lambda o: (METHODS[o].adaptive,
+                                                                METHODS[o].implicit)))
 
 
 def adaptive_method(kernel) -> str:
-    """The adaptive step method an FMU's co-simulation uses (Rosenbrock for stiff scenes)."""
-    return "rosenbrock" if "rosenbrock" in step_methods(kernel) else "dopri5"
+    """The adaptive step method an FMU's co-simulation uses: the implicit one of a stiff scene."""
+    return [m for m in step_methods(kernel) if method(m).adaptive][-1]
 
 
 def step_context(kernel, prefix: str) -> dict:
     """Template context (key ``step``) for ``step/step.h.j2`` / ``step/step.c.j2``."""
     L = kernel.layout
-    methods = step_methods(kernel)
-    functions = {f.output for f in kernel.functions}
-    non_autonomous = False
-    if "rosenbrock" in methods:
-        if Output.JACOBIAN not in functions:
-            raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs the "
-                             f"Jacobian; add Output.JACOBIAN")
-        non_autonomous = explicit_time(kernel)
-        if non_autonomous and Output.TIME_DERIVATIVE not in functions:
-            raise ModelError(f"the Rosenbrock step of {kernel.equations.name!r} needs df/dt; "
-                             f"add Output.TIME_DERIVATIVE")
+    names = step_methods(kernel)
+    non_autonomous = require(kernel, [Output(m) for m in names], "step", "df/dt")
     project = projection(kernel)
     if project and not kernel.integrators:
         raise ModelError(f"the step API of {kernel.equations.name!r} projects onto its "
@@ -90,16 +85,21 @@ def step_context(kernel, prefix: str) -> dict:
                          f"integrator output (e.g. Output.DOPRI5)")
     params = "".join(f", const double *{a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
     args = "".join(f", {a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
-    protos = {}
-    for m in methods:
-        protos[m] = dict(
+    methods = []
+    for m in names:
+        view = method_view(Output(m))
+        view.update(
+            template=f"step/{m}.c.j2",
+            memory_template=f"step/{m}.h.j2",
             memory=f"{prefix}_{m}_memory",
             init=f"int {prefix}_{m}_init({prefix}_{m}_memory *mem, double t0, const double *x0, "
                  f"double rtol, double atol)",
             step=f"int {prefix}_{m}_step({prefix}_{m}_memory *mem, double h{params})")
+        methods.append(view)
     return dict(step=dict(
-        methods=list(methods),
-        protos=protos,
+        methods=methods,
+        names=list(names),
+        adaptive=any(m["adaptive"] for m in methods),
         params=params,
         args=args,
         n_p=L.n_p,
@@ -108,10 +108,25 @@ def step_context(kernel, prefix: str) -> dict:
         max_steps=DEFAULT_MAX_STEPS,
         non_autonomous=non_autonomous,
         project=project,
-        dopri5=dopri5_view() if "dopri5" in methods else None,
-        rk4=rk4_view(),
-        rosenbrock=rosenbrock_view(ROSENBROCK) if "rosenbrock" in methods else None,
     ))
 
 
-__all__ = ["step_methods", "adaptive_method", "step_context", "DEFAULT_MAX_STEPS"]
+class Step(Target):
+    """The step API, a section of the model's files when ``Targets(step=True)``."""
+
+    name = "step"
+    files = (("step.h.j2", HEADER), ("step.c.j2", SOURCE))
+    status_codes = INTEGRATOR_STATUS_CODES
+
+    def wanted(self, kernel, targets) -> bool:
+        return targets.step
+
+    def context(self, kernel, views: list[dict], prefix: str) -> dict:
+        return step_context(kernel, prefix)
+
+
+#: The step target.
+STEP = Step()
+
+__all__ = ["STEP", "Step", "step_methods", "adaptive_method", "step_context",
+           "DEFAULT_MAX_STEPS"]

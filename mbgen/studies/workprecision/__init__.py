@@ -32,6 +32,18 @@ Table, CSV, summary and figure
     :mod:`mbgen.studies.workprecision.report`, :mod:`mbgen.studies.workprecision.plot`.
 
 Timings on a shared or small machine are noisy: compare within one run.
+
+How to add a method or a back end
+---------------------------------
+1. A ``solve_ivp`` method: :data:`SOLVE_IVP_METHODS` in ``points.py`` (and
+   :data:`IMPLICIT_METHODS` when it takes ``jac=``).  A generated C integrator needs
+   nothing here: :data:`C_METHODS` is read from ``abi.INTEGRATORS`` (add it to
+   :mod:`mbgen.integrators`); its ``adaptive`` and ``implicit`` properties choose
+   tolerances or fixed steps (:func:`rk4_steps`) and the compiled Jacobian.
+2. A back end: :data:`BACKENDS` in ``points.py`` and its right-hand side and Jacobian in
+   :class:`~mbgen.studies.workprecision.solve.Backends` (``solve.py``).
+3. ``tests/test_workprecision.py``: ``test_configurations`` lists the curves of a
+   choice of methods and back ends, ``test_every_point_ran`` runs each one.
 """
 
 from __future__ import annotations

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from ...viz.plots import figure, save_png
 from .points import C_METHODS, FAILED, IMPLICIT_METHODS, OVER_BUDGET, SKIPPED, SOLVE_IVP_METHODS
 
 #: Panels: (title, methods).
@@ -70,8 +71,6 @@ def plot_report(report, path) -> Path:
         ``path``.
     """
     from matplotlib.transforms import blended_transform_factory
-
-    from ...viz.plots import figure, save_png
 
     families = [(title, methods) for title, methods in FAMILIES
                 if any(p.method in methods for p in report.points)] or [FAMILIES[0]]

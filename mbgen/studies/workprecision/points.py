@@ -12,12 +12,16 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+from ...abi import INTEGRATORS
+from ...integrators import METHODS, method as integrator
+
 #: Relative tolerances swept by default, loosest first.
 DEFAULT_RTOLS = tuple(10.0 ** -k for k in range(3, 11))
 SOLVE_IVP_METHODS = ("RK45", "DOP853", "Radau", "BDF", "LSODA")
 #: solve_ivp methods that use a Jacobian (each runs with and without ``jac=``).
 IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
-C_METHODS = ("dopri5", "rosenbrock", "rk4")
+#: The generated C integrators (``abi.INTEGRATORS``), the adaptive ones first.
+C_METHODS = tuple(o.value for o in sorted(INTEGRATORS, key=lambda o: not METHODS[o].adaptive))
 BACKENDS = ("lambdify", "python", "c")
 
 #: Statuses of a point (:attr:`Point.status`).
@@ -141,15 +145,15 @@ def configurations(methods: Iterable[str], backends: Iterable[str]) -> list[Conf
     """Every curve of the diagram, method by method.
 
     solve_ivp methods run on every back end, the implicit ones with and
-    without the Jacobian; the C integrators only on ``"c"`` (``rosenbrock``
-    always uses the compiled Jacobian) and only when ``"c"`` is a back end.
+    without the Jacobian; the C integrators only on ``"c"`` (an implicit one,
+    ``rosenbrock``, always uses the compiled Jacobian) and only when ``"c"`` is a back end.
     """
     backends = tuple(backends)
     configs = []
     for method in methods:
         if method in C_METHODS:
             if "c" in backends:
-                configs.append(Config(method, "c", method == "rosenbrock"))
+                configs.append(Config(method, "c", integrator(method).implicit))
             continue
         for backend in backends:
             configs.append(Config(method, backend))
@@ -178,9 +182,10 @@ def rk4_steps(rtols: Sequence[float], pilot_steps: int, t_eval: np.ndarray) -> t
 
 def plan(configs: Sequence[Config], rtols: Sequence[float], atol_scale: float,
          hs: Sequence[float]) -> list[Task]:
-    """Every configuration at every tolerance; ``rk4`` at the step ``hs`` lays on that row."""
-    return [Task(c, r, None, h) if c.method == "rk4" else Task(c, r, r * atol_scale, None)
-            for c in configs for r, h in zip(rtols, hs)]
+    """Every configuration at every tolerance; a fixed-step C integrator (``rk4``) at the step
+    ``hs`` lays on that row."""
+    return [Task(c, r, None, h) if c.is_c_integrator and not integrator(c.method).adaptive
+            else Task(c, r, r * atol_scale, None) for c in configs for r, h in zip(rtols, hs)]
 
 
 def _setting(rtol: float, h: float | None) -> str:

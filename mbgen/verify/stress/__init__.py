@@ -79,6 +79,18 @@ kind (:mod:`~mbgen.verify.stress.extreme`, :mod:`~mbgen.verify.stress.singular`,
 :mod:`~mbgen.verify.stress.cases` (the ``fp`` cases and the case list).  BLAS runs on
 one thread (``threadpoolctl``) for the whole suite, so timings are comparable.
 
+How to add a case kind
+----------------------
+1. ``verify/stress/<kind>.py``: a ``<kind>_case(ctx, ...) -> list[Case]`` that measures
+   (the *figure*), states its *bound* and gives the verdict with a *reason*; the module
+   docstring documents the bound in full.
+2. ``verify/stress/cases.py``: the rule that says when it applies, in
+   :func:`~mbgen.verify.stress.cases.case_specs` (one ``CaseSpec`` per row).
+3. This docstring: the kind under "Which cases apply" and its bound under "Bounds".
+4. ``tests/test_stress.py``: ``test_ci_suite_passes_with_the_expected_case_kinds``
+   fails until the kind is in ``EXPECTED_KINDS`` of the scenes it applies to; add a test
+   that its bound catches a fault.
+
 Example
 -------
 >>> report = stress("stiff_chain", size="ci")          # doctest: +SKIP

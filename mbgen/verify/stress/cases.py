@@ -19,7 +19,7 @@ from .long_runs import jacobi_applies, long_run_case
 from .precision import check_point
 from .report import Case, fmt_sci
 from .singular import SINGULAR_PATHS, scan_case, singular_case
-from .stiff import IMPLICIT, stiff_case, stiff_fp_case, stiff_scaling_case
+from .stiff import IMPLICIT, STIFF_METHODS, stiff_case, stiff_fp_case, stiff_scaling_case
 
 
 def fp_cases(ctx: Context, which: int) -> list[Case]:
@@ -60,7 +60,7 @@ def case_specs(ctx: Context) -> list[CaseSpec]:
     specs += [CaseSpec("singular", f"scan {n}", scan_case, (i,))
               for i, n in enumerate(ctx.model.state_names[:ctx.model.layout.n_q])]
     if ctx.source and "stiffness" in _options(ctx.source):
-        methods = ["Radau", "BDF", "RK45", "C rosenbrock", "C dopri5"]
+        methods = STIFF_METHODS
         for k in sz.stiffness:
             specs.append(CaseSpec("fp", f"k={fmt_sci(k)} start", stiff_fp_case, (k,)))
             specs += [CaseSpec("stiff", f"k={fmt_sci(k)} {m}", stiff_case, (k, m)) for m in methods]

@@ -17,6 +17,7 @@ import numpy as np
 
 from ...abi import Output
 from ...model.scene import Scene, builtin_names, load_scene
+from ...pipeline import equations_of, run
 from .reference import HighPrecision
 
 
@@ -108,15 +109,11 @@ def _wanted_outputs(equations) -> list[Output]:
 
 def _compile(equations):
     """Compile with every output the cases use, the C integrators included."""
-    from ...pipeline import run
-
     return run(equations, _wanted_outputs(equations) + [Output.DOPRI5, Output.ROSENBROCK])
 
 
 def make_context(scene: Scene | str, size: str = "ci", notes: list[str] | None = None) -> Context:
     """Load (if named) and compile ``scene`` for the suite; see :func:`mbgen.verify.stress.stress`."""
-    from ...pipeline import equations_of
-
     if size not in SIZES:
         raise ValueError(f"size must be one of {sorted(SIZES)}, got {size!r}")
     notes = [] if notes is None else notes

@@ -20,6 +20,9 @@ import numpy as np
 import sympy as sm
 
 from ...abi import Output
+from ...model.builder import Model
+from ...model.elements import LineElement
+from ...symbolic.graph import free_symbols
 from .context import Context
 from .report import Case, fmt_g
 from .runs import c_run, energy_series, run_figure, scipy_run
@@ -33,17 +36,12 @@ CLOSED_FORM_BOUND = 1e-7
 
 
 def _has_explicit_time(equations) -> bool:
-    from ...symbolic.graph import free_symbols
-
     exprs = list(equations.mass_matrix) + list(equations.forcing) + list(equations.kinematics)
     return equations.layout.time in free_symbols(exprs)
 
 
 def jacobi_applies(ctx: Context) -> bool:
     """Prescribed motion, no explicit time, no dampers, energy available (inputs are zero)."""
-    from ...model.builder import Model
-    from ...model.elements import LineElement
-
     mdl = ctx.scene.model
     if not isinstance(mdl, Model) or not mdl.prescribed_ or ctx.scene.conserves_energy:
         return False

@@ -8,6 +8,10 @@ from typing import Mapping
 
 import numpy as np
 
+from ... import errors
+from ...errors import MbgenError
+from ...fileio import write_atomic
+
 #: Width of :meth:`StressReport.format`.
 LINE_WIDTH = 120
 
@@ -57,8 +61,6 @@ class Case:
         if self.reason.startswith("budget") or self.data.get("budget") == 1.0:
             return "budget"
         if self.figure == "crashed":
-            from ... import errors
-
             name = self.reason.split(":", 1)[0]
             return "model" if isinstance(getattr(errors, name, None), type) else "harness"
         return "model"
@@ -219,9 +221,6 @@ class StressReport:
     def write(self, path) -> "Path":
         """Write :meth:`to_csv` (``.csv``) or :meth:`to_json` (``.json``) atomically."""
         from pathlib import Path
-
-        from ...errors import MbgenError
-        from ...fileio import write_atomic
 
         path = Path(path)
         suffix = path.suffix.lower()

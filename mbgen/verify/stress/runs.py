@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...abi import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
 from ...errors import IntegrationError, MbgenError
 
 #: C status codes of the generated code (see :mod:`mbgen.codegen.render`).
@@ -111,8 +112,6 @@ def c_run(model, method: str, t_out, x0, p, *, rtol: float, atol: float, max_ste
 def status_name(model, status: int) -> str:
     """The name of a C status code as the generated header spells it, ``<PREFIX>_<CODE>``
     (e.g. ``SPRING_PENDULUM_MAX_STEPS``)."""
-    from ...abi import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES
-
     codes = {v: n for n, v, _ in STATUS_CODES + INTEGRATOR_STATUS_CODES + CONSTRAINT_STATUS_CODES}
     prefix = getattr(getattr(model, "rendered", None), "prefix", None) or model.name
     return f"{prefix.upper()}_{codes.get(status, 'UNKNOWN')}"

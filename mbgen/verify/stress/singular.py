@@ -15,6 +15,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from ...model.scene import scene_module
 from .context import Context
 from .extreme import Variation, c_not_positive_definite
 from .precision import check_point, try_call
@@ -41,18 +42,15 @@ def _four_bar_lengths(values):
 
 
 def _four_bar_dead(x, values, d):
-    from ...scenes.four_bar import closed_loop, dead_angle
-
+    four_bar = scene_module("four_bar")
     lengths = _four_bar_lengths(values)
-    q1 = dead_angle(**lengths) - d
-    q2, q3 = closed_loop(q1, lengths)
+    q1 = four_bar.dead_angle(**lengths) - d
+    q2, q3 = four_bar.closed_loop(q1, lengths)
     return {"q1": q1, "q2": q2, "q3": q3}
 
 
 def _four_bar_has_dead_point(values) -> bool:
-    from ...scenes.four_bar import dead_angle
-
-    return dead_angle(**_four_bar_lengths(values)) is not None
+    return scene_module("four_bar").dead_angle(**_four_bar_lengths(values)) is not None
 
 
 def _chain_aligned(x, values, d):

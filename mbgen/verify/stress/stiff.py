@@ -19,8 +19,9 @@ import time
 
 import numpy as np
 
+from ...abi import INTEGRATORS, Output
 from ...errors import SceneError
-from ...abi import Output
+from ...integrators import METHODS
 from ...model.scene import Scene, load_scene
 from .context import Context
 from .precision import check_point
@@ -31,8 +32,19 @@ from .runs import Run, c_run, run_figure, scipy_run
 STIFF_RTOL, STIFF_ATOL = 1e-6, 1e-9
 #: Least explicit/implicit step ratio at the largest stiffness.
 RATIO_BOUND = 10.0
+#: scipy's methods of the stiff runs.
+SCIPY_METHODS = ("Radau", "BDF", "RK45")
+#: The generated C integrators of the stiff runs: the adaptive ones, the implicit first.
+C_METHODS = tuple(o.value for o in sorted((o for o in INTEGRATORS if METHODS[o].adaptive),
+                                          key=lambda o: not METHODS[o].implicit))
+_C_IMPLICIT = [f"C {o.value}" for o in INTEGRATORS if METHODS[o].adaptive and METHODS[o].implicit]
+#: Every run of one stiffness, by the label its cases carry.
+STIFF_METHODS = SCIPY_METHODS + tuple(f"C {m}" for m in C_METHODS)
+#: The runs that use the compiled Jacobian.
+WITH_JACOBIAN = ("Radau", "BDF", *_C_IMPLICIT)
 #: Explicit method -> the implicit one its steps are compared with.
-IMPLICIT = {"RK45": "Radau", "C dopri5": "C rosenbrock"}
+IMPLICIT = {"RK45": "Radau", **{f"C {o.value}": _C_IMPLICIT[0] for o in INTEGRATORS
+                                if METHODS[o].adaptive and not METHODS[o].implicit}}
 
 
 def _rel_diff(a, b) -> float:
@@ -60,12 +72,12 @@ def _stiff_runs(ctx: Context, k: float) -> dict[str, Run]:
     f, jac = model.bind(p), model.bind(p, output=Output.JACOBIAN)
     sz = ctx.size
     runs = {}
-    for method in ("Radau", "BDF", "RK45"):
-        implicit = method != "RK45"
+    for method in SCIPY_METHODS:
+        implicit = method in WITH_JACOBIAN
         runs[method] = scipy_run(method, f, jac, span, x0, rtol=STIFF_RTOL, atol=STIFF_ATOL,
                                  max_steps=10 * sz.step_budget if implicit else sz.step_budget,
                                  wall_budget=sz.wall_budget, record=False)
-    for method in ("rosenbrock", "dopri5"):
+    for method in C_METHODS:
         runs[f"C {method}"] = c_run(model, method, list(span), x0, p, rtol=STIFF_RTOL,
                                     atol=STIFF_ATOL, max_steps=10 * sz.step_budget)
     ctx.cache[key] = runs
@@ -76,8 +88,7 @@ def stiff_case(ctx: Context, k: float, method: str) -> list[Case]:
     """One integrator at stiffness ``k``: cost, and agreement with Radau."""
     runs = _stiff_runs(ctx, k)
     r, ref = runs[method], runs["Radau"]
-    name = f"k={fmt_sci(k)} {method}" + (" +jac" if method in ("Radau", "BDF", "C rosenbrock")
-                                         else "")
+    name = f"k={fmt_sci(k)} {method}" + (" +jac" if method in WITH_JACOBIAN else "")
     implicit = method not in IMPLICIT
     tol = 1e3 * STIFF_RTOL
     data = {"steps": r.steps, "nfev": r.nfev, "njev": r.njev, "nlu": r.nlu, "seconds": r.seconds,

@@ -1,0 +1,195 @@
+"""The model target: ``<prefix>.h``, ``<prefix>.c`` and ``<prefix>.py`` from ``templates/model/``.
+
+Every function of the kernel becomes a plain-data view (:func:`function_views`:
+strings, numbers, lists of tuples, never sympy objects) printed once in C and once
+in Python; :data:`MODEL`'s context adds what the whole files state (names, sizes,
+the ``#define`` sizes, the ``L D L^T`` solver's lines).  The other targets' sections
+are merged in by :func:`mbgen.codegen.render.render`.
+
+The C prototypes are produced once here and used both by the header template and
+by the cdef string, so they cannot drift apart.
+"""
+
+from __future__ import annotations
+
+from ..._version import __version__
+from ...abi import Output
+from ..optimize import Kernel, KernelFunction
+from ...symbolic.equations import acceleration_symbols, lambda_symbols
+from ..outputs import Form
+from ..printing import CPrinter, PyPrinter, math_functions
+from ..solver import UNROLL_MAX, c_lines, factor_program, py_lines, solve_program
+from .base import Target
+
+
+def signature_args(kernel: Kernel) -> tuple[str, ...]:
+    """Arguments of every generated function: ``t, x`` and ``p``, ``r`` when there are any."""
+    L = kernel.layout
+    return ("t", "x") + (("p",) if L.n_p else ()) + (("r",) if L.n_r else ())
+
+
+def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
+    """Plain-data description of one function for the templates."""
+    L = kernel.layout
+    s = fn.spec
+    arrays = L.arrays()
+    loads = [(L.identifiers[sym], arrays[sym][0], arrays[sym][1]) for sym in fn.symbols_used
+             if sym != L.time]
+    args = signature_args(kernel)
+
+    def blocks(bs):
+        return [dict(name=s.out_name if b.name == "out" else b.name, local=b.name != "out",
+                     size=b.size, assignments=[(i, printer.doprint(e)) for i, e in b.entries],
+                     mirror=list(b.mirror)) for b in bs]
+
+    def temps(ts):
+        return [(printer.doprint(sym), printer.doprint(e), sym in fn.checks) for sym, e in ts]
+
+    return dict(
+        output=s.output.value,
+        name=f"{prefix}_{s.output.value}",
+        py_name=s.output.value,
+        doc=s.doc,
+        out=s.out_name,
+        out_size=s.out_size,
+        out_shape=list(s.out_shape),
+        out_labels=list(s.labels),
+        args=list(args),
+        unused=[a for a in args if a not in fn.uses],
+        time_name=L.identifiers[L.time],
+        uses_time=L.time in fn.symbols_used,
+        loads=loads,
+        temps=temps(fn.temporaries),
+        pre=blocks(fn.pre),
+        solve=s.solve,
+        rhs=s.output is Output.RHS and s.solve,
+        post_temps=temps(fn.post_temporaries),
+        post=blocks(fn.post),
+        columns=s.columns,
+        implicit=s.implicit,
+        velocity=blocks(fn.velocity),
+        velocity_temps=temps(fn.velocity_temporaries),
+        n_q=L.n_q,
+        n_u=L.n_u,
+        ops_before=fn.ops_before,
+        ops_after=fn.ops_after,
+    )
+
+
+def _c_prototype(fn_view: dict, args) -> str:
+    params = ["double t" if a == "t" else f"const double *{a}" for a in args]
+    params.append(f"double *{fn_view['out']}")
+    return f"int {fn_view['name']}({', '.join(params)})"
+
+
+def function_views(kernel: Kernel, prefix: str) -> tuple[list[dict], list[dict]]:
+    """``(C views, Python views)`` of every function of ``kernel``; a C view has its prototype."""
+    eq = kernel.equations
+    L = kernel.layout
+    names = dict(L.identifiers)
+    for fn in kernel.functions:
+        for sym, _ in fn.velocity_temporaries + fn.temporaries + fn.post_temporaries:
+            names[sym] = str(sym)
+    c_names, py_names = dict(names), dict(names)
+    constrained = eq.constraints is not None
+    for i, a in enumerate(acceleration_symbols(L.n_u + L.n_d)):
+        c_names[a] = py_names[a] = f"ACC[{i}]" if constrained else f"F[{i}]"
+    if constrained:
+        for i, u in enumerate(L.dependent_speeds):
+            c_names[u] = py_names[u] = f"UR[{i}]"
+        for i, lam in enumerate(lambda_symbols(eq.constraints.m)):
+            c_names[lam] = py_names[lam] = f"LAM[{i}]"
+    args = signature_args(kernel)
+    c_views = [_view(kernel, fn, prefix, CPrinter(c_names)) for fn in kernel.functions]
+    py_views = [_view(kernel, fn, prefix, PyPrinter(py_names)) for fn in kernel.functions]
+    for v in c_views:
+        v["prototype"] = _c_prototype(v, args)
+    return c_views, py_views
+
+
+class ModelFiles(Target):
+    """The model's functions in C (header and source) and in Python."""
+
+    name = "model"
+    files = (("model.h.j2", "{prefix}.h"), ("model.c.j2", "{prefix}.c"),
+             ("model.py.j2", "{prefix}.py"))
+
+    def context(self, kernel: Kernel, views: list[dict], prefix: str, py_views=()) -> dict:
+        """What the model's templates print: names, sizes, functions (``views`` in C,
+        ``py_views`` in Python), the solver's unrolled lines; ``declarations`` and
+        ``sections`` start with the model's own (prototypes; none)."""
+        eq = kernel.equations
+        L = kernel.layout
+        upper = prefix.upper()
+        defaults = [eq.defaults.get(str(sym)) for sym in L.parameters]
+        has_defaults = bool(L.parameters) and all(d is not None for d in defaults)
+        defines = [(f"{upper}_N_Q", L.n_q, "number of generalized coordinates"),
+                   (f"{upper}_N_U", L.n_u, "number of generalized speeds"),
+                   (f"{upper}_N_X", L.n_x, "length of the state x = [q, u]"),
+                   (f"{upper}_N_P", L.n_p, "number of parameters"),
+                   (f"{upper}_N_R", L.n_r, "number of inputs")]
+        prototypes = [v["prototype"] + ";" for v in views]
+        if has_defaults:
+            prototypes.append(f"void {prefix}_default_parameters(double *p);")
+        exprs = [e for fn in kernel.functions for _, e in
+                 fn.velocity_temporaries + fn.temporaries + fn.post_temporaries] + [
+            e for fn in kernel.functions for b in fn.velocity + fn.pre + fn.post
+            for _, e in b.entries]
+        funcs = sorted(math_functions(exprs))
+        any_solve = any(fn.spec.solve for fn in kernel.functions)
+        unrolled = any_solve and L.n_u <= UNROLL_MAX
+        factor = factor_program(L.n_u, kernel.mass_pattern) if unrolled else []
+        constrained = eq.constraints is not None
+        return dict(
+            version=__version__,
+            prefix=prefix,
+            upper=upper,
+            name=eq.name,
+            source=eq.source or eq.name,
+            method=str(eq.method),
+            cse=kernel.cse_backend.value,
+            states=list(enumerate(L.state_names)),
+            n_q=L.n_q,
+            n_u=L.n_u,
+            n_x=L.n_x,
+            parameters=[(i, n, None if d is None else repr(float(d)))
+                        for i, (n, d) in enumerate(zip(L.parameter_names, defaults))],
+            inputs=list(enumerate(L.input_names)),
+            state_names=list(L.state_names),
+            parameter_names=list(L.parameter_names),
+            input_names=list(L.input_names),
+            default_values=[repr(float(d)) for d in defaults] if has_defaults else [],
+            has_defaults=has_defaults,
+            defines=defines,
+            functions=views,
+            py_functions=list(py_views),
+            math_functions=funcs,
+            ops_before=kernel.ops_before,
+            ops_after=kernel.ops_after,
+            any_solve=any_solve,
+            unrolled=unrolled,
+            ldl_factor_c=c_lines(factor, f"{upper}_NOT_POSITIVE_DEFINITE") if unrolled else [],
+            ldl_solve_c=c_lines(solve_program(L.n_u, kernel.mass_pattern), "")
+            if unrolled else [],
+            ldl_factor_py=py_lines(factor, "NotPositiveDefinite('mass matrix is not positive "
+                                           "definite')") if unrolled else [],
+            ldl_solve_py=py_lines(solve_program(L.n_u, kernel.mass_pattern, "b", "o + "), "")
+            if unrolled else [],
+            needs_math=bool(funcs) or bool(kernel.integrators) or constrained,
+            any_columns=any(fn.spec.columns for fn in kernel.functions),
+            args=list(signature_args(kernel)),
+            integrators=[o.value for o in kernel.integrators],
+            recursive=kernel.form is Form.RECURSIVE,
+            constrained=constrained,
+            m=eq.constraints.m if constrained else 0,
+            n_all=L.n_u + L.n_d,
+            any_kkt=constrained and any_solve,
+            declarations=prototypes,
+            sections=[],
+        )
+
+
+#: The model target.
+MODEL = ModelFiles()
+
+__all__ = ["MODEL", "ModelFiles", "function_views", "signature_args"]
