@@ -2,8 +2,34 @@
 
 Pipeline (each arrow is one function returning a frozen value)::
 
-    Model --derive--> Equations --optimize--> Kernel --render--> Rendered
+    Model --derive--> Equations --bake/optimize--> Kernel --render--> Rendered
           --build--> CompiledModel --verify--> Report
+
+The folders are the stages, and imports run downward only (the import-linter
+contract in ``pyproject.toml``, run by ``tests/test_layout.py``)::
+
+    cli                      one module per subcommand
+    bench                    benchmarks (nothing below imports them)
+    studies                  work-precision, ensembles
+    verify | viz | export    check, golden, audit, stress | pictures | FMU
+    pipeline                 derive -> bake -> optimize -> render -> build
+    derive | codegen         Model -> Equations | Equations -> Rendered
+    model | run              what the user states | the three back ends
+    symbolic | build | integrators
+    abi | names | fileio | summary
+    errors
+
+This module is the public face: the names a user imports from ``mbgen``.
+
+How to add a public name
+------------------------
+1. Define it in the stage that owns it (never here), public in its module.
+2. Import it below and list it in ``__all__``.
+3. Say it in README.md (its examples run in ``tests/test_readme_blocks.py``);
+   ``tests/test_packaging.py`` imports the installed package.
+A new stage is a folder placed in the ``layers`` of ``pyproject.toml``'s
+import-linter contract; ``tests/test_layout.py`` fails until it is, and until
+its ``__init__`` says how to add one more of what it holds.
 """
 
 from ._version import __version__

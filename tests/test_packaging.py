@@ -13,8 +13,12 @@ def test_wheel_contains_templates_and_scenes(tmp_path):
                     "-q", "-w", str(tmp_path), str(ROOT)], check=True, capture_output=True)
     wheel, = tmp_path.glob("mbgen-*.whl")
     names = set(zipfile.ZipFile(wheel).namelist())
-    for template in (ROOT / "templates").glob("*.j2"):
-        assert f"mbgen/_templates/{template.name}" in names
+    templates = sorted((ROOT / "templates").rglob("*.j2"))
+    assert len(templates) > 20  # grouped by target in subfolders
+    for template in templates:
+        assert f"mbgen/_templates/{template.relative_to(ROOT / 'templates').as_posix()}" in names
+    for module in (ROOT / "mbgen").rglob("*.py"):  # every stage folder is a listed package
+        assert module.relative_to(ROOT).as_posix() in names
     assert "mbgen/scenes/disc_pendulum.py" in names
     assert "mbgen/derive/kane.py" in names
     assert "mbgen/py.typed" in names  # PEP 561 marker (package-data)

@@ -1,0 +1,169 @@
+"""The package's shape: stages in folders, imports one way, rooms read in one sitting.
+
+Guards issue 17's layout: at most 12 modules at ``mbgen/``'s root (besides
+``__init__``, ``__main__``, ``_version``); no module over 500 lines but the
+``Model`` builder (under 700); no import cycle between modules, function-level
+imports included; no import of another module's ``_private`` name; at most 40
+function-level imports of mbgen modules; the import-linter contracts of
+``pyproject.toml`` kept (stages import downward, no cycle between siblings);
+the wheel's package list equal to the folders; every package's docstring says how
+to add one more of what it holds.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PKG = ROOT / "mbgen"
+ROOT_EXEMPT = {"__init__.py", "__main__.py", "_version.py"}
+MAX_ROOT_MODULES = 12
+MAX_LINES = 500
+#: the user's vocabulary may stay whole (issue 17)
+LONG_ALLOWED = {"mbgen/model/builder.py": 700}
+MAX_DEFERRED = 40
+
+
+def modules() -> dict[str, tuple[Path, bool]]:
+    out = {}
+    for p in sorted(PKG.rglob("*.py")):
+        parts = list(p.relative_to(ROOT).with_suffix("").parts)
+        is_pkg = parts[-1] == "__init__"
+        if is_pkg:
+            parts = parts[:-1]
+        out[".".join(parts)] = (p, is_pkg)
+    return out
+
+
+def imports():
+    """``(importer, imported module, names, deferred, line)`` of every import of mbgen."""
+    mods = modules()
+
+    def resolve(name: str) -> str:
+        while name not in mods and "." in name:
+            name = name.rsplit(".", 1)[0]
+        return name
+
+    out = []
+    for m, (p, is_pkg) in mods.items():
+        tree = ast.parse(p.read_text(encoding="utf-8"))
+
+        def visit(node, deferred):
+            for ch in ast.iter_child_nodes(node):
+                d = deferred or isinstance(ch, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+                if isinstance(ch, ast.ImportFrom):
+                    if ch.level:
+                        base = m.split(".") if is_pkg else m.split(".")[:-1]
+                        base = base[:len(base) - ch.level + 1]
+                        src = ".".join(base + ([ch.module] if ch.module else []))
+                    else:
+                        src = ch.module or ""
+                    if src.split(".")[0] == "mbgen":
+                        for a in ch.names:
+                            full = f"{src}.{a.name}"
+                            if full in mods:
+                                out.append((m, full, (), d, ch.lineno))
+                            else:
+                                out.append((m, resolve(src), (a.name,), d, ch.lineno))
+                elif isinstance(ch, ast.Import):
+                    for a in ch.names:
+                        if a.name.split(".")[0] == "mbgen":
+                            out.append((m, resolve(a.name), (), d, ch.lineno))
+                visit(ch, d)
+
+        visit(tree, False)
+    return out
+
+
+def test_root_holds_few_modules():
+    root = sorted(p.name for p in PKG.glob("*.py") if p.name not in ROOT_EXEMPT)
+    assert len(root) <= MAX_ROOT_MODULES, root
+
+
+def test_modules_read_in_one_sitting():
+    long = {}
+    for p in PKG.rglob("*.py"):
+        rel = p.relative_to(ROOT).as_posix()
+        n = len(p.read_text(encoding="utf-8").splitlines())
+        if n > LONG_ALLOWED.get(rel, MAX_LINES):
+            long[rel] = n
+    assert not long, f"modules over {MAX_LINES} lines: {long}"
+
+
+def test_no_import_cycle_between_modules():
+    """Tarjan on the module graph, function-level imports included."""
+    graph: dict[str, set] = {}
+    for a, b, _, _, _ in imports():
+        if a != b and not (b == "mbgen" and a.startswith("mbgen.scenes")):
+            graph.setdefault(a, set()).add(b)
+    index, low, stack, on, comps = {}, {}, [], set(), []
+    counter = [0]
+    sys.setrecursionlimit(10000)
+
+    def strong(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                strong(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                comps.append(sorted(comp))
+
+    for v in list(graph):
+        if v not in index:
+            strong(v)
+    assert not comps, f"import cycles: {comps}"
+
+
+def test_no_private_name_crosses_a_module():
+    bad = [f"{a}:{line} imports {b}.{n}" for a, b, names, _, line in imports() for n in names
+           if n.startswith("_") and not n.startswith("__") and a != b]
+    assert not bad, bad
+
+
+def test_few_function_level_imports():
+    """Each one is there for start-up time or an optional extra; the rest import at the top."""
+    seen = sorted({(a, line) for a, b, _, deferred, line in imports() if deferred})
+    assert len(seen) <= MAX_DEFERRED, f"{len(seen)} function-level imports: {seen}"
+
+
+def test_import_contracts_kept():
+    pytest.importorskip("importlinter", reason="import-linter is in the test extra")
+    from importlinter.cli import lint_imports
+
+    assert lint_imports(config_filename=str(ROOT / "pyproject.toml"), no_cache=True) == 0
+
+
+def test_wheel_lists_every_package():
+    text = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    listed = set(re.findall(r'"(mbgen(?:\.\w+)*)"', text.split("[tool.setuptools]", 1)[1]
+                            .split("[tool.setuptools.package-dir]", 1)[0]))
+    folders = {".".join(p.parent.relative_to(ROOT).parts) for p in PKG.rglob("__init__.py")}
+    assert listed - {"mbgen._templates"} == folders
+
+
+def test_every_package_says_how_to_add_one():
+    missing = []
+    for init in PKG.rglob("__init__.py"):
+        doc = ast.get_docstring(ast.parse(init.read_text(encoding="utf-8"))) or ""
+        if "how to add" not in doc.lower():
+            missing.append(init.relative_to(ROOT).as_posix())
+    assert not missing, f"package docstrings without 'How to add': {sorted(missing)}"
