@@ -1,6 +1,6 @@
 """The package's shape: stages in folders, imports one way, rooms read in one sitting.
 
-Guards issue 17's layout: at most 12 modules at ``mbgen/``'s root (besides
+Guards the layout: at most 12 modules at ``mbgen/``'s root (besides
 ``__init__``, ``__main__``, ``_version``); no module over 500 lines but the
 ``Model`` builder (under 700); no import cycle between modules, function-level
 imports included; no import of another module's ``_private`` name; at most 40

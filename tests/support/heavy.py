@@ -5,11 +5,11 @@ The tests that loop over every built-in scene take their parameters from
 ``slow`` (deselected by default, run with ``pytest -m slow``), never skipped.
 
 ``bicycle``: its rolling constraints nest deeply.  Before the symbolic core
-became linear in the expression graph (issue 8) its ``jacobian`` output took
-minutes and gigabytes; now the code is generated in about 10 s, but its ten
-every-scene cases still take about 6 minutes together (three generations for
-the golden diff, ``gcc -O2`` on a 250 kB Jacobian for the example, unsliced
-pipelines).  Its own physics tests (``tests/test_vehicles.py``) run by default.
+became linear in the expression graph its ``jacobian`` output took minutes and
+gigabytes; now the code is generated in about 10 s, but its ten every-scene
+cases still take about 6 minutes together (three generations for the golden
+diff, ``gcc -O2`` on a 250 kB Jacobian for the example, unsliced pipelines).
+Its own physics tests (``tests/scenes/test_vehicles.py``) run by default.
 """
 
 import pytest

@@ -13,7 +13,7 @@ from mbgen.codegen.targets.step import adaptive_method, step_methods
 from mbgen.codegen.templating import environment
 from mbgen.integrators import METHODS
 
-TEMPLATES = Path(__file__).resolve().parent.parent / "templates"
+TEMPLATES = Path(__file__).resolve().parents[2] / "templates"
 #: Template folders that belong to no target (loaded by mbgen.bench).
 OTHER_FOLDERS = {"bench"}
 

@@ -1,4 +1,4 @@
-"""The build cache verifies what it loads (issue 9, item 7).
+"""The build cache verifies what it loads.
 
 Loading happens in a child process: a truncated library used to crash the
 interpreter (SIGBUS) when mapped, so the crash must not take the test run down.

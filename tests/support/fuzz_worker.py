@@ -1,6 +1,7 @@
 """Fuzz worker: hostile calls into compiled C and generated Python, run in a child process.
 
-Run by ``tests/test_fuzz.py`` as ``python tests/fuzz_worker.py EXAMPLES SEED SKIP PROGRESS``.
+Run by ``tests/run/test_fuzz.py`` as
+``python tests/support/fuzz_worker.py EXAMPLES SEED SKIP PROGRESS``.
 Hypothesis draws each call (function, ``t``, ``x``, ``p``, ``r``, or the arguments of
 ``integrate``); the same call goes to the compiled model and, for evaluations, to the
 generated Python module.  Every outcome is classified:

@@ -1,11 +1,14 @@
-"""Defects of issue 9 on the execution side, one test each (each failed before its fix).
+"""Errors on the execution side are named, and name the right cause.
 
-* generated Python raised raw ``ZeroDivisionError`` / ``ValueError: math domain
-  error`` / ``OverflowError`` where the C reports a named error (or a finite value);
-* runtime arguments: complex ``t`` silently lost its imaginary part; ``t=10**400``,
-  ``max_steps=2**63``, ``rtol=None`` ended in raw builtin or cffi errors;
-* C integrator statuses named the wrong cause: rk4 over ``[0, 1e300]`` stretched its
-  step and reported NONFINITE, rosenbrock over ``[0, 5e-324]`` a singular matrix.
+* generated Python raises the named error the C reports (or returns the C's finite
+  value) where plain Python floats raise ``ZeroDivisionError``, ``ValueError: math
+  domain error`` or ``OverflowError``;
+* runtime arguments: a complex ``t``, ``t=10**400``, ``max_steps=2**63``, ``rtol=None``
+  and bad output times are named errors, never a dropped imaginary part or a raw
+  builtin or cffi error;
+* C integrator statuses name the cause: rk4 over ``[0, 1e300]`` stops at its step
+  limit with steps of the requested size (no stretched step reported as NONFINITE),
+  rosenbrock over ``[0, 5e-324]`` reports a step too small, not a singular matrix.
 """
 
 from __future__ import annotations

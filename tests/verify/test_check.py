@@ -1,5 +1,5 @@
-"""`mbgen check` must not pass on nothing (issue 9, item 4), and its reference is the
-unsliced equations (item 10: a slicing fault must not agree with itself)."""
+"""`mbgen check` must not pass on nothing, and its reference is the unsliced equations
+(a slicing fault must not agree with itself)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Fuzz the compiled C and the generated Python with hostile arguments (hypothesis).
 
-Every call runs in a child process (``tests/fuzz_worker.py``), so a crash (a
+Every call runs in a child process (``tests/support/fuzz_worker.py``), so a crash (a
 segfault, an abort) is counted instead of taking the test run down.  What must
 hold over every seeded call:
 
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 
-WORKER = Path(__file__).with_name("fuzz_worker.py")
+WORKER = Path(__file__).resolve().parents[1] / "support" / "fuzz_worker.py"
 
 
 def census(examples: int, seed: int, max_restarts: int = 5) -> dict:

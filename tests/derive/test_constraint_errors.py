@@ -1,4 +1,4 @@
-"""Bad constrained input gets a named error that says what to do (issue 10, "Bad input")."""
+"""Bad constrained input gets a named error that says what to do."""
 
 import numpy as np
 import pytest

@@ -1,6 +1,6 @@
 """The symbolic core is linear in the expression graph, not in its expanded tree.
 
-The issue's reproducer: ``x <- x*cos(x + i) + x`` nested ``n`` times shares every
+The reproducer: ``x <- x*cos(x + i) + x`` nested ``n`` times shares every
 level twice, so its tree has about ``2**n`` nodes while its graph has ``3 n``.
 Every pass (conversion to and from symengine, baking, differentiation, CSE,
 counting, printing, the lambdified reference) must cost what the graph costs.

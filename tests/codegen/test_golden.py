@@ -12,7 +12,7 @@ from mbgen.model.scene import builtin_names
 
 from heavy import scene_params
 
-ROOT = Path(__file__).resolve().parent.parent / "generated"
+ROOT = Path(__file__).resolve().parents[2] / "generated"
 
 
 def test_every_builtin_scene_has_a_folder():

@@ -84,8 +84,8 @@ def kanes_method(model):
 
 
 #: Constrained built-in scenes and the independent oracle each is held to (tests of
-#: tests/test_constrained_scenes.py and tests/test_constraints.py); this file's oracle
-#: takes unconstrained models only.
+#: tests/scenes/test_constrained_scenes.py and tests/derive/test_constraints.py); this
+#: file's oracle takes unconstrained models only.
 CONSTRAINED_ORACLES = {
     "four_bar": "test_four_bar_position_analysis_is_what_consistent_finds, "
                 "test_four_bar_consistent_state_projection_and_energy (energy conserved)",
@@ -105,8 +105,8 @@ def test_every_builtin_scene_is_compared():
     for name in CONSTRAINED_ORACLES:
         assert load_scene(name).model.constraints_, f"{name} is unconstrained: compare it here"
     import pathlib
-    text = "".join((pathlib.Path(__file__).parent / f).read_text()
-                   for f in ("test_constrained_scenes.py", "test_constraints.py"))
+    text = "".join((pathlib.Path(__file__).resolve().parents[1] / f).read_text()
+                   for f in ("scenes/test_constrained_scenes.py", "derive/test_constraints.py"))
     for name, tests in CONSTRAINED_ORACLES.items():
         for test in tests.split(", "):
             assert f"def {test.split(' ')[0]}(" in text, f"{name}: no test {test!r}"
