@@ -14,18 +14,7 @@ from mbgen.errors import (BuildError, ModelError, NonFiniteResultError, SceneErr
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
 
-
-def pendulum(name="pendulum"):
-    m = Model(name)
-    q, = m.coordinates("q")
-    m.speeds("u")
-    l, g, mass = m.constants("l g m")
-    N = m.newtonian()
-    B = m.rotate(N, "B", 3, q)
-    P = m.point("P", m.origin, -l * B.y)
-    m.particle("bob", P, mass)
-    m.gravity(-g * N.y)
-    return m
+from models import pendulum
 
 
 def test_scene_file_that_does_not_exist():

@@ -4,9 +4,12 @@ import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
-from mbgen.cli import COMMANDS, EXIT_CHECK, EXIT_MODEL, EXIT_OK, command_module, main, parser
+import mbgen
+from mbgen.cli import (COMMANDS, EXIT_CHECK, EXIT_MODEL, EXIT_OK, EXIT_USAGE, command_module,
+                       main, parser)
 
 
 def test_help_everywhere(capsys):
@@ -157,3 +160,32 @@ def test_bench_arm_small_run(tmp_path, capsys):
     assert (tmp_path / "arm_scaling.png").exists()
     assert main(args + ["--derivation", "lagrange"]) == 2
     assert "unknown derivation method 'lagrange'" in capsys.readouterr().err
+
+
+def test_numbers_by_name_reach_the_simulation(tmp_path, capsys):
+    path = tmp_path / "t.csv"
+    base = ["simulate", "n_link_cart", "-O", "n=1", "-x", "q1=0.3", "-x", "q0=0.5", "--csv",
+            str(path), "--points", "3"]
+    assert main(base + ["-p", "g=0"]) == EXIT_OK  # no gravity, no push: at rest
+    rows = np.loadtxt(path, delimiter=",", skiprows=1)
+    assert np.array_equal(rows[:, 1:], np.tile([0.5, 0.3, 0.0, 0.0], (3, 1)))
+    assert main(base) == EXIT_OK  # gravity swings the pendulum
+    assert np.loadtxt(path, delimiter=",", skiprows=1)[-1, 2] != 0.3
+    assert main(base + ["-p", "g=0", "-r", "F=2"]) == EXIT_OK  # pushed along
+    assert np.loadtxt(path, delimiter=",", skiprows=1)[-1, 1] > 1.0
+
+
+def test_simulate_cli_picks_the_c_integrator_of_a_stiff_scene(tmp_path, capsys):
+    assert main(["simulate", "stiff_chain", "-O", "stiffness=1e8", "--csv",
+                 str(tmp_path / "s.csv")]) == EXIT_OK
+    out = capsys.readouterr().out
+    assert "C rosenbrock" in out and "Jacobians" in out
+
+
+def test_python_dash_m_mbgen():
+    out = subprocess.run([sys.executable, "-m", "mbgen", "--version"], capture_output=True,
+                         text=True, check=True).stdout
+    assert out.strip() == f"mbgen {mbgen.__version__}"
+    bad = subprocess.run([sys.executable, "-m", "mbgen", "simulate", "disc_pendulum", "--method",
+                          "RK99"], capture_output=True, text=True)
+    assert bad.returncode == EXIT_USAGE and "Traceback" not in bad.stderr

@@ -1,14 +1,13 @@
-"""User mistakes on the command line: `mbgen: error: ...`, exit code 2, no traceback."""
+"""User mistakes on the command line: `mbgen: error: ...`, exit code 2, no traceback; a
+scene file naming what its model lacks stops every command at load (exit code 3)."""
 
-import subprocess
-import sys
+import time
 
-import numpy as np
 import pytest
-from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
-import mbgen
-from mbgen.cli import EXIT_OK, EXIT_USAGE, main
+from mbgen.cli import EXIT_MODEL, EXIT_USAGE, main
+
+from models import scene_file
 
 
 def fails(argv, capsys, *patterns):
@@ -74,54 +73,12 @@ def test_numbers_by_name_mistakes(tmp_path, capsys):
     fails(["linearize", "n_link_cart", "-r", "G=1"], capsys, "not one of the inputs")
 
 
-def test_numbers_by_name_reach_the_simulation(tmp_path, capsys):
-    path = tmp_path / "t.csv"
-    base = ["simulate", "n_link_cart", "-O", "n=1", "-x", "q1=0.3", "-x", "q0=0.5", "--csv",
-            str(path), "--points", "3"]
-    assert main(base + ["-p", "g=0"]) == EXIT_OK  # no gravity, no push: at rest
-    rows = np.loadtxt(path, delimiter=",", skiprows=1)
-    assert np.array_equal(rows[:, 1:], np.tile([0.5, 0.3, 0.0, 0.0], (3, 1)))
-    assert main(base) == EXIT_OK  # gravity swings the pendulum
-    assert np.loadtxt(path, delimiter=",", skiprows=1)[-1, 2] != 0.3
-    assert main(base + ["-p", "g=0", "-r", "F=2"]) == EXIT_OK  # pushed along
-    assert np.loadtxt(path, delimiter=",", skiprows=1)[-1, 1] > 1.0
-
-
-def test_simulate_cli_picks_the_c_integrator_of_a_stiff_scene(tmp_path, capsys):
-    assert main(["simulate", "stiff_chain", "-O", "stiffness=1e8", "--csv",
-                 str(tmp_path / "s.csv")]) == EXIT_OK
-    out = capsys.readouterr().out
-    assert "C rosenbrock" in out and "Jacobians" in out
-
-
-def test_python_dash_m_mbgen():
-    out = subprocess.run([sys.executable, "-m", "mbgen", "--version"], capture_output=True,
-                         text=True, check=True).stdout
-    assert out.strip() == f"mbgen {mbgen.__version__}"
-    bad = subprocess.run([sys.executable, "-m", "mbgen", "simulate", "disc_pendulum", "--method",
-                          "RK99"], capture_output=True, text=True)
-    assert bad.returncode == EXIT_USAGE and "Traceback" not in bad.stderr
-
-
-@pytest.mark.parametrize("output, option", [("energy", "Output.ENERGY"),
-                                            ("positions", "Output.POSITIONS"),
-                                            ("reactions", "Output.REACTIONS")])
-def test_from_sympy_messages_name_its_own_arguments(output, option):
-    eq = mbgen.from_sympy(n_link_pendulum_on_cart(1, cart_force=True))
-    with pytest.raises(mbgen.ModelError) as info:
-        mbgen.compile(eq, ["rhs", output])
-    text = str(info.value)
-    assert "from_sympy(obj, name=, parameters=, dependent=)" in text and option in text
-    assert "energy=True" not in text and "points=..." not in text
-
-
-def test_integrate_result_reads_like_scipy():
-    scene = mbgen.load_scene("disc_pendulum")
-    model = mbgen.compile(scene)
-    res = model.integrate("dopri5", np.linspace(0, 1, 6), scene.x0(model.layout))
-    assert res.y.shape == (model.n_x, 6) and np.array_equal(res.y.T, res.x)
-    assert res.success and res.status == 0 and "successfully" in res.message
-    assert (res.nfev, res.njev, res.nlu) == (res.n_rhs, res.n_jac, res.n_lu) and res.nfev > 0
-    assert res["y"] is not None and np.array_equal(res["t"], res.t)
-    with pytest.raises(KeyError):
-        res["nope"]
+@pytest.mark.parametrize("command", [["generate"], ["check"], ["simulate"], ["linearize"]])
+def test_every_command_validates_the_scene_at_load(command, tmp_path, capsys):
+    path = scene_file(tmp_path, "bad.py")
+    path.write_text(path.read_text().replace('"l": 1.0', '"ll": 1.0'))
+    start = time.perf_counter()
+    assert main(command + [str(path)]) == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert err.startswith("mbgen: error:") and "'ll'" in err and "did you mean 'l'" in err
+    assert time.perf_counter() - start < 10

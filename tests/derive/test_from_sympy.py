@@ -197,3 +197,15 @@ def test_refuses_symbol_named_like_a_coordinate():
     km.kanes_equations(bodies, loads)
     with pytest.raises(ModelError, match=r"\['q'\] belong to two different symbols"):
         from_sympy(km)
+
+
+@pytest.mark.parametrize("output, option", [("energy", "Output.ENERGY"),
+                                            ("positions", "Output.POSITIONS"),
+                                            ("reactions", "Output.REACTIONS")])
+def test_from_sympy_messages_name_its_own_arguments(output, option):
+    eq = mbgen.from_sympy(n_link_pendulum_on_cart(1, cart_force=True))
+    with pytest.raises(mbgen.ModelError) as info:
+        mbgen.compile(eq, ["rhs", output])
+    text = str(info.value)
+    assert "from_sympy(obj, name=, parameters=, dependent=)" in text and option in text
+    assert "energy=True" not in text and "points=..." not in text

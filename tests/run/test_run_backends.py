@@ -85,3 +85,15 @@ def test_fixed_step_and_implicit_read_from_the_method_table():
     assert model.integrate("rosenbrock", [0.0, 1.0], [0.3, 0.0, 0.0, 0.0]).n_lu > 0
     assert mbgen.python_model(mbgen.run(mbgen.load_scene("disc_pendulum"), build=False)
                               .rendered).c_integrators == ()
+
+
+def test_integrate_result_reads_like_scipy():
+    scene = mbgen.load_scene("disc_pendulum")
+    model = mbgen.compile(scene)
+    res = model.integrate("dopri5", np.linspace(0, 1, 6), scene.x0(model.layout))
+    assert res.y.shape == (model.n_x, 6) and np.array_equal(res.y.T, res.x)
+    assert res.success and res.status == 0 and "successfully" in res.message
+    assert (res.nfev, res.njev, res.nlu) == (res.n_rhs, res.n_jac, res.n_lu) and res.nfev > 0
+    assert res["y"] is not None and np.array_equal(res["t"], res.t)
+    with pytest.raises(KeyError):
+        res["nope"]

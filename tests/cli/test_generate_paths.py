@@ -1,0 +1,83 @@
+"""Where ``generate`` and ``golden`` write.
+
+``generate`` writes to ``mbgen-out/SCENE`` by default, never the golden tree; a
+regeneration removes only the files it wrote and overwrites none it did not write;
+the header's bytes do not depend on the caller's folder; ``golden`` refuses to run
+outside a source checkout and removes stale files.
+"""
+
+from mbgen.cli import EXIT_MODEL, EXIT_OK, main
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
+from mbgen.verify import golden
+
+from models import scene_file
+
+
+def test_generate_defaults_to_mbgen_out_and_never_the_golden_tree(tmp_path, monkeypatch, capsys):
+    """Issue 11: generate defaulted to generated/SCENE and overwrote the golden files."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["generate", "disc_pendulum"]) == EXIT_OK
+    assert (tmp_path / "mbgen-out" / "disc_pendulum" / "disc_pendulum.h").is_file()
+    assert not (tmp_path / "generated").exists()
+
+
+def test_regeneration_removes_only_what_it_wrote(tmp_path, capsys):
+    """Issue 11: a stale example.c was left behind by a regeneration."""
+    out = tmp_path / "out"
+    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_OK
+    assert (out / "example.c").is_file()
+    (out / "notes.txt").write_text("mine")
+    assert main(["generate", "disc_pendulum", "-o", str(out), "--outputs", "rhs"]) == EXIT_OK
+    assert not (out / "example.c").exists()
+    assert (out / "notes.txt").read_text() == "mine"
+    assert "removed" in capsys.readouterr().out
+
+
+def test_generate_does_not_overwrite_files_it_did_not_write(tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "disc_pendulum.c").write_text("/* my own code */\n")
+    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_MODEL
+    assert "--overwrite" in capsys.readouterr().err
+    assert (out / "disc_pendulum.c").read_text() == "/* my own code */\n"
+    assert not (out / "disc_pendulum.h").exists()
+    assert main(["generate", "disc_pendulum", "-o", str(out), "--overwrite"]) == EXIT_OK
+    assert "my own code" not in (out / "disc_pendulum.c").read_text()
+
+
+def test_generate_into_a_file_is_an_error(tmp_path, capsys):
+    target = tmp_path / "file"
+    target.write_text("x")
+    assert main(["generate", "disc_pendulum", "-o", str(target)]) == EXIT_MODEL
+    assert "is a file" in capsys.readouterr().err
+
+
+def test_header_bytes_do_not_depend_on_the_callers_folder(tmp_path, monkeypatch):
+    """Issue 11: the header recorded the scene path as typed."""
+    (tmp_path / "scenes").mkdir()
+    path = scene_file(tmp_path / "scenes")
+    monkeypatch.chdir(tmp_path)
+    a = run(load_scene("scenes/pend.py"), build=False).rendered.files
+    monkeypatch.chdir(tmp_path / "scenes")
+    b = run(load_scene("pend.py"), build=False).rendered.files
+    c = run(load_scene(str(path)), build=False).rendered.files
+    assert a == b == c
+    assert "(pend.py)" in a["pend.h"] and str(tmp_path) not in a["pend.h"]
+
+
+def test_golden_refuses_outside_a_checkout(tmp_path, monkeypatch, capsys):
+    fake = tmp_path / "site-packages" / "mbgen" / "golden.py"
+    monkeypatch.setattr(golden, "__file__", str(fake))
+    assert main(["golden", "--scenes", "disc_pendulum"]) == EXIT_MODEL
+    assert "source checkout" in capsys.readouterr().err
+    assert not (tmp_path / "site-packages" / "generated").exists()
+
+
+def test_golden_update_removes_stale_files(tmp_path):
+    root = tmp_path / "generated"
+    golden.update(root, ["disc_pendulum"])
+    (root / "disc_pendulum" / "old.c").write_text("int stale;\n")
+    assert any("unexpected" in d for d in golden.differences(root, ["disc_pendulum"]))
+    golden.update(root, ["disc_pendulum"])
+    assert not golden.differences(root, ["disc_pendulum"])
