@@ -13,7 +13,8 @@ How to add a build
    its flags as a module constant (as ``CFLAGS``, ``FMU_CFLAGS``).
 2. The caller one stage up: :mod:`mbgen.pipeline` for the extension, a root module such
    as :mod:`mbgen.export` for a product made from a scene.
-3. ``tests/test_cflags.py`` (the extension's flags and cache key), ``tests/test_cache.py``
-   (a damaged or half-built module is rebuilt) and ``tests/test_fmu.py`` (the FMU builds
-   and FMPy runs it) fail when a build breaks; add the new product's test beside them.
+3. ``tests/build/test_cflags.py`` (the extension's flags and cache key),
+   ``tests/build/test_cache.py`` (a damaged or half-built module is rebuilt) and
+   ``tests/test_export_fmu.py`` (the FMU builds and FMPy runs it) fail when a build
+   breaks; add the new product's test beside them.
 """

@@ -29,10 +29,11 @@ How to add a command
    groups of :mod:`mbgen.cli._common`) and ``run(args) -> int`` (an ``EXIT_*`` code of
    :mod:`mbgen.errors`; raise an :class:`~mbgen.errors.MbgenError` for a failure).
 2. Its row in :data:`COMMANDS` (the order is the order of ``mbgen --help``).
-   ``tests/test_cli.py::test_every_command_module_has_configure_and_run`` fails when
+   ``tests/cli/test_cli.py::test_every_command_module_has_configure_and_run`` fails when
    the row names a module that is missing or lacks either function.
-3. Its tests in ``tests/test_cli.py`` (or ``tests/test_<subject>.py``): at least one
-   run through :func:`main`; ``test_help_everywhere`` already runs its ``--help``.
+3. Its tests in ``tests/cli/test_cli.py`` (or ``tests/<area>/test_<subject>.py``): at
+   least one run through :func:`main`; ``test_help_everywhere`` already runs its
+   ``--help``.
 """
 
 from __future__ import annotations

@@ -63,8 +63,8 @@ How to add an output
    computes it from the unoptimised equations.
 5. ``mbgen/run/base.py``: its accessor row (the method ``model.<value>(t, x, p, r)``
    of every runtime model and its result's shape).
-6. ``tests/test_outputs.py`` fails while an output misses a row in any of these
-   tables; ``tests/test_golden.py`` then shows what the generated code gained.
+6. ``tests/codegen/test_outputs.py`` fails while an output misses a row in any of these
+   tables; ``tests/codegen/test_golden.py`` then shows what the generated code gained.
 """
 
 from __future__ import annotations

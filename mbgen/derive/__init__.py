@@ -56,7 +56,7 @@ How to add a derivation
    :mod:`~mbgen.derive.reactions`).
 2. Add a member to :class:`Method` and its row to :data:`METHODS` (the CLI's
    ``--derivation`` choices and a scene's ``method`` follow :class:`Method`).
-3. Run ``tests/test_derive.py``: it fails for a member of :class:`Method`
+3. Run ``tests/derive/test_derive.py``: it fails for a member of :class:`Method`
    without a row, and checks that every method's ``M``, ``F``, ``G`` and
    energies agree with Kane's on small models.
 """

@@ -28,9 +28,9 @@ How to add an integrator
    properties call for (an explicit Runge--Kutta tableau, or a Rosenbrock method); the
    stack bound, the work struct, the step API's choice of methods and the studies read
    the same properties.
-4. ``tests/test_targets.py`` (``test_every_integrator_has_its_templates``) fails when a
-   member of ``INTEGRATORS`` has no row here or no template, and the golden tree
-   (``tests/test_golden.py``) shows the rendered C.
+4. ``tests/codegen/test_targets.py`` (``test_every_integrator_has_its_templates``) fails
+   when a member of ``INTEGRATORS`` has no row here or no template, and the golden tree
+   (``tests/codegen/test_golden.py``) shows the rendered C.
 """
 
 from ..abi import INTEGRATORS, Output

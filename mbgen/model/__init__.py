@@ -31,9 +31,9 @@ How to add a model element
    ``derive/kane.py`` (generalized forces), ``derive/recursion.py``
    (``NewtonEuler._collect_loads``: body wrenches), and ``derive/common.py``
    (``energies``) when it has a potential.
-4. Tests: add it to ``loaded()`` in ``tests/test_derive.py``, which fails when
+4. Tests: add it to ``loaded()`` in ``tests/derive/test_derive.py``, which fails when
    a derivation method misses it (every method must agree with Kane), and
-   check its physics against a derivation by hand in ``tests/test_physics.py``.
+   check its physics against a derivation by hand in ``tests/scenes/test_physics.py``.
 """
 
 from . import kinematics

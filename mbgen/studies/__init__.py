@@ -17,8 +17,8 @@ How to add a study
    run with its reason.
 2. Its name in :mod:`mbgen` (``mbgen/__init__.py``) when it is public, and its command
    in :mod:`mbgen.cli`.
-3. ``tests/test_<study>.py``: results equal to single runs and failures recorded, as
-   ``tests/test_ensemble.py`` (``test_dask_gives_the_serial_results_bit_for_bit``,
-   ``test_failed_members_are_recorded_not_fatal``) and ``tests/test_workprecision.py``
+3. ``tests/studies/test_<study>.py``: results equal to single runs and failures recorded, as
+   ``tests/studies/test_ensemble.py`` (``test_dask_gives_the_serial_results_bit_for_bit``,
+   ``test_failed_members_are_recorded_not_fatal``) and ``tests/studies/test_workprecision.py``
    (``test_every_point_ran``, ``test_failures_are_recorded_not_raised``).
 """

@@ -39,7 +39,7 @@ How to add a pass over the expression graph
    (``xreplace``, ``subs``, ``free_symbols``, ``count_ops``, ``sympify`` of a
    sympy tree into symengine); a pass through a program goes through its
    assignments once (:meth:`~mbgen.symbolic.program.Program.inline`).
-3. ``tests/test_graph.py``: call the pass in ``test_passes_are_linear_in_the_graph``
+3. ``tests/symbolic/test_graph.py``: call the pass in ``test_passes_are_linear_in_the_graph``
    on the reproducer ``nested(N, q, c)`` (about ``2**N`` tree nodes, ``3 N``
    graph nodes, ``N = 30``): a tree walk never returns there.
 """

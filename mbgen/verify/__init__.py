@@ -23,8 +23,9 @@ How to add a check
    report) with the reason; module docstring states the bound it checks and why it
    holds.
 2. Its command in :mod:`mbgen.cli` (owned by the CLI; the exit code follows the verdict).
-3. ``tests/test_<check>.py``: a good model passes and an injected fault fails, as
-   ``tests/test_check.py`` (``test_disagreeing_on_failure_fails``) and
-   ``tests/test_stress.py`` (``test_high_precision_comparison_detects_an_injected_error``)
-   do; ``tests/test_golden.py`` fails when ``generated/`` and the generator differ.
+3. ``tests/verify/test_<check>.py``: a good model passes and an injected fault fails, as
+   ``tests/verify/test_check.py`` (``test_disagreeing_on_failure_fails``) and
+   ``tests/verify/test_stress.py``
+   (``test_high_precision_comparison_detects_an_injected_error``) do;
+   ``tests/codegen/test_golden.py`` fails when ``generated/`` and the generator differ.
 """

@@ -37,8 +37,8 @@ How to add a target
 3. This module: the instance in :data:`TARGETS`, and in :data:`SECTIONS` (in file order)
    when it adds to the model's files; a field of :class:`Targets` when the user
    switches it on (read by its ``wanted``).
-4. ``tests/test_targets.py`` fails when a listed template is missing
-   (``test_every_target_has_its_templates``); ``tests/test_golden.py`` shows the
+4. ``tests/codegen/test_targets.py`` fails when a listed template is missing
+   (``test_every_target_has_its_templates``); ``tests/codegen/test_golden.py`` shows the
    rendered text of the built-in scenes.
 """
 

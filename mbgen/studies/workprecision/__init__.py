@@ -42,7 +42,7 @@ How to add a method or a back end
    tolerances or fixed steps (:func:`rk4_steps`) and the compiled Jacobian.
 2. A back end: :data:`BACKENDS` in ``points.py`` and its right-hand side and Jacobian in
    :class:`~mbgen.studies.workprecision.solve.Backends` (``solve.py``).
-3. ``tests/test_workprecision.py``: ``test_configurations`` lists the curves of a
+3. ``tests/studies/test_workprecision.py``: ``test_configurations`` lists the curves of a
    choice of methods and back ends, ``test_every_point_ran`` runs each one.
 """
 

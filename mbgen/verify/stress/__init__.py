@@ -87,7 +87,7 @@ How to add a case kind
 2. ``verify/stress/cases.py``: the rule that says when it applies, in
    :func:`~mbgen.verify.stress.cases.case_specs` (one ``CaseSpec`` per row).
 3. This docstring: the kind under "Which cases apply" and its bound under "Bounds".
-4. ``tests/test_stress.py``: ``test_ci_suite_passes_with_the_expected_case_kinds``
+4. ``tests/verify/test_stress.py``: ``test_ci_suite_passes_with_the_expected_case_kinds``
    fails until the kind is in ``EXPECTED_KINDS`` of the scenes it applies to; add a test
    that its bound catches a fault.
 
