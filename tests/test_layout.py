@@ -7,7 +7,7 @@ imports included; no import of another module's ``_private`` name; at most 40
 function-level imports of mbgen modules; the import-linter contracts of
 ``pyproject.toml`` kept (stages import downward, no cycle between siblings);
 the wheel's package list equal to the folders; every package's docstring says how
-to add one more of what it holds.
+to add one more of what it holds; the tests mirror the package (tests/<area>/test_<subject>.py).
 """
 
 from __future__ import annotations
@@ -167,3 +167,14 @@ def test_every_package_says_how_to_add_one():
         if "how to add" not in doc.lower():
             missing.append(init.relative_to(ROOT).as_posix())
     assert not missing, f"package docstrings without 'How to add': {sorted(missing)}"
+
+
+def test_tests_mirror_the_package():
+    """``tests/<area>/test_<subject>.py``: each folder is an mbgen package, each name unique."""
+    tests = ROOT / "tests"
+    packages = {".".join(p.parent.relative_to(PKG).parts) for p in PKG.rglob("__init__.py")}
+    folders = {p.parent.relative_to(tests).as_posix().replace("/", ".")
+               for p in tests.rglob("test_*.py")} - {"."}
+    assert folders <= packages, f"test folders that name no mbgen package: {folders - packages}"
+    names = [p.name for p in tests.rglob("test_*.py")]
+    assert len(names) == len(set(names)), "test file names must be unique across folders"
