@@ -32,6 +32,8 @@ import-linter contract; ``tests/test_layout.py`` fails until it is, and until
 its ``__init__`` says how to add one more of what it holds.
 """
 
+import importlib
+
 from ._version import __version__
 from .derive import Method, derive
 from .symbolic.equations import Equations
@@ -54,10 +56,24 @@ from .codegen.targets import Targets
 from .export import export_fmu
 from .studies.ensemble import ensemble
 from .run.integration import Trajectory
-from .run.simulate import simulate
 from .run.stepper import Stepper
-from .viz.plots import plot_simulation
-from .viz.animate import animate_scene
+
+#: Public names imported on first use: ``simulate`` pulls in scipy.integrate (about 0.3 s)
+#: and the pictures need the ``plot`` extra, so ``import mbgen`` does not pay for them.
+_LAZY = {"simulate": "mbgen.run.simulate", "plot_simulation": "mbgen.viz.plots",
+         "animate_scene": "mbgen.viz.animate"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mbgen' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
 
 
 __all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", "from_sympy", "Output", "CseBackend", "compile", "equations_of", "run",
