@@ -264,4 +264,23 @@ for _output, _doc in ACCESSORS.items():
     setattr(ModelBase, _output.value, _accessor(_output, _doc))
 del _output, _doc
 
-__all__ = ["ModelBase", "ACCESSORS"]
+
+
+class GeneratedModel(ModelBase):
+    """A back end over rendered code (the C extension or the generated Python module).
+
+    ``rendered`` (:class:`~mbgen.abi.Rendered`) names the joints, constraints and
+    dependent coordinates; ``module`` is what was loaded from it.
+    """
+
+    def __init__(self, rendered, module, layout: Layout, defaults, outputs):
+        super().__init__(rendered.prefix, layout, defaults, outputs)
+        self.rendered = rendered
+        self.module = module
+        self.reaction_names = tuple(n for n, _ in rendered.joints)
+        self.reaction_frames = tuple(f for _, f in rendered.joints)
+        self.constraint_names = rendered.constraints
+        self.dependent_coordinates = rendered.dependent
+
+
+__all__ = ["ModelBase", "ACCESSORS", "GeneratedModel"]

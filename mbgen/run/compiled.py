@@ -23,26 +23,20 @@ from ..integrators import method as integrator
 from ..symbolic.layout import Layout
 from . import named
 from .arguments import F64, real_number, step_count, times
-from .base import ModelBase
+from .base import GeneratedModel
 from .batch import evaluate, is_batch
 from .batch import integrate as batch_integrate
 from .integration import SUCCESS, Trajectory
 
 
-class CompiledModel(ModelBase):
+class CompiledModel(GeneratedModel):
     """The generated C, compiled with cffi; see :func:`mbgen.compile`."""
 
     backend = "c"
     batch_loop = True
 
     def __init__(self, rendered, module, layout: Layout, defaults, outputs):
-        super().__init__(rendered.prefix, layout, defaults, outputs)
-        self.rendered = rendered
-        self.module = module
-        self.reaction_names = tuple(n for n, _ in rendered.joints)
-        self.reaction_frames = tuple(f for _, f in rendered.joints)
-        self.constraint_names, self.dependent_coordinates = (rendered.constraints,
-                                                             rendered.dependent)
+        super().__init__(rendered, module, layout, defaults, outputs)
         self.ffi, self.lib = module.ffi, module.lib
         self._calls = {Output(info.output): self._make_call(info) for info in rendered.functions}
         self._rhs = self._calls.get(Output.RHS) or (

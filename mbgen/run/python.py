@@ -17,23 +17,17 @@ import numpy as np
 from ..abi import Output, Rendered
 from ..errors import MbgenError
 from ..symbolic.layout import Layout
-from .base import ModelBase
+from .base import GeneratedModel
 from .batch import batch_args, batch_times, is_batch
 
 
-class PythonModel(ModelBase):
+class PythonModel(GeneratedModel):
     """The generated Python module (``<prefix>.py``) behind the same interface."""
 
     backend = "python"
 
     def __init__(self, rendered, module, layout: Layout, defaults, outputs):
-        super().__init__(rendered.prefix, layout, defaults, outputs)
-        self.rendered = rendered
-        self.module = module
-        self.reaction_names = tuple(n for n, _ in rendered.joints)
-        self.reaction_frames = tuple(f for _, f in rendered.joints)
-        self.constraint_names, self.dependent_coordinates = (rendered.constraints,
-                                                             rendered.dependent)
+        super().__init__(rendered, module, layout, defaults, outputs)
         self._args = {Output(info.output): info.args for info in rendered.functions}
 
     def _evaluate(self, output, t, x, p, r):

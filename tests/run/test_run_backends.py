@@ -20,11 +20,12 @@ RUN = importlib.import_module("mbgen.run")
 
 
 def _back_ends() -> list[type]:
+    """Every concrete back end: a subclass of ModelBase that names its ``backend``."""
     found, todo = [], list(ModelBase.__subclasses__())
     while todo:
         cls = todo.pop()
         todo.extend(cls.__subclasses__())
-        if cls.__module__.startswith("mbgen.run."):
+        if cls.__module__.startswith("mbgen.run.") and "backend" in vars(cls):
             found.append(cls)
     return found
 
