@@ -1,5 +1,6 @@
 """``mbgen check SCENE``: compare compiled C, generated Python and lambdify on random
-states; exit 1 when an error is above tolerance, 6 when nothing was compared."""
+states; exit 1 when an error is above tolerance, 6 when nothing was compared or the
+reference could not resolve a difference (an ill-conditioned state)."""
 
 from __future__ import annotations
 
@@ -33,9 +34,7 @@ def run(args) -> int:
     if report.ok:
         return EXIT_OK
     if report.inconclusive:
-        print(f"mbgen: check inconclusive: {report.name}: nothing was compared for some "
-              f"outputs (every sample failed in every back end); see the report",
-              file=sys.stderr)
+        print(f"mbgen: check inconclusive: {report.name}: {report.reason}", file=sys.stderr)
         return EXIT_INCONCLUSIVE
     print(f"mbgen: check failed: {report.name}: see the report", file=sys.stderr)
     return EXIT_CHECK

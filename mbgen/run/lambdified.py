@@ -2,8 +2,11 @@ r"""The reference: a ``sympy.lambdify`` of the *unoptimised* equations.
 
 No optimising CSE, no printer of ours: expressions go straight from the
 derivation into NumPy code through sympy's own printer, and ``M u' = F`` is
-solved with :func:`numpy.linalg.cholesky` and :func:`numpy.linalg.solve`.  This
-is what the compiled C and the generated Python are checked against.  Nodes the
+solved with :func:`numpy.linalg.cholesky` and :func:`numpy.linalg.solve`, each
+speed first measured in its own mass's units (a diagonal scaling, so a mass of
+1e-20 loses no digits).  This is what the compiled C and the generated Python are
+checked against; :attr:`LambdifiedModel.resolution` says how many digits the last
+evaluation's solves can vouch for.  Nodes the
 derived graph shares are named once (:func:`mbgen.symbolic.graph.split_shared`), so
 the printed code is as large as the graph, not as its expanded tree.
 
@@ -46,12 +49,12 @@ class _At(NamedTuple):
 
 class _Solved(NamedTuple):
     """A constrained model solved at one state: ``A`` of ``A u + b = 0``, the dependent
-    speeds ``ur``, the saddle-point matrix ``K = [M -A^T; A 0]``, ``G``, the accelerations
-    ``acc`` (every speed) and the multipliers ``lam``."""
+    speeds ``ur``, the mass matrix ``M`` (every speed), ``G``, the accelerations ``acc``
+    (every speed) and the multipliers ``lam``."""
 
     A: np.ndarray
     ur: np.ndarray
-    K: np.ndarray
+    M: np.ndarray
     G: np.ndarray
     acc: np.ndarray
     lam: np.ndarray
@@ -90,6 +93,7 @@ class LambdifiedModel(ModelBase):
             self._args += (list(equations.layout.dependent_speeds),)
         self._known = L.symbols()
         self._cache: dict = {}
+        self._solved: list[np.ndarray] = []   # the matrices the last evaluation solved
 
     def _lambdify(self, key, make_expr, extra_args=()):
         hit = self._cache.get(key)
@@ -120,10 +124,51 @@ class LambdifiedModel(ModelBase):
     def _evaluate(self, output, t, x, p, r):
         self._require(output)
         at = _At(self._t(t), self._x(x), self._p(p), self._r(r))
+        self._solved = []
         out = REFERENCES[output](self, output, at)
         if not np.all(np.isfinite(out)):
             self._fail(2, output.value, at.t, at.x)
         return out
+
+    @property
+    def resolution(self) -> float:
+        """The relative error the last evaluation may carry from its linear solves: ``n kappa u``
+        for the worst of them (``kappa`` its 2-norm condition number, ``n`` its size, ``u``
+        the unit roundoff; the bound of a backward-stable dense solve, Higham's
+        ``gamma_n kappa``), 0.0 when it solved nothing.  Computed when asked, so a caller
+        that never asks pays nothing; :func:`mbgen.verify.check.compare` asks only where a
+        sample disagrees."""
+        return max((len(K) * float(np.linalg.cond(K)) * np.finfo(float).eps
+                    for K in self._solved), default=0.0)
+
+    @property
+    def condition(self) -> float:
+        """The largest 2-norm condition number of the last evaluation's linear solves (0.0 when
+        it solved nothing)."""
+        return max((float(np.linalg.cond(K)) for K in self._solved), default=0.0)
+
+    def _solve(self, K, b) -> np.ndarray:
+        """``K^-1 b`` (numpy's LU), ``K`` kept for :attr:`resolution`."""
+        self._solved.append(K)
+        return np.linalg.solve(K, b)
+
+    def _solve_mass(self, M, F) -> np.ndarray:
+        """``M^-1 F`` solved as ``(D M D) y = D F``, ``a = D y`` with ``D = diag(M)^-1/2``
+        (:func:`_mass_scaling`): each speed in its own mass's units, so the solve does not
+        depend on them."""
+        d = _mass_scaling(M)
+        wide = (slice(None),) + (None,) * (np.ndim(F) - 1)
+        return d[wide] * self._solve(d[:, None] * M * d, d[wide] * F)
+
+    def _solve_saddle(self, M, A, f, g):
+        """``(a, lambda)`` of ``M a - A^T lambda = f``, ``A a = g``, nondimensionalised by
+        :func:`_saddle_scaling`; ``f`` ``(n,)`` or ``(n, k)``, ``g`` ``(m,)`` or ``(m, k)``."""
+        d, e = _saddle_scaling(M, A)
+        As = e[:, None] * A * d
+        K = np.block([[d[:, None] * M * d, -As.T], [As, np.zeros((len(e), len(e)))]])
+        wide = (slice(None),) + (None,) * (np.ndim(f) - 1)
+        y = self._solve(K, np.concatenate([d[wide] * f, e[wide] * g]))
+        return d[wide] * y[:len(d)], e[wide] * y[len(d):]
 
     # ------------------------------------------------------------ shared steps
     def _mf(self, at: _At):
@@ -143,27 +188,27 @@ class LambdifiedModel(ModelBase):
         Ar, As = A[:, L.n_u:], A[:, :L.n_u]
         if np.linalg.matrix_rank(Ar) < c.m:
             self._fail(7, output.value, at.t, at.x)
-        return A, np.linalg.solve(Ar, -(As @ at.x[L.n_q:] + b))
+        return A, self._solve(Ar, -(As @ at.x[L.n_q:] + b))
 
     def _solve_constrained(self, output, at: _At) -> _Solved:
         """Accelerations and multipliers from the whole saddle-point system
-        ``[M -A^T; A 0] [a; lambda] = [F; -beta]`` with numpy's dense solve (the generated
-        code reduces it instead)."""
+        ``[M -A^T; A 0] [a; lambda] = [F; -beta]`` with numpy's dense solve, nondimensionalised
+        first (:func:`_saddle_scaling`; the generated code reduces the system instead)."""
         eq, L = self.equations, self.layout
         c = eq.constraints
-        n, m = L.n_u + L.n_d, c.m
+        n = L.n_u + L.n_d
         A, ur = self._dependent_speeds(output, at)
         M = self._value(at, "M", lambda: eq.mass_matrix).reshape(n, n)
         F = self._value(at, "F", lambda: eq.forcing, ur).reshape(-1)
         beta = self._value(at, "beta", lambda: c.acceleration_bias, ur).reshape(-1)
         G = self._value(at, "G", lambda: eq.kinematics, ur).reshape(-1)
-        K = np.block([[M, -A.T], [A, np.zeros((m, m))]])
+        d, e = _saddle_scaling(M, A)
         try:
-            np.linalg.cholesky(_null_space_matrix(M, A))
+            np.linalg.cholesky(_null_space_matrix(d[:, None] * M * d, e[:, None] * A * d))
         except np.linalg.LinAlgError:
             self._fail(1, output.value, at.t, at.x)
-        sol = np.linalg.solve(K, np.concatenate([F, -beta]))
-        return _Solved(A, ur, K, G, sol[:n], sol[n:])
+        acc, lam = self._solve_saddle(M, A, F, -beta)
+        return _Solved(A, ur, M, G, acc, lam)
 
     # ------------------------------------------------------------ the outputs
     def _rhs(self, output, at: _At):
@@ -176,7 +221,7 @@ class LambdifiedModel(ModelBase):
             np.linalg.cholesky(M)
         except np.linalg.LinAlgError:
             self._fail(1, output.value, at.t, at.x)
-        return np.concatenate([G, np.linalg.solve(M, F)])
+        return np.concatenate([G, self._solve_mass(M, F)])
 
     def _mass_matrix(self, output, at: _At):
         n = self.layout.n_u + self.layout.n_d
@@ -213,7 +258,7 @@ class LambdifiedModel(ModelBase):
         M, F = self._mf(at)
         acc = list(acceleration_symbols(self._n_u))
         return self._value(at, "reactions", lambda: eq.reactions.matrix, None, (acc,),
-                           (np.linalg.solve(M, F),)).reshape(-1, 6)
+                           (self._solve_mass(M, F),)).reshape(-1, 6)
 
     def _constraint_forces(self, output, at: _At):
         return self._solve_constrained(output, at).lam
@@ -241,10 +286,10 @@ class LambdifiedModel(ModelBase):
                 sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)), variables)),
                                 (acc,))
             M, F = self._mf(at)
-            a = np.linalg.solve(M, F)
+            a = self._solve_mass(M, F)
             G_v = np.array(dG(*at, a), dtype=float).reshape(-1, len(variables))
             R_v = np.array(dR(*at, a), dtype=float).reshape(self._n_u, len(variables))
-            out = np.vstack([G_v, np.linalg.solve(M, R_v)])
+            out = np.vstack([G_v, self._solve_mass(M, R_v)])
         return out.reshape(-1) if sensitivity.vector else out
 
     def _implicit_sensitivity(self, output, at: _At, variables):
@@ -265,9 +310,9 @@ class LambdifiedModel(ModelBase):
             list(Cx) + list(eq.kinematics) + list(Ex) + list(Bx), everything)),
                         s.ur, (accs, lams), (s.acc, s.lam)).reshape(-1, nv + m)
         dC, dG, dE, dB = D[:m], D[m:m + nq], D[m + nq:m + nq + n], D[m + nq + n:]
-        dur = -np.linalg.solve(s.A[:, ns:], dC[:, :nv])
-        rhs = -np.vstack([dE[:, :nv] + dE[:, nv:] @ dur, dB[:, :nv] + dB[:, nv:] @ dur])
-        da = np.linalg.solve(s.K, rhs)[:n]
+        dur = -self._solve(s.A[:, ns:], dC[:, :nv])
+        da, _ = self._solve_saddle(s.M, s.A, -(dE[:, :nv] + dE[:, nv:] @ dur),
+                                   -(dB[:, :nv] + dB[:, nv:] @ dur))
         return np.vstack([dG[:, :nv] + dG[:, nv:] @ dur, da[:ns]])
 
 
@@ -289,6 +334,29 @@ REFERENCES: dict[Output, Callable] = {
     Output.HOLONOMIC: LambdifiedModel._holonomic,
     Output.HOLONOMIC_JACOBIAN: LambdifiedModel._holonomic_jacobian,
 }
+
+
+def _mass_scaling(M) -> np.ndarray:
+    """``d = 1 / sqrt(|diag M|)``: ``D M D`` has a unit diagonal, each speed measured in its own
+    mass's units (a speed without mass takes the largest mass's scale)."""
+    diag = np.abs(np.diag(M))
+    top = diag.max(initial=0.0)
+    return 1.0 / np.sqrt(np.where(diag > 0, diag, top if top > 0 else 1.0))
+
+
+def _saddle_scaling(M, A):
+    """Diagonal scalings ``(d, e)`` that nondimensionalise ``[M -A^T; A 0]``.
+
+    ``d`` is :func:`_mass_scaling`'s and ``e`` gives every row of ``A D`` a largest entry
+    of 1: the scaled system ``[D M D, -(E A D)^T; E A D, 0]`` has blocks of order one
+    whatever the units.  Solved unscaled, partial pivoting at ``m = 1e-20`` picked the O(1)
+    constraint rows and rounded the 1e-20 mass block away (relative error 1.45 against a
+    scale-invariant generated code).  The scalings change no answer (``a = D y``,
+    ``lambda = E z``), so the reference stays the dense solve of the whole system.
+    """
+    d = _mass_scaling(M)
+    rows = np.abs(A * d).max(axis=1, initial=0.0)
+    return d, 1.0 / np.where(rows > 0, rows, 1.0)
 
 
 def _null_space_matrix(M, A):

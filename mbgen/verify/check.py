@@ -12,15 +12,31 @@ The report gives, per output and back end, the largest absolute error, the
 largest relative error ``|a - b|_inf / |b|_inf`` against the reference, and how
 many samples were compared.  A sample where the reference raises (a singular
 mass matrix, a non-finite result) agrees only if the back end raises the same
-error, and is then not compared.  The verdict:
+error, and is then not compared.
+
+The reference is trusted only as far as its arithmetic reaches.  Its linear solves
+are nondimensionalised (each speed in its own mass's units, each constraint row of
+unit size: :mod:`mbgen.run.lambdified`), so the scale of a model costs it nothing (the
+rolling disc at ``m = 1e-20`` agrees to 1e-15).  What is left is the conditioning of
+the state itself: a solve with condition number ``kappa`` of size ``n`` vouches for a
+relative error of ``n kappa u`` only (``u`` the unit roundoff; the reference's
+``resolution``).  A sample whose difference is above tolerance but within twice that
+(the back end rounds too) is *unresolved*: neither a pass nor a failure (``--rtol 0``
+asks for bit-for-bit agreement, where no sample is unresolved).  Every other sample
+decides as before, so a real fault (a flipped sign, a dropped term: relative errors of
+order one) still fails wherever it shows.  The verdict:
 
 ``PASSED``        every output of every back end compared on at least one sample,
-                  within tolerance, and no sample where the back ends disagree on failing;
-``FAILED``        an error above tolerance, or a sample where one side fails and the
-                  other does not (or fails differently): :class:`~mbgen.errors.CheckFailed`;
-``INCONCLUSIVE``  some output of some back end was compared on no sample at all (every
-                  sample failed everywhere: a zero mass, a NaN parameter, a coordinate
-                  that appears nowhere): :class:`~mbgen.errors.CheckInconclusive`.
+                  within tolerance, and no sample where the back ends disagree on failing
+                  or the reference could not resolve the difference;
+``FAILED``        an error above tolerance on a sample the reference resolves, or a sample
+                  where one side fails and the other does not (or fails differently):
+                  :class:`~mbgen.errors.CheckFailed`;
+``INCONCLUSIVE``  nothing failed, but some output of some back end was compared on no
+                  sample at all (every sample failed everywhere: a zero mass, a NaN
+                  parameter, a coordinate that appears nowhere), or differed only where
+                  the reference's own rounding could explain it (an ill-conditioned state:
+                  a four-bar crank of 1e-6): :class:`~mbgen.errors.CheckInconclusive`.
 """
 
 from __future__ import annotations
@@ -51,7 +67,10 @@ class ErrorRow:
     ``samples`` states were drawn; the back end returned a value at ``evaluated`` of them;
     ``compared`` gave a value in both the back end and the reference; ``both_failed``
     raised the same named error in both; ``mismatched_failures`` failed on one side only,
-    or with different errors.
+    or with different errors; ``unresolved`` were above tolerance but within twice the
+    reference's ``resolution`` (up to ``unresolved_rel``, with condition numbers up to
+    ``condition``); ``exceeded``: the errors of the other compared samples are above
+    tolerance (a failure).  ``max_abs`` and ``max_rel`` are over every compared sample.
     """
 
     output: str
@@ -64,10 +83,17 @@ class ErrorRow:
     compared: int = 0
     both_failed: int = 0
     evaluated: int = 0
+    unresolved: int = 0
+    unresolved_rel: float = 0.0
+    condition: float = 0.0
+    exceeded: bool = False
 
     @property
     def within_tolerance(self) -> bool:
-        return self.ok or (self.compared == 0 and self.mismatched_failures == 0)
+        """Nothing failed: passed, or compared nothing, or differed only where the reference
+        could not resolve the difference."""
+        return self.ok or (self.mismatched_failures == 0 and not self.exceeded
+                           and (self.compared == 0 or self.unresolved > 0))
 
 
 @dataclass(frozen=True)
@@ -121,10 +147,13 @@ class CheckReport:
                 verdict = "ok"
             elif r.mismatched_failures:
                 verdict = f"FAIL ({r.mismatched_failures} samples disagree on failure)"
-            elif r.compared == 0:
-                verdict = "NOTHING COMPARED"
-            else:
+            elif r.exceeded:
                 verdict = "FAIL"
+            elif r.unresolved:
+                verdict = (f"UNRESOLVED ({r.unresolved} samples differ by up to rel "
+                           f"{r.unresolved_rel:.1e}, within the reference's rounding)")
+            else:
+                verdict = "NOTHING COMPARED"
             lines.append(f"{r.output:<19}{r.backend:<9}{r.max_abs:13.3e}{r.max_rel:13.3e}"
                          f"{f'{r.evaluated}/{r.samples}':>11}{f'{r.compared}/{r.samples}':>10}"
                          f"{r.both_failed:>11}  {verdict}")
@@ -132,10 +161,30 @@ class CheckReport:
         lines.append(f"samples compared per back end (fewest over its outputs): {counts}")
         lines.append(f"tolerance: rel <= {self.rtol:g} or abs <= {self.atol:g}; {self.verdict}")
         if self.inconclusive:
-            lines.append("nothing was compared for the rows marked NOTHING COMPARED: every "
-                         "sample failed in every back end (check masses and inertias > 0, "
-                         "parameters finite, every coordinate in the motion)")
+            lines.append(self.reason)
         return "\n".join(lines)
+
+    @property
+    def reason(self) -> str:
+        """Why the check is inconclusive (empty when it is not)."""
+        if not self.inconclusive:
+            return ""
+        why = []
+        if any(r.compared == 0 for r in self.rows):
+            why.append("nothing was compared for the rows marked NOTHING COMPARED: every "
+                       "sample failed in every back end (check masses and inertias > 0, "
+                       "parameters finite, every coordinate in the motion)")
+        unresolved = [r for r in self.rows if r.unresolved]
+        if unresolved:
+            worst = max(unresolved, key=lambda r: r.unresolved_rel)
+            why.append(f"the rows marked UNRESOLVED differ only where the reference's own "
+                       f"rounding could explain it: its linear solves have condition numbers "
+                       f"up to {max(r.condition for r in unresolved):.1e} there, so relative "
+                       f"differences up to {worst.unresolved_rel:.1e} ({worst.output}, "
+                       f"{worst.backend}) prove nothing either way (an ill-conditioned state: "
+                       f"a near-singular mass matrix or constraint Jacobian): --rtol above "
+                       f"{worst.unresolved_rel:.1e} accepts them")
+        return "; ".join(why)
 
     def raise_if_failed(self) -> "CheckReport":
         if self.inconclusive:
@@ -162,13 +211,20 @@ def _evaluate(model: ModelBase, output, t, x, p, r):
 def compare(models: dict[str, ModelBase], reference: ModelBase, outputs, *, p=None,
             samples: int = 20, seed: int = 0, rtol: float = 1e-9,
             atol: float = 1e-12) -> tuple[ErrorRow, ...]:
-    """Error rows of every model in ``models`` against ``reference`` on random states."""
+    """Error rows of every model in ``models`` against ``reference`` on random states.
+
+    A reference with a ``resolution`` (the relative error its last evaluation may carry,
+    :attr:`mbgen.run.lambdified.LambdifiedModel.resolution`) marks a sample above tolerance
+    but within twice that as unresolved; one without is trusted to the last bit, and so is
+    every reference when ``rtol`` is 0 (bit-for-bit agreement asked for: no rounding
+    excuses a difference).
+    """
     states = random_states(reference, samples, seed)
     rows = []
     for output in outputs:
         for backend, model in models.items():
-            max_abs = max_rel = 0.0
-            mismatched = compared = both_failed = evaluated = 0
+            max_abs = max_rel = resolved_abs = resolved_rel = unresolved_rel = condition = 0.0
+            mismatched = compared = both_failed = evaluated = unresolved = 0
             for k, (x, r) in enumerate(states):
                 t = 0.1 * k
                 ref, ref_err = _evaluate(reference, output, t, x, p, r)
@@ -186,11 +242,20 @@ def compare(models: dict[str, ModelBase], reference: ModelBase, outputs, *, p=No
                 compared += 1
                 diff = float(np.max(np.abs(got - ref), initial=0.0))
                 scale = float(np.max(np.abs(ref), initial=0.0))
-                max_abs = max(max_abs, diff)
-                max_rel = max(max_rel, diff / scale if scale > 0 else (0.0 if diff == 0 else np.inf))
-            ok = compared > 0 and mismatched == 0 and (max_rel <= rtol or max_abs <= atol)
+                rel = diff / scale if scale > 0 else (0.0 if diff == 0 else np.inf)
+                max_abs, max_rel = max(max_abs, diff), max(max_rel, rel)
+                if (rtol > 0 and rel > rtol and diff > atol
+                        and rel <= 2 * getattr(reference, "resolution", 0.0)):
+                    unresolved += 1
+                    unresolved_rel = max(unresolved_rel, rel)
+                    condition = max(condition, getattr(reference, "condition", 0.0))
+                else:
+                    resolved_abs, resolved_rel = max(resolved_abs, diff), max(resolved_rel, rel)
+            exceeded = resolved_rel > rtol and resolved_abs > atol
+            ok = compared > 0 and mismatched == 0 and unresolved == 0 and not exceeded
             rows.append(ErrorRow(output.value, backend, max_abs, max_rel, samples, mismatched, ok,
-                                 compared, both_failed, evaluated))
+                                 compared, both_failed, evaluated, unresolved, unresolved_rel,
+                                 condition, exceeded))
     return tuple(rows)
 
 
@@ -232,6 +297,16 @@ class UnslicedReference(ModelBase):
         full_cols = [str(s) for s in _PARAMETER_COLUMNS(full.equations, FL)]
         self._dp_cols = [(full_cols.index(n) if n in full_cols else None)
                          for n in sensitivity_columns]
+
+    @property
+    def resolution(self) -> float:
+        """The relative error the last evaluation may carry from its linear solves."""
+        return self.full.resolution
+
+    @property
+    def condition(self) -> float:
+        """The largest condition number of the last evaluation's linear solves."""
+        return self.full.condition
 
     def _evaluate(self, output, t, x, p, r):
         self._require(output)

@@ -3,11 +3,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 import mbgen
-from mbgen.verify.check import check
+from mbgen.verify.check import CheckReport, check
 from mbgen.cli import EXIT_CHECK, EXIT_INCONCLUSIVE, EXIT_OK, EXIT_USAGE, main
 from mbgen.errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from mbgen.model.scene import load_scene
@@ -161,3 +163,98 @@ def test_every_output_of_a_sliced_scene_against_the_unsliced_equations(name):
     assert report.ok, report.format()
     assert {r.output for r in report.rows} >= {"positions", "velocities", "rhs", "energy"}
     assert "unsliced" in report.format()
+
+
+# ------------------------------------------------------------------ scale of the reference
+def tiny_disc(mass: float) -> mbgen.Scene:
+    """The rolling disc (a saddle-point solve in the reference) with mass ``mass``."""
+    scene = load_scene("rolling_disc")
+    return replace(scene, parameters={**scene.parameters, "m": mass})
+
+
+class SignFlipped:
+    """A back end whose rhs has the sign of its last acceleration flipped (a real fault)."""
+
+    def __init__(self, model):
+        self.model = model
+
+    def rhs(self, t, x, p=None, r=None):
+        out = np.array(self.model.rhs(t, x, p, r))
+        out[-1] = -out[-1]
+        return out
+
+
+@pytest.mark.parametrize("mass", [1e-20, 1e20])
+def test_the_reference_does_not_lose_precision_on_the_scale_of_the_model(mass):
+    """A correct model is not FAILED because of its mass's scale: at m = 1e-20 the C is
+    scale-invariant (rel 6e-15) and the reference's saddle-point solve was not (rel 1.45;
+    normwise pivoting mixed the 1e-20 mass block with the O(1) constraint block)."""
+    report = check(tiny_disc(mass), samples=6)
+    assert report.ok and report.verdict == "PASSED", report.format()
+    assert all(r.max_rel < 1e-12 for r in report.rows), report.format()
+
+
+@pytest.mark.parametrize("length", [1e8])
+def test_the_reference_does_not_lose_precision_on_the_scale_of_lengths(length):
+    """At r = 1e8 the reference's positive-definiteness test of the reduced mass matrix
+    (an SVD rank with an absolute floor) called a sample singular that the C solved."""
+    scene = load_scene("rolling_disc")
+    report = check(replace(scene, parameters={**scene.parameters, "r": length}), samples=10)
+    assert report.ok, report.format()
+
+
+@pytest.mark.parametrize("mass", [1e-20, 1.0])
+def test_a_real_fault_still_fails_at_every_scale(mass):
+    """The scaled reference keeps every real failure: a flipped sign is FAILED."""
+    from mbgen.abi import Output
+    from mbgen.verify.check import compare, reference_model
+
+    result = mbgen.run(tiny_disc(mass), ("rhs",))
+    rows = compare({"flipped": SignFlipped(result.compiled)},
+                   reference_model(result, (Output.RHS,)), (Output.RHS,),
+                   p=result.compiled.default_parameters, samples=4)
+    report = CheckReport("rolling_disc", rows, 4, 0, 1e-9, 1e-12)
+    assert report.verdict == "FAILED" and rows[0].max_rel > 1e-3, report.format()
+    with pytest.raises(CheckFailed):
+        report.raise_if_failed()
+
+
+def short_crank(crank: float) -> mbgen.Scene:
+    """The four-bar with a crank of length ``crank``: ill-conditioned states for ``crank``
+    << 1 (the saddle-point matrix's condition number grows like ``1 / crank**2``)."""
+    scene = load_scene("four_bar")
+    return replace(scene, parameters={**scene.parameters, "la": crank})
+
+
+def test_an_ill_conditioned_state_is_inconclusive_not_failed():
+    """Four-bar, crank 1e-6: C and reference both lose digits to the state's conditioning
+    (condition number 1e13; against a 60-digit solve of the same M, F, A both are off by
+    up to 6e-4), so a relative difference of 1e-3 proves nothing either way.  It was
+    FAILED; it is INCONCLUSIVE, with the reason."""
+    report = check(short_crank(1e-6), samples=5)
+    assert report.verdict == "INCONCLUSIVE", report.format()
+    rhs = [r for r in report.rows if r.output == "rhs"]
+    assert all(r.unresolved > 0 and r.condition > 1e10 and not r.exceeded for r in rhs)
+    assert "UNRESOLVED" in report.format() and "condition numbers up to" in report.reason
+    with pytest.raises(CheckInconclusive):
+        report.raise_if_failed()
+
+
+def test_a_real_fault_on_an_ill_conditioned_state_still_fails():
+    from mbgen.abi import Output
+    from mbgen.verify.check import compare, reference_model
+
+    result = mbgen.run(short_crank(1e-6), ("rhs",))
+    rows = compare({"flipped": SignFlipped(result.compiled)},
+                   reference_model(result, (Output.RHS,)), (Output.RHS,),
+                   p=result.compiled.default_parameters, samples=4)
+    report = CheckReport("four_bar", rows, 4, 0, 1e-9, 1e-12)
+    assert report.verdict == "FAILED" and rows[0].exceeded, report.format()
+
+
+def test_cli_tiny_mass_passes_and_ill_conditioning_exits_6(capsys):
+    assert main(["check", "rolling_disc", "-p", "m=1e-20", "--samples", "4"]) == EXIT_OK
+    assert "PASSED" in capsys.readouterr().out
+    assert main(["check", "four_bar", "-p", "la=1e-6", "--samples", "4"]) == EXIT_INCONCLUSIVE
+    err = capsys.readouterr().err
+    assert err.startswith("mbgen: check inconclusive: four_bar: ") and "--rtol above" in err
