@@ -3,9 +3,9 @@
 A subcommand module (:mod:`mbgen.cli`) builds its arguments from
 :func:`add_scene_arguments` (``SCENE``, ``-O``, ``--force``, ``--derivation``) and
 :func:`add_number_arguments` (``-p``, ``-x``, ``-r`` by name), then turns them into a
-scene with :func:`scene_from` and :func:`with_numbers`.  Output paths are refused before
-any work (:func:`check_folder`, :func:`check_file`); :func:`progress` prints a stage on
-stderr.  Exit codes are :mod:`mbgen.errors`'s ``EXIT_*``.
+scene with :func:`scene_from` and :func:`with_numbers`.  Output paths and counts are refused
+before any work (:func:`check_folder`, :func:`check_file`, :func:`check_count`: at most
+:data:`MAX_POINTS` output times); :func:`progress` prints a stage on stderr.  Exit codes are :mod:`mbgen.errors`'s ``EXIT_*``.
 """
 
 from __future__ import annotations
@@ -20,6 +20,7 @@ from ..derive import Method
 from ..errors import SceneError, UsageError
 from ..model.scene import load_scene, model_names
 from ..run.named import check_names, inputs
+from ..studies.ensemble import MAX_POINTS
 
 
 # ------------------------------------------------------------------ argument groups
@@ -196,6 +197,18 @@ def check_file(path, flag: str) -> Path:
         raise UsageError(f"{flag} {str(path)!r}: the folder {str(base)!r} is not writable; "
                          f"choose a folder you can write")
     return path
+
+
+def check_count(value: int, flag: str, low: int = 1, high: int | None = None,
+                what: str = "") -> int:
+    """Refuse (before any work) a count below ``low`` or above ``high`` (``--points 10**12``
+    would allocate terabytes or run for ever)."""
+    if value < low:
+        raise UsageError(f"{flag} {value}: {what or 'it'} must be at least {low}")
+    if high is not None and value > high:
+        raise UsageError(f"{flag} {value:,}: {what or 'it'} must be at most {high:,}; ask "
+                         f"for fewer")
+    return value
 
 
 def progress(msg: str) -> None:

@@ -21,8 +21,11 @@ from ..errors import EXIT_OK
 from ..fileio import write_atomic
 from ..model.scene import load_scene
 from ..studies.workprecision import DEFAULT_RTOLS, work_precision
-from ._common import (add_number_arguments, check_folder, nonnegative_float, options, progress,
-                      with_numbers)
+from ._common import (add_number_arguments, check_count, check_folder, nonnegative_float,
+                      options, progress, with_numbers)
+
+#: Most timed repeats per point (``--repeats``): a median of more says nothing new.
+MAX_REPEATS = 1000
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -163,5 +166,7 @@ SCENE = Benchmark(bench_work_precision, takes_stages=True)
 
 
 def run(args) -> int:
+    if args.repeats is not None:  # 10**12 would run for ever
+        check_count(args.repeats, "--repeats", 1, MAX_REPEATS, "timed repeats per point")
     chosen = BENCHMARKS.get(args.what, SCENE)
     return (bench_stages if args.stages and chosen.takes_stages else chosen.run)(args)

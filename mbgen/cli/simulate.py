@@ -7,14 +7,15 @@ import argparse
 import sys
 
 from ..abi import Output
-from ..errors import EXIT_OK, UsageError
+from ..errors import EXIT_OK
 from ..fileio import plain_name
 from ..model.scene import check_span
 from ..pipeline import compile
 from ..run.simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate
 from ..viz.plots import plot_simulation
-from ._common import (add_number_arguments, add_scene_arguments, check_file, initial_state,
-                      input_values, nonnegative_float, positive_int, scene_from, with_numbers)
+from ._common import (MAX_POINTS, add_number_arguments, add_scene_arguments, check_count,
+                      check_file, initial_state, input_values, nonnegative_float, positive_int,
+                      scene_from, with_numbers)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -46,8 +47,7 @@ def run(args) -> int:
     scene = with_numbers(scene_from(args), args)
     check_span(scene.t_span[0], scene.t_span[1] if args.t_end is None else args.t_end, "--t-end")
     csv = check_file(args.csv or plain_name(f"{scene.name}.csv", "default CSV name"), "--csv")
-    if args.points < 2:
-        raise UsageError(f"--points {args.points}: give at least 2 output times")
+    check_count(args.points, "--points", 2, MAX_POINTS, "output times")
     outputs = tuple(scene.outputs)
     if method is not None and method.lower() in C_METHODS:
         outputs += (Output(method.lower()),)

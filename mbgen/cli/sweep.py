@@ -1,13 +1,18 @@
 """``mbgen sweep SCENE``: a parameter study or Monte Carlo ensemble on Dask (or serial),
-written as one table row per member; exit 5 when a member failed."""
+written as one table row per member; exit 5 when a member failed.
+
+Counts (``--points``, ``-n``, ``--chunk``, ``--workers``) and a scheduler's address
+(``--address``, also spelled ``--scheduler``) are checked before any work: a mistake is
+one ``mbgen: error:`` line and exit code 2.
+"""
 
 from __future__ import annotations
 
 import argparse
 
 from ..errors import EXIT_NUMERIC, EXIT_OK
-from ..studies.ensemble import ensemble, parse_grid, parse_samples
-from ._common import add_scene_arguments, check_file, nonnegative_float, scene_from
+from ..studies.ensemble import MAX_MEMBERS, MAX_POINTS, ensemble, parse_grid, parse_samples
+from ._common import add_scene_arguments, check_count, check_file, nonnegative_float, scene_from
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -26,7 +31,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="output times, t0..t_end (default 2: initial and final state)")
     p.add_argument("--rtol", type=nonnegative_float, default=1e-6)
     p.add_argument("--atol", type=nonnegative_float, default=1e-9)
-    p.add_argument("--address", help="a running Dask scheduler (default: a LocalCluster)")
+    p.add_argument("--address", "--scheduler", dest="address", metavar="ADDRESS",
+                   help="a running Dask scheduler, tcp://HOST:PORT (default: a LocalCluster)")
     p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes")
     p.add_argument("--chunk", type=int, default=None, help="members per task (default: auto)")
     p.add_argument("--serial", action="store_true", help="no Dask: run in this process")
@@ -35,6 +41,12 @@ def configure(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    check_count(args.points, "--points", 1, MAX_POINTS, "output times")
+    if args.n is not None:
+        check_count(args.n, "-n", 1, MAX_MEMBERS, "members per grid point")
+    if args.chunk is not None:
+        check_count(args.chunk, "--chunk", 1, what="members per task")
+    check_count(args.workers, "--workers", 1, what="worker processes")
     scene = scene_from(args)
     check_file(args.csv or f"{scene.name}_sweep.csv", "--csv")
     result = ensemble(scene, grid=parse_grid(args.grid), samples=parse_samples(args.samples),

@@ -5,6 +5,9 @@
     ``mbgen sweep``).
 :mod:`~mbgen.studies.workprecision`
     Error against run time of every integrator and back end (``mbgen workprecision``).
+:mod:`~mbgen.studies.cluster`
+    Chunks of a study on Dask: each chunk's result or its failure, bounded retries, a
+    scheduler's address tried first.
 
 A study runs the pipeline and the compiled model (it stands above :mod:`mbgen.verify`
 and :mod:`mbgen.viz`, whose figures it may draw); failed runs are rows of its result,

@@ -15,8 +15,14 @@ and returns arrays.  Nothing compiled is pickled.
 
 A failed member (mass matrix not positive definite, step too small, ...)
 keeps its row with its C status and message and ``NaN`` results; a failed
-task (a worker lost, a compiler error) marks its members with status ``-1``
-and the exception's text.  Neither stops the ensemble.
+task (a compiler error, a worker that died running it) marks its members with
+status ``-1`` and the reason.  Neither stops the ensemble, and no finished
+chunk is lost (:mod:`mbgen.studies.cluster`: what Dask advises, with bounded
+retries: each chunk runs at most twice).
+
+Counts are checked before any work (``chunk``, ``n``, ``n_workers`` >= 1; at most
+:data:`MAX_POINTS` output times, :data:`MAX_MEMBERS` members, and a table that fits
+in this machine's memory); an automatic chunk's trajectories stay under :data:`CHUNK_BYTES`.
 
 The result is one table, a NumPy structured array with one row per member
 (``member``, the varied names, ``status``, ``message``, ``t_reached``,
@@ -32,6 +38,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import numbers
 import os
 import time
 from dataclasses import dataclass, field
@@ -41,14 +48,41 @@ import numpy as np
 
 from ..abi import Output, Rendered
 from ..build.extension import compiled_path, load
-from ..errors import MbgenError, SceneError
+from ..errors import ArgumentError, ArgumentTypeError, MbgenError, SceneError
 from ..fileio import write_atomic
 from ..integrators import METHODS
 from ..pipeline import run
 from ..run import batch
+from .cluster import lost_worker, reach, run_chunks
 
 #: Members per task when ``chunk`` is not given: about 4 tasks per worker, at most this.
 MAX_CHUNK = 2000
+#: Bytes of one automatic chunk's trajectories (members x output times x states doubles).
+CHUNK_BYTES = 2**28
+#: Most output times of an ensemble (``n_out``, ``t_eval``; ``mbgen sweep --points``).
+MAX_POINTS = 1_000_000
+#: Most members of an ensemble (the grids' product times ``n``).
+MAX_MEMBERS = 10_000_000
+
+
+def whole_number(value, name: str, low: int = 1, high: int | None = None) -> int:
+    """``value`` as a whole number in ``[low, high]``, or an error naming ``name``.
+
+    Raises
+    ------
+    ArgumentTypeError
+        Not an integer (a float such as 2.5 or 2.0, a string, a bool).
+    ArgumentError
+        Out of range.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise ArgumentTypeError(f"{name} must be a whole number (int); got "
+                                f"{type(value).__name__} {value!r:.40}")
+    if value < low:
+        raise ArgumentError(f"{name}={value} must be at least {low}")
+    if high is not None and value > high:
+        raise ArgumentError(f"{name}={value:,} is more than {high:,}; ask for fewer")
+    return int(value)
 
 
 # ------------------------------------------------------------------ members
@@ -62,12 +96,16 @@ def parse_grid(items) -> dict[str, list[float]]:
         try:
             if ":" in spec:
                 lo, hi, n = spec.split(":")
-                out[name] = np.linspace(float(lo), float(hi), int(n)).tolist()
+                lo, hi, n = float(lo), float(hi), int(n)
             else:
                 out[name] = [float(v) for v in spec.split(",")]
         except ValueError:
             raise SceneError(f"grid {item!r}: values must be numbers (NAME=1,2,3 or "
                              f"NAME=0.5:2:4)") from None
+        if ":" in spec:
+            if not 1 <= n <= MAX_MEMBERS:
+                raise SceneError(f"grid {item!r}: give from 1 to {MAX_MEMBERS:,} points")
+            out[name] = np.linspace(lo, hi, n).tolist()
     return out
 
 
@@ -109,10 +147,12 @@ def members(scene, layout, grid=None, samples=None, n=None, seed=0):
                      f"states: {list(layout.state_names)}, free parameters: "
                      f"{list(layout.parameter_names)}")
             raise SceneError(f"cannot vary {name!r}: {where}")
-    if n is None:
-        n = 1 if grid else 100
+    n = (1 if grid else 100) if n is None else whole_number(n, "n", 1, MAX_MEMBERS)
+    k = math.prod(len(v) for v in grid.values()) * n
+    if k > MAX_MEMBERS:
+        raise ArgumentError(f"{k:,} members (the grids' product times n={n}) are more than "
+                            f"{MAX_MEMBERS:,}; ask for fewer")
     points = list(itertools.product(*grid.values())) or [()]
-    k = len(points) * n
     rng = np.random.default_rng(seed)
     values = np.empty((k, len(varied)))
     for j, name in enumerate(grid):
@@ -270,7 +310,8 @@ class EnsembleResult:
         return "\n".join(lines)
 
 
-def _table(varied, values, state_names, n_t, chunks, k, trajectories, extra) -> np.ndarray:
+def _row(varied, state_names, n_t, trajectories, extra) -> np.dtype:
+    """The table's row (see the module docstring)."""
     fields = [("member", "i8")] + [(v, "f8") for v in varied] + [
         ("status", "i4"), ("message", "U120"), ("t_reached", "f8"), ("n_steps", "i8")]
     for what in ("final", "min", "max"):
@@ -278,7 +319,24 @@ def _table(varied, values, state_names, n_t, chunks, k, trajectories, extra) -> 
     if trajectories:
         fields.append(("x", "f8", (n_t, len(state_names))))
     fields += [(name, "f8", (n_t,) + tuple(shape)) for name, _, _, shape in extra]
-    table = np.zeros(k, dtype=fields)
+    return np.dtype(fields)
+
+
+def _check_memory(row: np.dtype, k: int) -> None:
+    """Refuse a table larger than this machine's memory (where the machine says)."""
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):  # not a POSIX system: nothing to go by
+        return
+    if row.itemsize * k > memory:
+        raise ArgumentError(f"the table of {k:,} members would take "
+                            f"{row.itemsize * k / 2**30:,.1f} GiB, more than this machine's "
+                            f"{memory / 2**30:,.1f} GiB; ask for fewer members or output "
+                            f"times, or leave out trajectories and outputs")
+
+
+def _table(row, varied, values, state_names, chunks, k, trajectories, extra) -> np.ndarray:
+    table = np.zeros(k, dtype=row)
     table["member"] = np.arange(k)
     for j, v in enumerate(varied):
         table[v] = values[:, j]
@@ -300,7 +358,10 @@ def _table(varied, values, state_names, n_t, chunks, k, trajectories, extra) -> 
 def _failed_chunk(lo, hi, n_x, n_t, exc, trajectories, extra=()) -> dict:
     k = hi - lo
     nan = np.full((k, n_x), np.nan)
-    out = dict(status=np.full(k, -1), messages=[f"task failed: {type(exc).__name__}: {exc}"] * k,
+    why = (f"task failed: worker lost ({type(exc).__name__}): its worker died running this "
+           f"chunk, also alone; not run" if lost_worker(exc)
+           else f"task failed: {type(exc).__name__}: {exc}")
+    out = dict(status=np.full(k, -1), messages=[why] * k,
                t_reached=np.full(k, np.nan), n_steps=np.zeros(k, dtype=int), final=nan,
                min=nan, max=nan, worker=None, compiled=False)
     if trajectories:
@@ -344,17 +405,31 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
         Evaluated at every output time (e.g. ``("energy",)``: field ``energy`` of
         shape ``(n_t, 2)``); added to the scene's outputs.
     address : str, optional
-        A running Dask scheduler; default: a ``LocalCluster`` of ``n_workers``
+        A running Dask scheduler, reached within
+        :data:`~mbgen.studies.cluster.CONNECT_TIMEOUT` seconds or refused
+        (:class:`~mbgen.errors.UsageError`); default: a ``LocalCluster`` of ``n_workers``
         single-threaded worker processes, closed afterwards.
     client : dask.distributed.Client, optional
         Use this client (and leave it open).
     chunk : int, optional
-        Members per task (default: about 4 tasks per worker).
+        Members per task, at least 1 (default: about 4 tasks per worker, each chunk's
+        trajectories under :data:`CHUNK_BYTES`).
     serial : bool
         Run in this process, no Dask.
     progress : bool
         Show a progress bar (tqdm, on stderr).
     """
+    if chunk is not None:
+        whole_number(chunk, "chunk")
+    if not serial and client is None:
+        if address:
+            reach(address)  # a bad address fails now, not after the derivation
+        else:
+            whole_number(n_workers, "n_workers")
+    if t_eval is None:
+        whole_number(n_out, "n_out", 1, MAX_POINTS)
+    else:
+        whole_number(np.size(t_eval), "len(t_eval)", 0, MAX_POINTS)
     extra_outputs = Output.parse(outputs) if outputs else ()
     if any(o.is_integrator for o in extra_outputs):
         raise SceneError("outputs evaluated at the output times cannot be integrators; "
@@ -372,90 +447,54 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     if t_eval is None:
         t0 = float(scene.t_span[0])
         t1 = float(scene.t_span[1] if t_end is None else t_end)
-        t_eval = np.linspace(t0, t1, max(int(n_out), 2))
+        t_eval = np.linspace(t0, t1, max(n_out, 2))
     t = np.asarray(t_eval, dtype=float)
     varied, values, x0, p = members(scene, L, grid, samples, n, seed)
     k = len(x0)
     infos = {f.output: f for f in rendered.functions}
     extra = [(o.value, infos[o.value].c_name, tuple(infos[o.value].args),
               tuple(infos[o.value].out_shape)) for o in extra_outputs]
+    row = _row(varied, L.state_names, t.size, trajectories, extra)
+    _check_memory(row, k)
     spec = dict(method=method, t=t, rtol=float(rtol), atol=float(atol), outputs=extra,
                 h0=0.0 if h is None else float(h), max_steps=int(max_steps),
                 n_x=L.n_x, n_p=L.n_p, n_r=L.n_r, trajectories=bool(trajectories))
     sources = rendered.sources()
     workers = 1 if serial else n_workers
-    size = chunk or max(1, min(MAX_CHUNK, math.ceil(k / (4 * max(workers, 1)))))
+    size = chunk or max(1, min(MAX_CHUNK, math.ceil(k / (4 * max(workers, 1))),
+                               CHUNK_BYTES // (8 * t.size * max(L.n_x, 1))))
     bounds = [(lo, min(lo + size, k)) for lo in range(0, k, size)]
     from tqdm import tqdm
 
     bar = tqdm(total=k, disable=not progress, unit="member", desc=scene.name)
     start = time.perf_counter()
-    chunks = []
     if serial:
+        results = []
         for lo, hi in bounds:
             try:
-                out = run_chunk(sources, spec, x0[lo:hi], p[lo:hi])
+                results.append(run_chunk(sources, spec, x0[lo:hi], p[lo:hi]))
             except Exception as exc:  # recorded per member, never fatal
-                out = _failed_chunk(lo, hi, L.n_x, t.size, exc, trajectories, extra)
-            chunks.append(((lo, hi), out))
+                results.append(exc)
             bar.update(hi - lo)
-        mode, n_workers_used = "serial", 1
+        mode, n_workers_used, startup = "serial", 1, 0.0
     else:
-        chunks, n_workers_used, startup = _on_dask(sources, spec, x0, p, bounds, address,
-                                                   n_workers, client, bar, L.n_x, t.size,
-                                                   trajectories, extra)
+        results, n_workers_used, startup = run_chunks(
+            run_chunk, sources, [(spec, x0[lo:hi], p[lo:hi]) for lo, hi in bounds],
+            address=address, n_workers=n_workers, client=client,
+            done=lambda i: bar.update(bounds[i][1] - bounds[i][0]))
         mode = "dask"
-    wall = time.perf_counter() - start
-    if not serial:
-        wall -= startup
+    wall = time.perf_counter() - start - startup
     bar.close()
+    chunks = [((lo, hi), _failed_chunk(lo, hi, L.n_x, t.size, out, trajectories, extra)
+               if isinstance(out, Exception) else out)
+              for (lo, hi), out in zip(bounds, results)]
     compiles: dict = {}
     for _, out in chunks:
         if out["worker"] is not None:
             compiles[out["worker"]] = compiles.get(out["worker"], 0) + int(out["compiled"])
-    table = _table(varied, values, L.state_names, t.size, sorted(chunks, key=lambda c: c[0]),
-                   k, trajectories, extra)
+    table = _table(row, varied, values, L.state_names, chunks, k, trajectories, extra)
     return EnsembleResult(table, t, tuple(L.state_names), tuple(varied), method, mode, wall,
-                          n_workers_used, compiles, len(bounds), 0.0 if serial else startup)
-
-
-def _on_dask(sources, spec, x0, p, bounds, address, n_workers, client, bar, n_x, n_t,
-             trajectories, extra):
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError:
-        raise MbgenError("ensembles on Dask need dask.distributed: pip install "
-                         "'mbgen[dask]' (or pass serial=True)") from None
-    own_cluster = own_client = None
-    t_start = time.perf_counter()
-    if client is None:
-        if address:
-            client = own_client = Client(address)
-        else:
-            own_cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1,
-                                       processes=True, dashboard_address=None)
-            client = own_client = Client(own_cluster)
-    startup = time.perf_counter() - t_start
-    try:
-        n_used = len(client.scheduler_info().get("workers", {})) or n_workers
-        shared = client.scatter(sources, broadcast=True)
-        futures = {client.submit(run_chunk, shared, spec, x0[lo:hi], p[lo:hi], pure=False):
-                   (lo, hi) for lo, hi in bounds}
-        chunks = []
-        for future in as_completed(futures):
-            lo, hi = futures[future]
-            try:
-                out = future.result()
-            except Exception as exc:  # a lost worker, a compiler error: recorded, not fatal
-                out = _failed_chunk(lo, hi, n_x, n_t, exc, trajectories, extra)
-            chunks.append(((lo, hi), out))
-            bar.update(hi - lo)
-        return chunks, n_used, startup
-    finally:
-        if own_client is not None:
-            own_client.close()
-        if own_cluster is not None:
-            own_cluster.close()
+                          n_workers_used, compiles, len(bounds), startup)
 
 
 __all__ = ["ensemble", "EnsembleResult", "members", "run_chunk", "parse_grid", "parse_samples"]

@@ -6,6 +6,7 @@ import time
 import pytest
 
 from mbgen.cli import EXIT_MODEL, EXIT_USAGE, main
+from mbgen.studies import cluster
 
 from models import scene_file
 
@@ -82,3 +83,34 @@ def test_every_command_validates_the_scene_at_load(command, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("mbgen: error:") and "'ll'" in err and "did you mean 'l'" in err
     assert time.perf_counter() - start < 10
+
+
+def test_a_bad_dask_scheduler_address_is_one_line(tmp_path, capsys, monkeypatch):
+    """Was a 30 s wait and a traceback (``--scheduler``: an unknown flag); now the address is
+    tried first, within the connect timeout (shortened here), and named with the fix."""
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT", 1.0)
+    csv = ["--quiet", "--csv", str(tmp_path / "s.csv")]
+    for flag in ("--scheduler", "--address"):
+        fails(["sweep", "disc_pendulum", flag, "tcp://nonexistent:1"] + csv, capsys,
+              "cannot reach a Dask scheduler at 'tcp://nonexistent:1'", "LocalCluster")
+    fails(["sweep", "disc_pendulum", "--address", "nonsense"] + csv, capsys,
+          "'nonsense'", "tcp://HOST:8786")
+    assert not (tmp_path / "s.csv").exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["simulate", "disc_pendulum", "--points", str(10**12)], "must be at most 1,000,000"),
+    (["simulate", "disc_pendulum", "--points", "1"], "must be at least 2"),
+    (["sweep", "disc_pendulum", "--points", str(10**12)], "must be at most 1,000,000"),
+    (["sweep", "disc_pendulum", "--chunk", "0"], "--chunk 0: members per task"),
+    (["sweep", "disc_pendulum", "--workers", "0"], "--workers 0: worker processes"),
+    (["sweep", "disc_pendulum", "-n", str(10**12)], "must be at most 10,000,000"),
+    (["bench", "disc_pendulum", "--repeats", str(10**12)], "must be at most 1,000"),
+])
+def test_huge_or_empty_counts_are_refused_before_any_work(argv, message, tmp_path, capsys):
+    """``--points 10**12`` allocated 7 TiB (a MemoryError traceback); ``--chunk 0`` ran
+    nothing and called every member a success."""
+    out = ["-o", str(tmp_path / "out")] if argv[0] == "bench" else ["--csv",
+                                                                    str(tmp_path / "out")]
+    fails(argv + out, capsys, message)
+    assert not (tmp_path / "out").exists()

@@ -1,13 +1,16 @@
 """Ensembles: members built reproducibly, a LocalCluster of two worker processes gives the
 serial results bit for bit, failures are recorded and never fatal, each worker compiles once."""
 
+import os
+
 import numpy as np
 import pytest
 
 import mbgen
 from mbgen.cli import main
+from mbgen.studies import ensemble as ensemble_module
 from mbgen.studies.ensemble import ensemble, members, run_chunk
-from mbgen.errors import MbgenError, SceneError
+from mbgen.errors import ArgumentError, MbgenError, SceneError
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
 
@@ -125,3 +128,53 @@ def test_sweep_command_writes_the_table(tmp_path):
     assert code == 0
     lines = csv.read_text().splitlines()
     assert len(lines) == 7 and lines[0].startswith("member,l,q2,status,message")
+
+
+# ------------------------------------------------------------------ misuse (issue 18, class 11)
+@pytest.mark.parametrize("chunk", [0, -3, 2.5, "4", True])
+def test_a_chunk_that_is_not_a_positive_whole_number_is_refused(chunk):
+    """Today chunk=0 ran nothing and reported every member a success with 0 steps."""
+    with pytest.raises(ArgumentError, match="chunk"):
+        ensemble(load_scene("disc_pendulum"), grid={"l": [2.0, 3.0]}, chunk=chunk,
+                 serial=True, progress=False)
+
+
+#: The value of ``l`` whose chunk kills its worker in the test below.
+DEADLY_L = 4.25
+
+
+def test_a_chunk_that_kills_its_worker_costs_that_chunk_only(monkeypatch):
+    """One chunk's task ends its worker process (``os._exit``, as a segfault would): the
+    other chunks' results are kept, bit for bit the serial ones, and the dead chunk's
+    members are marked failed with the reason.  Our own LocalCluster; 4 chunks of 3."""
+    run_chunk_on_worker = ensemble_module.run_chunk
+
+    def deadly_chunk(sources, spec, x0, p):  # pickled by value: it runs on the worker
+        if np.any(p == DEADLY_L):
+            os._exit(70)
+        return run_chunk_on_worker(sources, spec, x0, p)
+
+    scene = load_scene("disc_pendulum")
+    kw = dict(grid={"l": [2.0, 3.0, DEADLY_L, 5.0]}, n=3, t_end=1.0, progress=False)
+    serial = ensemble(scene, serial=True, **kw)
+    monkeypatch.setattr(ensemble_module, "run_chunk", deadly_chunk)
+    res = ensemble(scene, chunk=3, n_workers=2, **kw)
+    dead = res.table["l"] == DEADLY_L
+    assert res.tasks == 4 and dead.sum() == 3 and res.n_failed == 3, res.summary()
+    assert np.all(res.table["status"][dead] == -1)
+    assert all("worker" in m and "KilledWorker" in m for m in res.table["message"][dead])
+    assert np.all(np.isnan(res.table["final_q1"][dead]))
+    for name in ("status", "n_steps", "final_q1", "final_u2"):
+        assert np.array_equal(res.table[name][~dead], serial.table[name][~dead]), name
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(n_out=10**12), "n_out=1,000,000,000,000 is more than 1,000,000"),
+    (dict(grid={"l": [2.0, 3.0]}, n=10**7), "20,000,000 members"),
+    (dict(n=10**6, n_out=10**6, trajectories=True), "more than this machine's"),
+    (dict(n=3, n_workers=0, serial=False), "n_workers=0 must be at least 1"),
+])
+def test_huge_counts_are_refused_before_any_work(kw, message):
+    """Each of these allocated terabytes (a MemoryError) or waited for ever."""
+    with pytest.raises(ArgumentError, match=message):
+        ensemble(load_scene("disc_pendulum"), **{"serial": True, "progress": False, **kw})

@@ -187,6 +187,8 @@ def test_bad_arguments():
         work_precision("bead_wire", backends=("fortran",))
     with pytest.raises(ValueError, match="rtols"):
         work_precision("bead_wire", rtols=(1e-3, 2.0))
+    with pytest.raises(ValueError, match="t_eval_points=1,000,000,000,000 is more than"):
+        work_precision("bead_wire", t_eval_points=10**12)  # was a 7 TiB allocation
 
 
 @pytest.mark.slow

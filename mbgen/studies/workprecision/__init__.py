@@ -58,6 +58,7 @@ from tqdm import tqdm
 
 from ...model.scene import Scene, load_scene
 from ...run.simulate import consistent_start
+from ..ensemble import MAX_POINTS
 from .points import (BACKENDS, C_METHODS, DEFAULT_RTOLS, IMPLICIT_METHODS, SOLVE_IVP_METHODS,
                      Config, Point, configurations, plan, rk4_steps)
 from .reference import (ATOL_RATIO, REFERENCE_BUDGET_FACTOR, REFERENCE_BUDGET_MIN_S, STIFF_STEPS,
@@ -169,6 +170,9 @@ def _validate(methods, backends, rtols, repeats, t_eval_points, time_budget, ato
         raise ValueError(f"rtols must be numbers in (0, 1); got {list(rtols)}")
     if repeats < 1 or t_eval_points < 2 or not time_budget > 0:
         raise ValueError("need repeats >= 1, t_eval_points >= 2 and time_budget > 0")
+    if t_eval_points > MAX_POINTS:
+        raise ValueError(f"t_eval_points={t_eval_points:,} is more than {MAX_POINTS:,}; ask for "
+                         f"fewer")
     if atol_scale is not None and not atol_scale > 0:
         raise ValueError(f"atol_scale must be positive; got {atol_scale!r}")
 
