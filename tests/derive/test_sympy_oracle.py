@@ -10,10 +10,18 @@ with mbgen's derivations but the model's frames and points.
 
 (The bicycle's rolling constraints enter through its kinematic equations -- minimal
 speeds -- so it is unconstrained in this sense; sympy takes over a minute on it, so it
-runs under ``-m slow``.)
+runs under ``-m slow``, and its closed-form straight run is its oracle by default.)
+
+Every built-in scene meets an oracle that the default command runs: the test collects
+the named tests as ``pytest`` does by default (``-m "not slow"``), so an oracle marked slow,
+directly or through a parameter, no longer counts.
 """
 
 from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,7 +36,7 @@ T = me.dynamicsymbols._t
 
 SCENES = ["bead_wire", "bent_pipe", "bicycle", "car_trailer", "disc_pendulum", "n_link_cart", "paraboloid",
           "spatial_arm", "spherical_rod", "spring_pendulum", "stiff_chain", "torque_free"]
-SLOW = {"bicycle"}  # 75 s in sympy
+SLOW = {"bicycle"}  # 75 s in sympy; SLOW_ORACLES names its oracle in the default command
 
 
 def kanes_method(model):
@@ -83,33 +91,68 @@ def kanes_method(model):
     return kane, kane.mass_matrix_full, kane.forcing_full
 
 
-#: Constrained built-in scenes and the independent oracle each is held to (tests of
-#: tests/scenes/test_constrained_scenes.py and tests/derive/test_constraints.py); this
-#: file's oracle takes unconstrained models only.
+#: Constrained built-in scenes and the independent oracles each is held to (``file::test``
+#: under tests/); this file's oracle takes unconstrained models only.  "(slow)" marks an
+#: oracle that runs under ``-m slow`` only; every other one must run in the default command.
 CONSTRAINED_ORACLES = {
-    "four_bar": "test_four_bar_position_analysis_is_what_consistent_finds, "
-                "test_four_bar_consistent_state_projection_and_energy (energy conserved)",
-    "slider_crank": "test_slider_crank_power_balance_with_the_driving_torque",
-    "rolling_disc": "test_rolling_disc_scene_reproduces_the_published_equations",
-    "paraboloid_normal": "test_paraboloid_normal_force_is_the_closed_form_along_a_run",
-    "bead_wire_force": "test_bead_wire_force_is_two_m_omega_rho_dot",
-    "whipple": "test_whipple_reproduces_the_benchmark_eigenvalues, "
-               "test_sympy_kanes_method_states_the_same_bicycle (slow)",
+    "four_bar": ("scenes/test_constrained_scenes.py::"
+                 "test_four_bar_position_analysis_is_what_consistent_finds",
+                 "derive/test_constraints.py::"
+                 "test_four_bar_consistent_state_projection_and_energy"),  # energy conserved
+    "slider_crank": ("scenes/test_constrained_scenes.py::"
+                     "test_slider_crank_power_balance_with_the_driving_torque",),
+    "rolling_disc": ("scenes/test_constrained_scenes.py::"
+                     "test_rolling_disc_scene_reproduces_the_published_equations",),
+    "paraboloid_normal": ("scenes/test_constrained_scenes.py::"
+                          "test_paraboloid_normal_force_is_the_closed_form_along_a_run",),
+    "bead_wire_force": ("scenes/test_constrained_scenes.py::"
+                        "test_bead_wire_force_is_two_m_omega_rho_dot",),
+    "whipple": ("scenes/test_constrained_scenes.py::"
+                "test_whipple_reproduces_the_benchmark_eigenvalues",
+                "scenes/test_constrained_scenes.py::"
+                "test_sympy_kanes_method_states_the_same_bicycle (slow)"),
+}
+#: Scenes of :data:`SCENES` whose comparison here is slow, and the oracle that runs in the
+#: default command instead.
+SLOW_ORACLES = {
+    "bicycle": ("scenes/test_vehicles.py::test_bicycle_straight_run_matches_closed_form",),
 }
 
 
-def test_every_builtin_scene_is_compared():
-    """Each built-in scene meets an oracle outside mbgen: here, or the one named above."""
+def default_command_collects(paths) -> set[str]:
+    """The test ids (``file::test[param]`` under tests/) that the default command runs from
+    ``paths``: ``pytest --collect-only`` with the project's own options (``-m "not slow"``)."""
+    tests = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q",
+                          "-p", "no:cacheprovider", *sorted({f"tests/{p}" for p in paths})],
+                         cwd=tests.parent, capture_output=True, text=True, check=True).stdout
+    return {line.removeprefix("tests/") for line in out.splitlines() if "::" in line}
+
+
+def test_every_builtin_scene_is_compared_in_the_default_command():
+    """Each built-in scene meets an oracle outside mbgen that the default command runs (not
+    marked slow, directly or through a parameter): here, or one named above."""
     assert not set(SCENES) & set(CONSTRAINED_ORACLES)
     assert set(SCENES) | set(CONSTRAINED_ORACLES) == set(builtin_names())
+    assert set(SLOW_ORACLES) == SLOW
     for name in CONSTRAINED_ORACLES:
         assert load_scene(name).model.constraints_, f"{name} is unconstrained: compare it here"
-    import pathlib
-    text = "".join((pathlib.Path(__file__).resolve().parents[1] / f).read_text()
-                   for f in ("scenes/test_constrained_scenes.py", "derive/test_constraints.py"))
-    for name, tests in CONSTRAINED_ORACLES.items():
-        for test in tests.split(", "):
-            assert f"def {test.split(' ')[0]}(" in text, f"{name}: no test {test!r}"
+    here = "derive/test_sympy_oracle.py::test_rhs_matches_sympy_kanes_method"
+    oracles = {name: SLOW_ORACLES.get(name, (f"{here}[{name}]",)) for name in SCENES}
+    oracles.update(CONSTRAINED_ORACLES)
+    tests = Path(__file__).resolve().parents[1]
+    for name, named in oracles.items():
+        for oracle in named:
+            path, test = oracle.removesuffix(" (slow)").split("::")
+            assert f"def {test.split('[')[0]}(" in (tests / path).read_text(), \
+                f"{name}: no test {oracle!r}"
+    by_default = {o for named in oracles.values() for o in named if not o.endswith(" (slow)")}
+    collected = default_command_collects(o.split("::")[0] for o in by_default)
+    for name, named in oracles.items():
+        default = [o for o in named if not o.endswith(" (slow)")]
+        assert default, f"{name}: every oracle is slow; name one the default command runs"
+        missing = [o for o in default if o not in collected]
+        assert not missing, f"{name}: not run by the default command (marked slow?): {missing}"
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in SLOW else n
