@@ -30,7 +30,8 @@ parent's code unless it sets its own.
     integrator failure, an inconsistent state, a bad runtime argument).
 6 (:data:`EXIT_INCONCLUSIVE`)
     check inconclusive: :class:`CheckInconclusive` (nothing was compared: every
-    sample failed in every back end).
+    sample failed in every back end; or the differences lie within the reference's
+    own rounding).
 
 :class:`StiffnessWarning` is a warning, not an error: it never ends a command.
 
@@ -151,7 +152,8 @@ class ArgumentTypeError(ArgumentError, TypeError):
 class CheckInconclusive(CheckFailed):
     """A verification compared nothing: every sample failed in every back end (a zero
     mass, a NaN parameter, a singular mass matrix everywhere), or no samples were asked
-    for.  Not a pass: ``mbgen check`` exits with its own code (6)."""
+    for; or it differed only where the reference's own rounding could explain it (an
+    ill-conditioned state).  Not a pass: ``mbgen check`` exits with its own code (6)."""
 
     exit_code = EXIT_INCONCLUSIVE
 

@@ -18,7 +18,8 @@ Exit codes
 4  the C compiler failed
 5  numerical failure (singular mass matrix, non-finite result, integrator failure)
 6  check inconclusive: some output was compared on no sample (every sample failed in
-   every back end: a zero mass, a NaN parameter, a singular mass matrix everywhere)
+   every back end: a zero mass, a NaN parameter, a singular mass matrix everywhere), or
+   differed only within the reference's own rounding (an ill-conditioned state)
 
 An :class:`~mbgen.errors.MbgenError` that ends a command exits with its class's
 ``exit_code`` (the table in :mod:`mbgen.errors`).
@@ -101,7 +102,8 @@ def parser(commands: Sequence[str] | None = None) -> argparse.ArgumentParser:
     top = argparse.ArgumentParser(
         prog="mbgen", description="Multibody models to fast, verified C and Python.",
         epilog="Exit codes: 0 ok, 1 check failed, 2 usage, 3 bad model/scene, 4 compiler "
-               "failed, 5 numerical failure, 6 check inconclusive (nothing compared).")
+               "failed, 5 numerical failure, 6 check inconclusive (nothing compared, or "
+               "nothing resolved).")
     top.add_argument("--version", action="version", version=f"mbgen {__version__}")
     sub = top.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, command in COMMANDS.items():
