@@ -61,9 +61,15 @@ class _IEEE:
 _RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
+#: C's DBL_EPSILON (<float.h>): a pivot d_j <= 16 * DBL_EPSILON * M_jj is singular.
+DBL_EPSILON = 2.0 ** -52
+
+
 def _ldl(M):
-    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
-    if not M[0] > 0.0:
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C,
+    a pivot d_j not above 16 * DBL_EPSILON * M_jj (rounding noise) is not positive definite."""
+    tol0 = 16 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
         raise NotPositiveDefinite('mass matrix is not positive definite')
 
 
@@ -138,7 +144,8 @@ def _ml(M, i, j):
 
 
 def _kkt_factor(CA, LU, piv, M):
-    """CR = -A_r^{-1} A_s and the reduced mass matrix T^T M T, factored; as in the C."""
+    """CR = -A_r^{-1} A_s and the reduced mass matrix T^T M T, factored, its pivots checked
+    against the magnitude of its diagonal's summands too; as in the C."""
     m, n, ns = 1, 2, 1
     CR = [0.0] * (m * ns)
     for b in range(ns):
@@ -156,6 +163,15 @@ def _kkt_factor(CA, LU, piv, M):
                     s += CR[i * ns + a] * _ml(M, ns + i, ns + k) * CR[k * ns + b]
             MT[a * ns + b] = s
     _ldl(MT)
+    for a in range(ns):
+        g = abs(_ml(M, a, a))
+        for i in range(m):
+            g += 2.0 * abs(_ml(M, a, ns + i) * CR[i * ns + a])
+            for k in range(m):
+                g += abs(CR[i * ns + a] * _ml(M, ns + i, ns + k) * CR[k * ns + a])
+        if not MT[a * ns + a] > 16 * DBL_EPSILON * g:
+            raise NotPositiveDefinite("the reduced mass matrix is singular: independent speed %d "
+                                      "moves no mass (pivot %r)" % (a, MT[a * ns + a]))
     return CR, MT
 
 

@@ -61,21 +61,29 @@ class _IEEE:
 _RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
+#: C's DBL_EPSILON (<float.h>): a pivot d_j <= 48 * DBL_EPSILON * M_jj is singular.
+DBL_EPSILON = 2.0 ** -52
+
+
 def _ldl(M):
-    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
-    if not M[0] > 0.0:
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C,
+    a pivot d_j not above 48 * DBL_EPSILON * M_jj (rounding noise) is not positive definite."""
+    tol0 = 48 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
         raise NotPositiveDefinite('mass matrix is not positive definite')
     M[3] = M[3]/M[0]
     M[6] = M[6]/M[0]
+    tol1 = 48 * DBL_EPSILON * M[4]
     w1_0 = M[3]*M[0]
     M[4] = M[4] - M[3]*w1_0
-    if not M[4] > 0.0:
+    if not M[4] > tol1:
         raise NotPositiveDefinite('mass matrix is not positive definite')
     M[7] = (M[7] - M[6]*w1_0)/M[4]
+    tol2 = 48 * DBL_EPSILON * M[8]
     w2_0 = M[6]*M[0]
     w2_1 = M[7]*M[4]
     M[8] = M[8] - M[6]*w2_0 - M[7]*w2_1
-    if not M[8] > 0.0:
+    if not M[8] > tol2:
         raise NotPositiveDefinite('mass matrix is not positive definite')
 
 
@@ -156,7 +164,8 @@ def _ml(M, i, j):
 
 
 def _kkt_factor(CA, LU, piv, M):
-    """CR = -A_r^{-1} A_s and the reduced mass matrix T^T M T, factored; as in the C."""
+    """CR = -A_r^{-1} A_s and the reduced mass matrix T^T M T, factored, its pivots checked
+    against the magnitude of its diagonal's summands too; as in the C."""
     m, n, ns = 2, 5, 3
     CR = [0.0] * (m * ns)
     for b in range(ns):
@@ -174,6 +183,15 @@ def _kkt_factor(CA, LU, piv, M):
                     s += CR[i * ns + a] * _ml(M, ns + i, ns + k) * CR[k * ns + b]
             MT[a * ns + b] = s
     _ldl(MT)
+    for a in range(ns):
+        g = abs(_ml(M, a, a))
+        for i in range(m):
+            g += 2.0 * abs(_ml(M, a, ns + i) * CR[i * ns + a])
+            for k in range(m):
+                g += abs(CR[i * ns + a] * _ml(M, ns + i, ns + k) * CR[k * ns + a])
+        if not MT[a * ns + a] > 48 * DBL_EPSILON * g:
+            raise NotPositiveDefinite("the reduced mass matrix is singular: independent speed %d "
+                                      "moves no mass (pivot %r)" % (a, MT[a * ns + a]))
     return CR, MT
 
 

@@ -4,26 +4,32 @@
  * Operations: 7196 after CSE (119556 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "whipple.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 3 x 3; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns WHIPPLE_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns WHIPPLE_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 48 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int whipple_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return WHIPPLE_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 48 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return WHIPPLE_NOT_POSITIVE_DEFINITE;
     M[3] = M[3]/M[0];
     M[6] = M[6]/M[0];
+    const double tol1 = 48 * DBL_EPSILON * M[4];
     const double w1_0 = M[3]*M[0];
     M[4] = M[4] - M[3]*w1_0;
-    if (!(M[4] > 0.0)) return WHIPPLE_NOT_POSITIVE_DEFINITE;
+    if (!(M[4] > tol1)) return WHIPPLE_NOT_POSITIVE_DEFINITE;
     M[7] = (M[7] - M[6]*w1_0)/M[4];
+    const double tol2 = 48 * DBL_EPSILON * M[8];
     const double w2_0 = M[6]*M[0];
     const double w2_1 = M[7]*M[4];
     M[8] = M[8] - M[6]*w2_0 - M[7]*w2_1;
-    if (!(M[8] > 0.0)) return WHIPPLE_NOT_POSITIVE_DEFINITE;
+    if (!(M[8] > tol2)) return WHIPPLE_NOT_POSITIVE_DEFINITE;
     return WHIPPLE_OK;
 }
 
@@ -59,8 +65,10 @@ void whipple_default_parameters(double *p)
 /* Constraints A u + b = 0 with u = [u_s; u_r]: 3 independent speeds u_s (states),
  * 5 dependent speeds u_r.  CA is A (row-major 5 x 8), CB is b.
  * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot below 1e-13 of the largest entry of A_r is WHIPPLE_CONSTRAINT_SINGULAR
- * (a locked or singular configuration for these dependent speeds). */
+ * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * WHIPPLE_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see whipple_kkt_factor. */
 static void whipple_con_lu_solve(const double *LU, const int *piv, double *b)
 {
     int i, k;
@@ -164,12 +172,16 @@ static void whipple_con_lu_solve_t(const double *LU, const int *piv, double *b)
 #define WHIPPLE_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 8 + (j)] : (M)[(j) * 8 + (i)])
 
 /* The reduced mass matrix MT = T^T M T with T = [I; CR], CR = -A_r^{-1} A_s (5 x 3),
- * factored by whipple_ldl (M is read from its lower triangle). */
+ * factored by whipple_ldl (M is read from its lower triangle).  MT_aa is a sum that
+ * cancels where the independent speed a moves no mass (a four-bar whose crank has zero
+ * length): rounding noise of its summands.  So each pivot d_a must also be above
+ * 48 * DBL_EPSILON * g_a, g_a = sum_ik |T_ia M_ik T_ka| the magnitude of MT_aa's summands
+ * (and whipple_ldl's own test, relative to MT_aa), else WHIPPLE_NOT_POSITIVE_DEFINITE. */
 static int whipple_kkt_factor(const double *CA, const double *LU, const int *piv,
                                    const double *M, double *CR, double *MT)
 {
     int a, b, i, k;
-    double v[5];
+    double v[5], g[3];
     for (b = 0; b < 3; ++b) {
         for (i = 0; i < 5; ++i) {
             v[i] = -CA[i * 8 + b];
@@ -192,8 +204,25 @@ static int whipple_kkt_factor(const double *CA, const double *LU, const int *piv
             }
             MT[a * 3 + b] = s;
         }
+        g[a] = fabs(WHIPPLE_ML(M, a, a));
+        for (i = 0; i < 5; ++i) {
+            g[a] += 2.0 * fabs(WHIPPLE_ML(M, a, 3 + i) * CR[i * 3 + a]);
+            for (k = 0; k < 5; ++k) {
+                g[a] += fabs(CR[i * 3 + a] * WHIPPLE_ML(M, 3 + i, 3 + k)
+                             * CR[k * 3 + a]);
+            }
+        }
     }
-    return whipple_ldl(MT);
+    i = whipple_ldl(MT);
+    if (i != WHIPPLE_OK) {
+        return i;
+    }
+    for (a = 0; a < 3; ++a) {
+        if (!(MT[a * 3 + a] > 48 * DBL_EPSILON * g[a])) {
+            return WHIPPLE_NOT_POSITIVE_DEFINITE;
+        }
+    }
+    return WHIPPLE_OK;
 }
 
 /* Solve [M  -A^T; A  0] [acc; lam] = [r2; r3] with the factors of whipple_kkt_factor:
