@@ -167,13 +167,18 @@ class CompiledModel(GeneratedModel):
     START_RESIDUAL_TOL = 1e-8
 
     def _check_consistent_start(self, t0, x0, p, r) -> None:
-        """Refuse an initial state off the configuration constraints (ConstraintError)."""
-        res = float(np.max(np.abs(self.holonomic(float(t0), x0, p, r))))
-        scale = 1.0 + float(np.max(np.abs(x0[:self.layout.n_q]))) if self.layout.n_q else 1.0
-        if not res <= self.START_RESIDUAL_TOL * scale:
+        """Refuse an initial state off the configuration constraints (ConstraintError); a
+        batch (any of ``x0``, ``p``, ``r`` 2-D) names its first such member."""
+        res = np.max(np.abs(np.atleast_2d(self.holonomic(float(t0), x0, p, r))), axis=1)
+        n_q = self.layout.n_q
+        scale = 1.0 + np.max(np.abs(np.atleast_2d(x0)[:, :n_q]), axis=1) if n_q else 1.0
+        bad = np.flatnonzero(~(res <= self.START_RESIDUAL_TOL * scale))
+        if bad.size:
+            i = int(bad[0])
+            member = f"batch member {i} of {res.size}: " if is_batch(x0, p, r) else ""
             raise ConstraintError(
-                f"{self.name}: the initial state violates the configuration constraints "
-                f"(residual {res:.3g}); complete its dependent coordinates "
+                f"{self.name}: {member}the initial state violates the configuration "
+                f"constraints (residual {res[i]:.3g}); complete its dependent coordinates "
                 f"({', '.join(self.dependent_coordinates)}) with model.consistent(x0) first "
                 f"(mbgen.run.simulate.simulate does this), or pass project=False to integrate "
                 f"from it as given")
@@ -212,9 +217,11 @@ class CompiledModel(GeneratedModel):
             Batches only: ``"raise"`` (the first failed member raises) or
             ``"record"`` (statuses and messages are returned per member).
         project : bool
-            Models with configuration constraints: project the dependent
-            coordinates back onto the constraints after every step (``False``
-            only records the drift, ``Integration.max_residual``).
+            Models with configuration constraints: refuse a start off the constraints
+            (:class:`~mbgen.errors.ConstraintError`; a batch names the member) and
+            project the dependent coordinates back onto the constraints after every
+            step (``False`` integrates from the start as given and only records the
+            drift, ``Integration.max_residual``; a batch's ``stats["max_residual"]``).
 
         Returns
         -------
@@ -261,13 +268,17 @@ class CompiledModel(GeneratedModel):
             raise ArgumentError(f"h_max must be >= 0 (0: unbounded); got {h_max!r}")
         max_steps = step_count(max_steps, limit=2**(8 * self.ffi.sizeof("long") - 1) - 1)
 
+        checks_start = bool(project and self.dependent_coordinates
+                            and Output.HOLONOMIC in self.outputs)
         if xa is None:
             if table is not None:
                 raise ValueError("an InputTable drives one trajectory; integrate the batch "
                                  "members one by one, or give constant inputs r")
             return batch_integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
-                                   h_max=h_max, max_steps=max_steps, on_failure=on_failure)
-        if project and self.dependent_coordinates and Output.HOLONOMIC in self.outputs:
+                                   h_max=h_max, max_steps=max_steps, on_failure=on_failure,
+                                   project=project, check_start=self._check_consistent_start
+                                   if checks_start else None)
+        if checks_start:
             self._check_consistent_start(t[0], xa, p, r)
         ffi, prefix = self.ffi, self.rendered.prefix
         buf = ffi.from_buffer
