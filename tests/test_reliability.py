@@ -12,7 +12,45 @@ from mbgen.abi import status_name
 from mbgen.codegen.targets import Targets
 from mbgen.export import export_fmu
 from mbgen.model.scene import load_scene
+from mbgen.errors import (ArgumentError, ArgumentTypeError, ConstraintError,
+                          SingularMassMatrixError)
 from mbgen.run.stepper import Stepper
+from mbgen.scenes import four_bar
+
+
+# --- 6. Singular is singular
+def test_a_zero_length_crank_is_singular_in_c_python_and_the_reference():
+    result = mbgen.run(four_bar.scene())
+    c = result.compiled
+    p = {**four_bar.scene().parameters, "la": 0.0}      # the crank moves no mass
+    x = c.consistent(four_bar.scene().x0(c.layout), p=p)
+    for model in (c, mbgen.python_model(result.rendered),
+                  mbgen.LambdifiedModel(result.baked, c.outputs, layout=c.layout)):
+        with pytest.raises(SingularMassMatrixError):    # not accelerations of 1e16
+            model.rhs(0.0, x, p)
+
+
+# --- 7. Constraints: consistent states, batch starts, tolerances
+def test_constraints_end_on_the_loop_check_each_batch_start_and_refuse_nan_tolerances():
+    scene = load_scene("four_bar", dead_point=True)
+    model = mbgen.compile(scene, ("rhs", "jacobian", "holonomic", "holonomic_jacobian",
+                                  "dopri5"))
+    near_dead = np.array([four_bar.dead_angle(**four_bar.DEAD_POINT_LENGTHS) - 1e-6, -4.0,
+                          -0.8, 0.0])
+    try:
+        y = model.consistent(near_dead)                 # once: q2 = -863, residual 3e-10
+        assert np.max(np.abs(model.holonomic(0.0, y))) <= 5e-12
+    except ConstraintError:
+        pass
+    x0 = scene.x0(model.layout)
+    off = x0 + np.array([0.0, 0.3, 0.0, 0.0])
+    with pytest.raises(ConstraintError, match="member 1 of 2"):
+        model.integrate("dopri5", [0.0, 0.1], np.array([x0, off]))
+    drift = model.integrate("dopri5", [0.0, 0.1], np.array([x0, off]), project=False)
+    assert drift.stats["max_residual"][1] > 0.1         # as given, not projected
+    for tol in (math.nan, math.inf, -1.0):
+        with pytest.raises(ArgumentError, match="tol"):
+            mbgen.linearize(model, x0, tol=tol)
 
 
 # --- 8. Time in the step API and the FMU
@@ -71,3 +109,23 @@ def test_step_and_fmu_refuse_time_that_does_not_advance_and_calls_out_of_order(t
     with pytest.raises(FMICallException):                       # nothing after terminate
         fmu.doStep(0.1, 0.1)
     fmu.freeInstance()
+
+
+# --- 9. The fast path never reads memory it does not own
+def test_the_fast_path_reads_a_reallocated_parameter_array():
+    model = mbgen.compile(load_scene("disc_pendulum"), ("rhs",))
+    x, p = np.full(model.n_x, 0.3), model.default_parameters.copy()
+    model.rhs(0.0, x, p)
+    p.resize(1 << 16, refcheck=False)                   # moved: the old block is freed
+    p[model.n_p:] = -7.0
+    p.resize(model.n_p, refcheck=False)
+    p[:] = model.default_parameters * 1.5
+    np.testing.assert_array_equal(model.rhs(0.0, x, p), model.rhs(0.0, x, p.copy()))
+
+
+# --- 10. Numbers by name are real numbers
+@pytest.mark.parametrize("value", [None, 1 + 2j, "9.81", [1.0, None]])
+def test_non_real_numbers_by_name_are_refused(value):
+    model = mbgen.compile(load_scene("disc_pendulum"), ("rhs",))
+    with pytest.raises(ArgumentTypeError, match="parameters 'g'"):   # not NaN, not 1.0
+        model.rhs(0.0, np.zeros(model.n_x), {"g": value})
