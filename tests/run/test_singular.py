@@ -10,6 +10,9 @@
   the reduced mass matrix ``T^T M T`` cancels to rounding noise; every back end raises
   :class:`~mbgen.errors.SingularMassMatrixError` instead of accelerations of 1e16, on the
   unrolled and on the dense-loop path;
+* the triple rocker at its dead point: the constraint block ``A_r`` is singular, and every
+  back end raises :class:`~mbgen.errors.SingularConstraintError` (the reference by the C's
+  LU rule, no longer by a rank of its own);
 * Rosenbrock's iteration matrix ``I / (h gamma) - J``, singular to rounding, is reported
   as ``SINGULAR_ITERATION_MATRIX`` (not a factorisation with a 1e-16 pivot);
 * a nearly singular but well-posed mass matrix (a crank of 1e-6) still gives its answer, and
@@ -30,7 +33,7 @@ import mbgen.codegen.header
 import mbgen.codegen.targets.model
 from mbgen.abi import INTEGRATOR_STATUS_CODES
 from mbgen.codegen.solver import PIVOT_ULPS
-from mbgen.errors import IntegrationError, SingularMassMatrixError
+from mbgen.errors import IntegrationError, SingularConstraintError, SingularMassMatrixError
 from mbgen.run import lambdified
 from mbgen.scenes import four_bar
 
@@ -104,6 +107,16 @@ def test_a_zero_length_crank_is_singular_on_the_dense_loop_path(monkeypatch):
             model.rhs(0.0, x, p)
     x, p = zero_crank(c, la=1.0)
     np.testing.assert_allclose(py.rhs(0.0, x, p), c.rhs(0.0, x, p), rtol=1e-12)
+
+
+def test_the_dead_point_is_a_singular_constraint_in_every_back_end():
+    models = back_ends(mbgen.run(four_bar.scene(dead_point=True)))
+    lock = four_bar.dead_point_state(four_bar.DEAD_POINT_LENGTHS, 0.0)
+    x = models[0].consistent(lock)
+    for model in models:
+        for output in ("rhs", "constraint_forces"):
+            with pytest.raises(SingularConstraintError):
+                getattr(model, output)(0.0, x)
 
 
 def test_a_short_crank_is_not_singular():
