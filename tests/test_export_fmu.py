@@ -2,6 +2,7 @@
 validation, and co-simulation and model-exchange trajectories against integrate."""
 
 import dataclasses
+import os
 import shutil
 import subprocess
 import zipfile
@@ -12,6 +13,7 @@ import pytest
 
 import mbgen
 from mbgen.model.scene import load_scene
+from mbgen.build.fmu import write_fmu
 from mbgen.export import export_fmu
 
 fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra: pip install -e '.[test]'")
@@ -122,3 +124,21 @@ def test_fmu_command(tmp_path, capsys):
     assert "paraboloid.fmu" in capsys.readouterr().out
     assert validate_fmu(str(tmp_path / "paraboloid.fmu")) == []
     assert main(["fmu", "no_such_scene", "-o", str(tmp_path)]) == 3
+
+
+def test_the_fmu_follows_the_umask_like_every_other_output(fmus, tmp_path):
+    """Issue 18: the .fmu was written through mkstemp and stayed 0600 whatever the umask."""
+    old = os.umask(0o022)
+    try:
+        path = export_fmu(fmus["disc_pendulum"][0], tmp_path)
+        assert os.stat(path).st_mode & 0o777 == 0o644
+        os.umask(0o027)
+        path = write_fmu(tmp_path / "other", "disc_pendulum", {"modelDescription.xml": "<x/>"},
+                         b"\x7fELF")
+        assert os.stat(path).st_mode & 0o777 == 0o640
+        os.chmod(path, 0o600)                                   # a replaced FMU keeps its mode
+        write_fmu(tmp_path / "other", "disc_pendulum", {"modelDescription.xml": "<y/>"}, b"")
+        assert os.stat(path).st_mode & 0o777 == 0o600
+    finally:
+        os.umask(old)
+    assert sorted(p.name for p in (tmp_path / "other").iterdir()) == ["disc_pendulum.fmu"]

@@ -9,6 +9,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+from mbgen.build.fmu import write_fmu
 from mbgen.cli import EXIT_MODEL, EXIT_OK, main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -64,3 +65,13 @@ def test_the_docs_say_scene_files_run_as_code():
     for text in (readme.split("## Scenes")[1].split("\n## ")[0],
                  (ROOT / "docs" / "modelling.md").read_text()):
         assert "runs when it is loaded" in text
+
+
+# --- The .fmu follows the umask like every other output
+def test_the_fmu_follows_the_umask(tmp_path):
+    old = os.umask(0o022)
+    try:
+        path = write_fmu(tmp_path, "m", {"modelDescription.xml": "<x/>"}, b"")
+    finally:
+        os.umask(old)
+    assert os.stat(path).st_mode & 0o777 == 0o644                       # not mkstemp's 0600
