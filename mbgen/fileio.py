@@ -2,8 +2,8 @@
 that a reader never sees half of a generation and nothing the user changed is lost.
 
 Single files (:func:`write_atomic`, :func:`atomic_path`): written to a temporary beside
-the file, then renamed over it; an interrupted write leaves the old file (or nothing).
-New files get ``0o666`` minus the umask (:func:`file_mode`), replaced ones keep their mode.
+the file, then renamed over it; an interrupted write leaves the old file (or nothing).  New
+files get 0666 minus the umask (:func:`file_mode`), replaced ones keep their mode.
 
 Generations (:func:`write_generated`, what ``mbgen generate`` and ``mbgen demo`` write)
 follow git's and pip's habits -- a lock, write aside, rename:
@@ -32,11 +32,11 @@ follow git's and pip's habits -- a lock, write aside, rename:
    one step; elsewhere two renames leave the name briefly absent -- it shows the old
    generation, nothing, or the new one, never a mixture.  The old one goes as in step 2.
 
-So a process killed anywhere (SIGKILL included) leaves the old generation or the new one
-whole.  (A reader that opens files by path across the swap may read one before it and one
-after.)  A shell whose working folder is the output folder is left in the replaced one
-(``cd .`` enters the new one); mbgen's own follows.  The parent folder must be writable.
-Nothing is flushed to disk (``fsync``), as git by default: a power cut is not covered.
+A process killed anywhere (SIGKILL included) leaves the old generation or the new one whole
+(a reader that opens files by path across the swap may read one before, one after).  A
+shell whose working folder is the output folder is left in the replaced one (``cd .``
+enters the new one).  The parent folder must be writable.  Nothing is flushed to disk
+(``fsync``), as git by default: a power cut is not covered.
 """
 
 from __future__ import annotations
@@ -85,13 +85,9 @@ def file_mode(path: Path) -> int:
     try:
         return os.stat(path).st_mode & 0o777
     except FileNotFoundError:
-        return 0o666 & ~_umask()
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+        mask = os.umask(0)
+        os.umask(mask)
+        return 0o666 & ~mask
 
 
 @contextmanager
@@ -181,9 +177,8 @@ class _Plan:
 
 def write_generated(folder, files: Mapping[str, str], *, overwrite: bool = False,
                     wait: float = LOCK_WAIT) -> Generation:
-    """Write the generated ``{name: text}`` into ``folder`` as one whole generation.
-
-    The design (lock, plan, write aside, swap) is in the module docstring.
+    """Write the generated ``{name: text}`` into ``folder`` as one whole generation (lock,
+    plan, write aside, swap: see the module docstring).
 
     Parameters
     ----------
@@ -238,7 +233,11 @@ def _target(folder: Path) -> Path:
     """The real path of the output folder (symbolic links resolved), checked."""
     if folder.exists() and not folder.is_dir():
         raise SceneError(f"output folder {str(folder)!r} is a file; give a folder with -o")
-    target = folder.resolve()
+    try:
+        target = folder.resolve()
+    except FileNotFoundError:       # the working folder is gone: a generation replaced it?
+        raise SceneError("the current folder no longer exists (did a generation into it replace "
+                         "it?); run 'cd .' to enter the folder now at its path") from None
     if not target.name:
         raise SceneError(f"cannot generate into {str(folder)!r}: give a folder below it with -o")
     return target
@@ -259,19 +258,20 @@ def generation_lock(folder, wait: float = LOCK_WAIT) -> Iterator[None]:
                          f"write") from None
     try:
         yield
-    finally:
+    finally:                       # flock: unlink first, so a waiter that opened it retries
+        if fcntl is None:
+            os.close(fd)
         with suppress(FileNotFoundError):
-            os.unlink(lock)        # before the release: a waiter that opened it tries again
-        os.close(fd)
+            os.unlink(lock)
+        if fcntl is not None:
+            os.close(fd)
 
 
 def _acquire(lock: Path, deadline: float, target: Path) -> int:
     while True:
         if fcntl is None:
-            try:
+            with suppress(FileExistsError):
                 return os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
-            except FileExistsError:
-                pass
         else:
             fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o666)
             try:
@@ -354,7 +354,7 @@ def _whose(name: str, previous: Mapping[str, str | None]) -> str:
 def _fill(target: Path, data: Mapping[str, bytes], plan: _Plan) -> Path:
     """Write the new generation into a fresh folder beside ``target``; returns its path."""
     aside = target.parent / f".{target.name}.new-{secrets.token_hex(4)}"
-    os.mkdir(aside, 0o700)              # FileExistsError at odds of 2**-32: run again
+    os.mkdir(aside)                     # FileExistsError at odds of 2**-32: run again
     try:
         (aside / MANIFEST).write_bytes(plan.manifest)     # first: it vouches for what follows
         os.chmod(aside / MANIFEST, file_mode(target / MANIFEST))
@@ -363,8 +363,8 @@ def _fill(target: Path, data: Mapping[str, bytes], plan: _Plan) -> Path:
             os.chmod(aside / name, file_mode(target / name))
         for name in plan.carry:
             _carry(target / name, aside / name, target)
-        os.chmod(aside, os.stat(target).st_mode & 0o7777 if target.is_dir()
-                 else 0o777 & ~_umask())
+        if target.is_dir():
+            os.chmod(aside, stat.S_IMODE(os.stat(target).st_mode))
     except BaseException as exc:
         shutil.rmtree(aside, ignore_errors=True)
         if isinstance(exc, OSError):
@@ -385,7 +385,7 @@ def _carry(src: Path, dst: Path, target: Path) -> None:
         if stat.S_ISLNK(st.st_mode):
             return os.symlink(os.readlink(src), dst)
         if stat.S_ISREG(st.st_mode):
-            return os.link(src, dst, follow_symlinks=False)
+            return os.link(src, dst)
         reason = "it is not a file, folder or link"
     except OSError as exc:
         reason = exc.strerror or str(exc)

@@ -208,6 +208,16 @@ def test_a_generation_changes_the_callers_working_folder_to_the_new_one(tmp_path
     assert open("a.c").read() == "int a2;\n" and os.getcwd() == str(out)
 
 
+def test_a_working_folder_that_a_generation_replaced_is_named(tmp_path, monkeypatch):
+    """A shell left in the replaced folder runs mbgen again: the error says ``cd .``."""
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    with pytest.raises(SceneError, match=r"no longer exists.*'cd \.'"):
+        fileio.write_generated(".", {"a.c": "int a;\n"})
+
+
 # ------------------------------------------------------------------ whole or absent
 def test_a_generation_killed_between_files_leaves_the_old_one_whole(tmp_path):
     out = tmp_path / "out"
@@ -286,4 +296,19 @@ def test_a_busy_folder_is_refused_after_a_bounded_wait(tmp_path):
             fileio.write_generated(out, {"f00.c": "x\n"}, wait=0.1)
     assert generations(out) == {"one"}
     write(out, "two")                                           # the lock is free again
+    assert generations(out) == {"two"} and siblings(out) == []
+
+
+def test_without_fcntl_the_lock_is_an_exclusive_file(tmp_path, monkeypatch):
+    """Where there is no ``fcntl`` (Windows) the lock is a file created exclusively; a lock
+    left by a killed run is named in the refusal, for the user to delete."""
+    monkeypatch.setattr(fileio, "fcntl", None)
+    out = tmp_path / "out"
+    write(out, "one")
+    assert siblings(out) == []
+    (tmp_path / ".out.lock").write_text("")
+    with pytest.raises(OutputBusyError, match=r"delete .*\.out\.lock"):
+        fileio.write_generated(out, {"f00.c": "x\n"}, wait=0)
+    (tmp_path / ".out.lock").unlink()
+    write(out, "two")
     assert generations(out) == {"two"} and siblings(out) == []
