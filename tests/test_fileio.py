@@ -48,7 +48,8 @@ CHILD = textwrap.dedent("""
             if opened == o["kill_at"]:
                 killed()
             if opened > 3 and o["await"]:
-                while not os.path.exists(o["await"]):
+                give_up = time.monotonic() + 120          # the other never came
+                while not os.path.exists(o["await"]) and time.monotonic() < give_up:
                     time.sleep(0.01)
                 time.sleep(o["slow"])
         return real_open(file, mode, *args, **kwargs)
