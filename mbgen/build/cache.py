@@ -70,12 +70,13 @@ def _foreign(info: os.stat_result) -> str | None:
     uid = _uid()
     if uid is None:
         return None
+    mode = oct(info.st_mode & 0o7777)
     if info.st_uid not in (uid, 0):
-        return f"owned by {_owner(info.st_uid)}, not by you"
+        return f"owned by {_owner(info.st_uid)}, not by you (mode {mode})"
     if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
         who = " and ".join(w for w, bit in (("group", stat.S_IWGRP), ("others", stat.S_IWOTH))
                            if info.st_mode & bit)
-        return f"writable by {who} (mode {oct(info.st_mode & 0o7777)})"
+        return f"writable by {who} (mode {mode})"
     return None
 
 
@@ -162,14 +163,15 @@ def verified(path: Path) -> bool:
     """Whether the module at ``path`` is the user's own build, whole and unchanged.
 
     The module, its record and their folder are owned by the user (or root) and not
-    writable by group or others, and the module's size and SHA-256 (of every byte: a same-size change with its
-    modification time restored is caught) are the recorded ones.
+    writable by group or others, and the module's size and SHA-256 are the recorded ones
+    (every byte is hashed: a same-size change with its modification time restored is
+    caught; SHA-256 costs about 0.06 ms per 100 KB).
     """
     try:
         record = record_path(path)
         info = os.stat(path)
         if not stat.S_ISREG(info.st_mode) or any(
-                _foreign(os.stat(p)) for p in (path.parent, record)) or _foreign(info):
+                _foreign(i) for i in (info, os.stat(record), os.stat(path.parent))):
             return False
         recorded = record.read_text().strip()
         if info.st_size != int(recorded.split()[0]):
