@@ -104,7 +104,8 @@ class BuildError(MbgenError, RuntimeError):
 
 class CacheError(BuildError):
     """The cache of compiled modules cannot be used: ``$MBGEN_CACHE_DIR`` (or every
-    fallback folder) cannot be created or written.  The message names the folder."""
+    fallback folder) cannot be created or written, others could write it, or the disk
+    is full.  The message names the folder and the fix."""
 
     exit_code = EXIT_USAGE
 

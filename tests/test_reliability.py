@@ -8,10 +8,12 @@ numbers (6, 7, 9, 10), time in the step API and the FMU (8), ensembles and the c
 
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import textwrap
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -19,12 +21,17 @@ import pytest
 
 import mbgen
 from mbgen.abi import status_name
+from mbgen.build.cache import verified
+from mbgen.build.extension import build, load
 from mbgen.build.fmu import write_fmu
 from mbgen.cli import EXIT_MODEL, EXIT_OK, main
 from mbgen.codegen.targets import Targets
+from mbgen.errors import CacheError
 from mbgen.export import export_fmu
 from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
 from mbgen.run.stepper import Stepper
+from models import pendulum, scene_file
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -69,6 +76,65 @@ def test_a_generation_killed_between_files_leaves_the_old_one_whole(tmp_path):
                           capture_output=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert proc.returncode == -signal.SIGKILL
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before      # the old set, whole
+
+
+# --- 3. Many threads compiling at once
+def test_threads_compiling_at_once_leave_stdout_alone(tmp_path, monkeypatch, capfd):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    errors = []
+
+    def compile_one(name):
+        try:
+            mbgen.compile(pendulum(name))
+        except Exception as exc:  # collected: an error in a thread must fail the test
+            errors.append(repr(exc))
+
+    threads = [threading.Thread(target=compile_one, args=(f"replay{i}",)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+    os.write(1, b"fd 1 still reaches the terminal\n")
+    assert "fd 1 still reaches the terminal" in capfd.readouterr().out
+
+
+# --- 4. The compile cache loads only what its user built
+def test_a_module_in_a_folder_others_can_write_is_not_loaded(tmp_path, monkeypatch):
+    mine, shared = tmp_path / "mine", tmp_path / "shared"
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(mine))
+    rendered = run(pendulum("shared"), build=False).rendered
+    path = build(rendered)
+    shutil.copytree(mine, shared)  # a module and its matching record
+    shared.chmod(0o777)            # ... where anyone could have put them
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(shared))
+    with pytest.raises(CacheError, match=f"{shared} is writable by group and others"):
+        load(rendered)
+    assert verified(shared / path.name) is False
+
+
+FULL_DISK = textwrap.dedent("""
+    import errno, os, sys
+    from mbgen.build import extension
+    from mbgen.cli import main
+
+    def write_files(folder, files):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), os.path.join(folder, "x.c"))
+
+    extension.write_files = write_files
+    sys.exit(main(["simulate", sys.argv[1], "--csv", sys.argv[2]]))
+""")
+
+
+def test_a_full_disk_in_compile_is_one_error_line(tmp_path):
+    env = {**os.environ, "MBGEN_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT)}
+    proc = subprocess.run([sys.executable, "-c", FULL_DISK, str(scene_file(tmp_path)),
+                           str(tmp_path / "t.csv")], capture_output=True, text=True, env=env,
+                          timeout=600)
+    assert proc.returncode == CacheError.exit_code == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("mbgen: error: "), proc.stderr
+    assert "no space left on device" in lines[0] and str(tmp_path / "cache") in lines[0]
 
 
 # --- 5. Scene files are Python and run when loaded
@@ -137,6 +203,20 @@ def test_step_and_fmu_refuse_time_that_does_not_advance_and_calls_out_of_order(t
     with pytest.raises(FMICallException):                       # nothing after terminate
         fmu.doStep(0.1, 0.1)
     fmu.freeInstance()
+
+
+# --- Injected fault: a same-size corrupted cached module
+def test_a_same_size_corrupted_module_is_rebuilt(tmp_path, monkeypatch):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    rendered = run(pendulum("samesize"), build=False).rendered
+    path = build(rendered)
+    good, stat = path.read_bytes(), path.stat()
+    i = len(good) // 2
+    bad = good[:i] + bytes([good[i] ^ 0x01]) + good[i + 1:]
+    path.write_bytes(bad)
+    os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))  # size and time as before
+    assert not verified(path)
+    assert build(rendered) == path and path.read_bytes() != bad and verified(path)
 
 
 # --- The .fmu follows the umask like every other output
