@@ -2,6 +2,7 @@
 validation, and co-simulation and model-exchange trajectories against integrate."""
 
 import dataclasses
+import os
 import shutil
 from ctypes import byref, c_double, c_int
 import subprocess
@@ -13,6 +14,7 @@ import pytest
 
 import mbgen
 from mbgen.model.scene import load_scene
+from mbgen.build.fmu import write_fmu
 from mbgen.export import export_fmu
 from mbgen.codegen.targets.fmu import FMI2_ALLOWED, FMI2_STATES
 
@@ -334,3 +336,21 @@ def test_every_fmi2_function_is_refused_in_the_states_the_standard_excludes(unpa
     assert checked >= 200
     for fmu in fmus.values():
         fmu.freeLibrary()
+
+
+def test_the_fmu_follows_the_umask_like_every_other_output(fmus, tmp_path):
+    """Issue 18: the .fmu was written through mkstemp and stayed 0600 whatever the umask."""
+    old = os.umask(0o022)
+    try:
+        path = export_fmu(fmus["disc_pendulum"][0], tmp_path)
+        assert os.stat(path).st_mode & 0o777 == 0o644
+        os.umask(0o027)
+        path = write_fmu(tmp_path / "other", "disc_pendulum", {"modelDescription.xml": "<x/>"},
+                         b"\x7fELF")
+        assert os.stat(path).st_mode & 0o777 == 0o640
+        os.chmod(path, 0o600)                                   # a replaced FMU keeps its mode
+        write_fmu(tmp_path / "other", "disc_pendulum", {"modelDescription.xml": "<y/>"}, b"")
+        assert os.stat(path).st_mode & 0o777 == 0o600
+    finally:
+        os.umask(old)
+    assert sorted(p.name for p in (tmp_path / "other").iterdir()) == ["disc_pendulum.fmu"]
