@@ -98,7 +98,8 @@ def _con_lu_solve(LU, piv, b):
 
 
 def _velocity_solve(CA, CB, us):
-    """LU of A_r with partial pivoting and u_r = -A_r^{-1} (A_s u_s + b); as in the C."""
+    """LU of A_r with partial pivoting and u_r = -A_r^{-1} (A_s u_s + b); as in the C, sum by
+    sum in its order."""
     m, n, ns = 2, 3, 1
     LU = [CA[i * n + ns + j] for i in range(m) for j in range(m)]
     amax = max(abs(a) for a in LU)
@@ -119,7 +120,12 @@ def _velocity_solve(CA, CB, us):
             LU[i * m + k] = lik
             for j in range(k + 1, m):
                 LU[i * m + j] -= lik * LU[k * m + j]
-    UR = [-(CB[i] + sum(CA[i * n + j] * us[j] for j in range(ns))) for i in range(m)]
+    UR = [0.0] * m
+    for i in range(m):
+        s = CB[i]
+        for j in range(ns):
+            s += CA[i * n + j] * us[j]
+        UR[i] = -s
     _con_lu_solve(LU, piv, UR)
     return LU, piv, UR
 
@@ -176,17 +182,36 @@ def _kkt_factor(CA, LU, piv, M):
 
 
 def _kkt_solve(LU, piv, M, CR, MT, r2, r3):
-    """[M -A^T; A 0] [acc; lam] = [r2; r3]; as in the C."""
+    """[M -A^T; A 0] [acc; lam] = [r2; r3]; as in the C, sum by sum in its order (the saddle
+    point can be ill-conditioned: another order of the same sums differs in more than the
+    last digits)."""
     m, n, ns = 2, 3, 1
     e = list(r3)
     _con_lu_solve(LU, piv, e)
-    w = [r2[i] - sum(_ml(M, i, ns + k) * e[k] for k in range(m)) for i in range(n)]
-    acc = [w[i] + sum(CR[k * ns + i] * w[ns + k] for k in range(m)) for i in range(ns)]
-    acc += [0.0] * m
+    w = [0.0] * n
+    for i in range(n):
+        s = r2[i]
+        for k in range(m):
+            s -= _ml(M, i, ns + k) * e[k]
+        w[i] = s
+    acc = [0.0] * n
+    for i in range(ns):
+        s = w[i]
+        for k in range(m):
+            s += CR[k * ns + i] * w[ns + k]
+        acc[i] = s
     _ldl_solve(MT, acc)
     for i in range(m):
-        acc[ns + i] = e[i] + sum(CR[i * ns + k] * acc[k] for k in range(ns))
-    lam = [sum(_ml(M, ns + i, k) * acc[k] for k in range(n)) - r2[ns + i] for i in range(m)]
+        s = e[i]
+        for k in range(ns):
+            s += CR[i * ns + k] * acc[k]
+        acc[ns + i] = s
+    lam = [0.0] * m
+    for i in range(m):
+        s = -r2[ns + i]
+        for k in range(n):
+            s += _ml(M, ns + i, k) * acc[k]
+        lam[i] = s
     _con_lu_solve_t(LU, piv, lam)
     return acc, lam
 
