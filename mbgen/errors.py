@@ -18,10 +18,12 @@ parent's code unless it sets its own.
     of date).
 2 (:data:`EXIT_USAGE`)
     usage: :class:`UsageError`, :class:`UnknownNameError`, :class:`CacheError`,
-    :class:`MissingExtraError`, :class:`BenchmarkError`; also (not an mbgen error) a
-    file or folder that cannot be written or read (``OSError``).
+    :class:`MissingExtraError`, :class:`BenchmarkError`, :class:`OutputBusyError`;
+    also (not an mbgen error) a file or folder that cannot be written or read
+    (``OSError``).
 3 (:data:`EXIT_MODEL`)
-    bad model or scene: :class:`ModelError` and its subclasses, :class:`SceneError`.
+    bad model or scene: :class:`ModelError` and its subclasses, :class:`SceneError` (and
+    :class:`OutputConflictError`).
 4 (:data:`EXIT_BUILD`)
     the C compiler failed: :class:`BuildError`.
 5 (:data:`EXIT_NUMERIC`)
@@ -81,6 +83,20 @@ class SceneError(MbgenError, ValueError):
     exit_code = EXIT_MODEL
 
 
+class OutputConflictError(SceneError):
+    """A generation would replace a file of the user's: one mbgen did not write, or one it
+    wrote and the user changed since (the folder's manifest records each file's SHA-256).
+    Nothing is written; the message names the files and the fix (``--overwrite``, or
+    another output folder)."""
+
+
+class OutputBusyError(MbgenError, RuntimeError):
+    """Another generation is writing the same output folder (it holds the folder's lock)
+    and did not finish within the wait (:data:`mbgen.fileio.LOCK_WAIT`); nothing is written."""
+
+    exit_code = EXIT_USAGE
+
+
 class BuildError(MbgenError, RuntimeError):
     """The C compiler failed; the message carries the compiler's own output."""
 
@@ -89,7 +105,8 @@ class BuildError(MbgenError, RuntimeError):
 
 class CacheError(BuildError):
     """The cache of compiled modules cannot be used: ``$MBGEN_CACHE_DIR`` (or every
-    fallback folder) cannot be created or written.  The message names the folder."""
+    fallback folder) cannot be created or written, others could write it, or the disk
+    is full.  The message names the folder and the fix."""
 
     exit_code = EXIT_USAGE
 

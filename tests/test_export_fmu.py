@@ -2,7 +2,9 @@
 validation, and co-simulation and model-exchange trajectories against integrate."""
 
 import dataclasses
+import os
 import shutil
+from ctypes import byref, c_double, c_int
 import subprocess
 import zipfile
 import xml.etree.ElementTree as ET
@@ -12,10 +14,17 @@ import pytest
 
 import mbgen
 from mbgen.model.scene import load_scene
+from mbgen.build.fmu import write_fmu
 from mbgen.export import export_fmu
+from mbgen.codegen.targets.fmu import FMI2_ALLOWED, FMI2_STATES
 
 fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra: pip install -e '.[test]'")
-from fmpy import simulate_fmu  # noqa: E402
+from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402
+from fmpy.fmi1 import FMICallException  # noqa: E402
+from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,  # noqa: E402
+                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                       fmi2CallbackLoggerTYPE, fmi2Error)
+from fmpy.logging import addLoggerProxy  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
 SCENES = {"disc_pendulum": {}, "stiff_chain": {}, "n_link_cart": {"n": 2}}
@@ -122,3 +131,226 @@ def test_fmu_command(tmp_path, capsys):
     assert "paraboloid.fmu" in capsys.readouterr().out
     assert validate_fmu(str(tmp_path / "paraboloid.fmu")) == []
     assert main(["fmu", "no_such_scene", "-o", str(tmp_path)]) == 3
+
+
+# ------------------------------------------------------------------ the FMI calls one by one
+LOG = []                                 # (status, message) from every probe instance
+CALLBACKS = fmi2CallbackFunctions()
+CALLBACKS.logger = fmi2CallbackLoggerTYPE(
+    lambda env, name, status, category, message: LOG.append((status, message.decode())))
+CALLBACKS.allocateMemory = fmi2CallbackAllocateMemoryTYPE(fmpy.calloc)
+CALLBACKS.freeMemory = fmi2CallbackFreeMemoryTYPE(fmpy.free)
+addLoggerProxy(byref(CALLBACKS))         # formats the FMU's printf-style messages
+
+
+@pytest.fixture(scope="module")
+def unpacked(fmus, tmp_path_factory):
+    """disc_pendulum's FMU unpacked: (scene, compiled model, model description, folder)."""
+    scene, path = fmus["disc_pendulum"]
+    folder = extract(str(path), str(tmp_path_factory.mktemp("unpacked")))
+    return scene, mbgen.compile(scene), read_model_description(str(path)), folder
+
+
+@pytest.fixture
+def probe(unpacked):
+    """``probe(kind)``: a fresh instance (FMPy's FMU2Slave or FMU2Model), freed afterwards."""
+    made = []
+
+    def make(kind="CoSimulation"):
+        _, _, md, folder = unpacked
+        cls = FMU2Slave if kind == "CoSimulation" else FMU2Model
+        fmu = cls(guid=md.guid, unzipDirectory=folder,
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="probe")
+        fmu.instantiate(callbacks=CALLBACKS)
+        made.append(fmu)
+        LOG.clear()
+        return fmu
+
+    yield make
+    for fmu in made:
+        fmu.freeInstance()
+
+
+def refused(call, *args, says):
+    """``call(*args)`` returns fmi2Error and logs an error message containing ``says``."""
+    LOG.clear()
+    with pytest.raises(FMICallException) as info:
+        call(*args)
+    assert info.value.status == fmi2Error
+    assert any(s == fmi2Error and says in m for s, m in LOG), (says, LOG)
+
+
+def initialized(fmu, t0=0.0, x=None):
+    fmu.setupExperiment(startTime=t0)
+    fmu.enterInitializationMode()
+    if x is not None:
+        fmu.setReal(list(range(len(x))), list(x))
+    fmu.exitInitializationMode()
+    return fmu
+
+
+def test_derivative_value_references_give_the_rhs(unpacked, probe):
+    """fmi2GetReal on der(x)'s value references (read from the model description) is the
+    RHS at the instance's time and state, in co-simulation and model exchange alike."""
+    scene, model, md, _ = unpacked
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    states = [vr[n] for n in model.state_names]
+    derivatives = [vr[f"der({n})"] for n in model.state_names]
+    x = np.array([0.3, 1.1, 0.7, -0.4])
+    p = model.default_parameters
+    cs = initialized(probe("CoSimulation"), 0.25, x)
+    assert np.array_equal(cs.getReal(derivatives), model.rhs(0.25, x, p))
+    cs.doStep(0.25, 0.5)
+    x1 = np.array(cs.getReal(states))
+    assert not np.allclose(x1, x)
+    assert np.array_equal(cs.getReal(derivatives), model.rhs(0.75, x1, p))
+    me = initialized(probe("ModelExchange"))
+    me.newDiscreteStates()
+    me.enterContinuousTimeMode()
+    me.setTime(0.5)
+    buf = (c_double * 4)(*x)
+    me.setContinuousStates(buf, 4)
+    assert np.array_equal(me.getReal(derivatives), model.rhs(0.5, x, p))
+    me.getDerivatives(buf, 4)
+    assert np.array_equal(np.array(buf), model.rhs(0.5, x, p))
+
+
+@pytest.mark.parametrize("point, size, says", [
+    (float("nan"), 0.1, "currentCommunicationPoint"),
+    (0.1, 0.1, "currentCommunicationPoint"),              # backwards from t = 0.2
+    (0.3, 0.1, "currentCommunicationPoint"),              # a jump ahead
+    (0.2, 0.0, "communicationStepSize"),
+    (0.2, -0.1, "communicationStepSize"),
+    (0.2, float("nan"), "communicationStepSize"),
+    (0.2, float("inf"), "communicationStepSize"),
+])
+def test_do_step_checks_the_communication_point(unpacked, probe, point, size, says):
+    """fmi2DoStep refuses (fmi2Error, a logged message) a communication point that is NaN, or
+    not the FMU's time within a relative 1e-5 (the Reference-FMUs' check), and a step that is
+    not a positive finite number; the state stays at the last step, and the instance is in
+    the error state (only Reset, FreeInstance and the getters are allowed)."""
+    _, model, _, _ = unpacked
+    fmu = initialized(probe())
+    fmu.doStep(0.0, 0.2)
+    x = fmu.getReal(list(range(model.n_x)))
+    refused(fmu.doStep, point, size, says=says)
+    assert fmu.getReal(list(range(model.n_x))) == x
+    refused(fmu.doStep, 0.2, 0.1, says="fmi2DoStep")
+    fmu.reset()                                            # back to a fresh start
+    initialized(fmu).doStep(0.0, 0.2)
+    fmu.doStep(0.2 * (1 + 1e-12), 0.1)                     # the master's rounding: accepted
+
+
+def test_fmi2_state_machine_refuses_calls_out_of_order(probe):
+    """Calls the FMI 2.0 state machine does not allow in the instance's state are refused with
+    fmi2Error and an 'illegal call sequence' message naming the function."""
+    fmu = probe()
+    refused(fmu.exitInitializationMode, says="fmi2ExitInitializationMode")
+    fmu = probe()
+    refused(fmu.doStep, 0.0, 0.1, says="fmi2DoStep")
+    fmu = probe()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    refused(fmu.doStep, 0.0, 0.1, says="fmi2DoStep")
+    fmu = initialized(probe())
+    refused(fmu.setupExperiment, None, 0.0, says="fmi2SetupExperiment")
+    fmu = initialized(probe())
+    refused(fmu.enterInitializationMode, says="fmi2EnterInitializationMode")
+    for call, args in (("doStep", (0.1, 0.1)), ("setReal", ([0], [1.0])),
+                       ("setupExperiment", (None, 0.0)), ("enterInitializationMode", ()),
+                       ("exitInitializationMode", ()), ("terminate", ())):
+        fmu = initialized(probe())
+        fmu.doStep(0.0, 0.1)
+        fmu.terminate()
+        refused(getattr(fmu, call), *args, says=f"fmi2{call[0].upper()}{call[1:]}: illegal")
+    fmu = initialized(probe())
+    fmu.doStep(0.0, 0.1)
+    fmu.terminate()
+    assert len(fmu.getReal([0, 1])) == 2                   # the getters stay allowed
+    fmu.reset()
+    initialized(fmu).doStep(0.0, 0.1)                      # and a reset starts afresh
+    me = probe("ModelExchange")
+    refused(me.setTime, 0.0, says="fmi2SetTime")
+    me = initialized(probe("ModelExchange"))               # event mode
+    refused(me.completedIntegratorStep, says="fmi2CompletedIntegratorStep")
+    me = initialized(probe("ModelExchange"))
+    me.newDiscreteStates()
+    me.enterContinuousTimeMode()
+    refused(me.newDiscreteStates, says="fmi2NewDiscreteStates")
+
+
+def test_times_must_be_finite(probe):
+    refused(probe().setupExperiment, None, float("nan"), says="startTime")
+    me = initialized(probe("ModelExchange"))
+    refused(me.setTime, float("inf"), says="fmi2SetTime: time")
+
+
+def _enter(fmu, state):
+    """Bring a fresh instance ``fmu`` into the FMI 2.0 ``state``."""
+    if state == "error":
+        refused(fmu.exitInitializationMode, says="illegal call sequence")
+    elif state != "instantiated":
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        if state != "initialization_mode":
+            fmu.exitInitializationMode()
+        if state == "continuous_time_mode":
+            fmu.newDiscreteStates()
+            fmu.enterContinuousTimeMode()
+        if state == "terminated":
+            fmu.terminate()
+
+
+def test_every_fmi2_function_is_refused_in_the_states_the_standard_excludes(unpacked):
+    """The table FMI2_ALLOWED, call by call: each FMI function called (with zero arguments) in
+    each reachable state it does not allow returns fmi2Error, logs 'illegal call sequence'
+    with its name and leaves the instance in the error state."""
+    _, _, md, folder = unpacked
+    reachable = {"ModelExchange": ("instantiated", "initialization_mode", "event_mode",
+                                   "continuous_time_mode", "terminated", "error"),
+                 "CoSimulation": ("instantiated", "initialization_mode", "step_complete",
+                                  "terminated", "error")}
+    assert set(FMI2_STATES) == set(reachable["ModelExchange"] + reachable["CoSimulation"])
+    fmus = {kind: cls(guid=md.guid, unzipDirectory=folder, instanceName="table",
+                      modelIdentifier=md.coSimulation.modelIdentifier)
+            for kind, cls in (("ModelExchange", FMU2Model), ("CoSimulation", FMU2Slave))}
+    argtypes = {name: f.argtypes for fmu in fmus.values() for name, f in fmu._functions.items()}
+    assert set(FMI2_ALLOWED) <= set(argtypes)
+    checked = 0
+    for kind, fmu in fmus.items():
+        for state in reachable[kind]:
+            for name, states in FMI2_ALLOWED.items():
+                if state in states:
+                    continue
+                fmu.instantiate(callbacks=CALLBACKS)
+                _enter(fmu, state)
+                function = getattr(fmu.dll, name)
+                function.argtypes, function.restype = argtypes[name], c_int
+                LOG.clear()
+                assert function(fmu.component, *(t() for t in argtypes[name][1:])) == fmi2Error
+                assert LOG == [(fmi2Error, f"{name}: illegal call sequence (the instance is in "
+                                           f"state '{state.replace('_', ' ')}')")], LOG
+                refused(fmu.exitInitializationMode, says="state 'error'")
+                fmu.fmi2FreeInstance(fmu.component)
+                checked += 1
+    assert checked >= 200
+    for fmu in fmus.values():
+        fmu.freeLibrary()
+
+
+def test_the_fmu_follows_the_umask_like_every_other_output(fmus, tmp_path):
+    """Issue 18: the .fmu was written through mkstemp and stayed 0600 whatever the umask."""
+    old = os.umask(0o022)
+    try:
+        path = export_fmu(fmus["disc_pendulum"][0], tmp_path)
+        assert os.stat(path).st_mode & 0o777 == 0o644
+        os.umask(0o027)
+        path = write_fmu(tmp_path / "other", "disc_pendulum", {"modelDescription.xml": "<x/>"},
+                         b"\x7fELF")
+        assert os.stat(path).st_mode & 0o777 == 0o640
+        os.chmod(path, 0o600)                                   # a replaced FMU keeps its mode
+        write_fmu(tmp_path / "other", "disc_pendulum", {"modelDescription.xml": "<y/>"}, b"")
+        assert os.stat(path).st_mode & 0o777 == 0o600
+    finally:
+        os.umask(old)
+    assert sorted(p.name for p in (tmp_path / "other").iterdir()) == ["disc_pendulum.fmu"]

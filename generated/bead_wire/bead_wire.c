@@ -4,16 +4,20 @@
  * Operations: 3 after CSE (3 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "bead_wire.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 1 x 1; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns BEAD_WIRE_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns BEAD_WIRE_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 16 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int bead_wire_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return BEAD_WIRE_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 16 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return BEAD_WIRE_NOT_POSITIVE_DEFINITE;
     return BEAD_WIRE_OK;
 }
 

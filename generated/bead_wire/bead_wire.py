@@ -61,9 +61,15 @@ class _IEEE:
 _RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
+#: C's DBL_EPSILON (<float.h>): a pivot d_j <= 16 * DBL_EPSILON * M_jj is singular.
+DBL_EPSILON = 2.0 ** -52
+
+
 def _ldl(M):
-    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
-    if not M[0] > 0.0:
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C,
+    a pivot d_j not above 16 * DBL_EPSILON * M_jj (rounding noise) is not positive definite."""
+    tol0 = 16 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
         raise NotPositiveDefinite('mass matrix is not positive definite')
 
 

@@ -4,16 +4,20 @@
  * Operations: 20 after CSE (24 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "bead_wire_force.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 1 x 1; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns BEAD_WIRE_FORCE_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns BEAD_WIRE_FORCE_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 16 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int bead_wire_force_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return BEAD_WIRE_FORCE_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 16 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return BEAD_WIRE_FORCE_NOT_POSITIVE_DEFINITE;
     return BEAD_WIRE_FORCE_OK;
 }
 
@@ -44,8 +48,10 @@ void bead_wire_force_default_parameters(double *p)
 /* Constraints A u + b = 0 with u = [u_s; u_r]: 1 independent speeds u_s (states),
  * 1 dependent speeds u_r.  CA is A (row-major 1 x 2), CB is b.
  * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot below 1e-13 of the largest entry of A_r is BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR
- * (a locked or singular configuration for these dependent speeds). */
+ * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see bead_wire_force_kkt_factor. */
 static void bead_wire_force_con_lu_solve(const double *LU, const int *piv, double *b)
 {
     int i, k;
@@ -143,12 +149,16 @@ static void bead_wire_force_con_lu_solve_t(const double *LU, const int *piv, dou
 #define BEAD_WIRE_FORCE_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 2 + (j)] : (M)[(j) * 2 + (i)])
 
 /* The reduced mass matrix MT = T^T M T with T = [I; CR], CR = -A_r^{-1} A_s (1 x 1),
- * factored by bead_wire_force_ldl (M is read from its lower triangle). */
+ * factored by bead_wire_force_ldl (M is read from its lower triangle).  MT_aa is a sum that
+ * cancels where the independent speed a moves no mass (a four-bar whose crank has zero
+ * length): rounding noise of its summands.  So each pivot d_a must also be above
+ * 16 * DBL_EPSILON * g_a, g_a = sum_ik |T_ia M_ik T_ka| the magnitude of MT_aa's summands
+ * (and bead_wire_force_ldl's own test, relative to MT_aa), else BEAD_WIRE_FORCE_NOT_POSITIVE_DEFINITE. */
 static int bead_wire_force_kkt_factor(const double *CA, const double *LU, const int *piv,
                                    const double *M, double *CR, double *MT)
 {
     int a, b, i, k;
-    double v[1];
+    double v[1], g[1];
     for (b = 0; b < 1; ++b) {
         for (i = 0; i < 1; ++i) {
             v[i] = -CA[i * 2 + b];
@@ -171,8 +181,25 @@ static int bead_wire_force_kkt_factor(const double *CA, const double *LU, const 
             }
             MT[a * 1 + b] = s;
         }
+        g[a] = fabs(BEAD_WIRE_FORCE_ML(M, a, a));
+        for (i = 0; i < 1; ++i) {
+            g[a] += 2.0 * fabs(BEAD_WIRE_FORCE_ML(M, a, 1 + i) * CR[i * 1 + a]);
+            for (k = 0; k < 1; ++k) {
+                g[a] += fabs(CR[i * 1 + a] * BEAD_WIRE_FORCE_ML(M, 1 + i, 1 + k)
+                             * CR[k * 1 + a]);
+            }
+        }
     }
-    return bead_wire_force_ldl(MT);
+    i = bead_wire_force_ldl(MT);
+    if (i != BEAD_WIRE_FORCE_OK) {
+        return i;
+    }
+    for (a = 0; a < 1; ++a) {
+        if (!(MT[a * 1 + a] > 16 * DBL_EPSILON * g[a])) {
+            return BEAD_WIRE_FORCE_NOT_POSITIVE_DEFINITE;
+        }
+    }
+    return BEAD_WIRE_FORCE_OK;
 }
 
 /* Solve [M  -A^T; A  0] [acc; lam] = [r2; r3] with the factors of bead_wire_force_kkt_factor:

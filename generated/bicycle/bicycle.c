@@ -4,26 +4,32 @@
  * Operations: 17381 after CSE (33604429 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "bicycle.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 3 x 3; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns BICYCLE_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns BICYCLE_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 48 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int bicycle_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return BICYCLE_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 48 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return BICYCLE_NOT_POSITIVE_DEFINITE;
     M[3] = M[3]/M[0];
     M[6] = M[6]/M[0];
+    const double tol1 = 48 * DBL_EPSILON * M[4];
     const double w1_0 = M[3]*M[0];
     M[4] = M[4] - M[3]*w1_0;
-    if (!(M[4] > 0.0)) return BICYCLE_NOT_POSITIVE_DEFINITE;
+    if (!(M[4] > tol1)) return BICYCLE_NOT_POSITIVE_DEFINITE;
     M[7] = (M[7] - M[6]*w1_0)/M[4];
+    const double tol2 = 48 * DBL_EPSILON * M[8];
     const double w2_0 = M[6]*M[0];
     const double w2_1 = M[7]*M[4];
     M[8] = M[8] - M[6]*w2_0 - M[7]*w2_1;
-    if (!(M[8] > 0.0)) return BICYCLE_NOT_POSITIVE_DEFINITE;
+    if (!(M[8] > tol2)) return BICYCLE_NOT_POSITIVE_DEFINITE;
     return BICYCLE_OK;
 }
 
@@ -4307,11 +4313,19 @@ static int bicycle_initial_step(double t0, const double *y, const double *f0, co
 }
 
 /* LU factorisation with partial pivoting, in place (row-major 10 x 10): P A = L U,
- * piv[k] = row swapped with row k.  A zero (or NaN) pivot column is singular. */
+ * piv[k] = row swapped with row k.  A pivot column whose largest entry is not above
+ * 160 * DBL_EPSILON * max_ij |A_ij| (NaN included) is singular: rounding noise is all
+ * that a matrix singular in exact arithmetic leaves there, not an exact zero. */
 static int bicycle_lu_factor(double *A, int *piv)
 {
     int i, j, k, r;
-    double amax, v, l;
+    double amax, v, l, tol = 0.0;
+    for (i = 0; i < 100; ++i) {
+        if (fabs(A[i]) > tol) {
+            tol = fabs(A[i]);
+        }
+    }
+    tol *= 160 * DBL_EPSILON;
     for (k = 0; k < 10; ++k) {
         r = k;
         amax = fabs(A[k * 10 + k]);
@@ -4323,7 +4337,7 @@ static int bicycle_lu_factor(double *A, int *piv)
             }
         }
         piv[k] = r;
-        if (!(amax > 0.0) || !isfinite(amax)) {
+        if (!(amax > tol) || !isfinite(amax)) {
             return BICYCLE_SINGULAR_ITERATION_MATRIX;
         }
         if (r != k) {

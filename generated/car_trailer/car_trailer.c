@@ -4,31 +4,38 @@
  * Operations: 287 after CSE (558 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "car_trailer.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 4 x 4; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns CAR_TRAILER_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns CAR_TRAILER_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 64 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int car_trailer_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 64 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
     M[8] = M[8]/M[0];
     M[12] = M[12]/M[0];
-    if (!(M[5] > 0.0)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
+    const double tol1 = 64 * DBL_EPSILON * M[5];
+    if (!(M[5] > tol1)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
     M[9] = M[9]/M[5];
     M[13] = M[13]/M[5];
+    const double tol2 = 64 * DBL_EPSILON * M[10];
     const double w2_0 = M[8]*M[0];
     const double w2_1 = M[9]*M[5];
     M[10] = M[10] - M[8]*w2_0 - M[9]*w2_1;
-    if (!(M[10] > 0.0)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
+    if (!(M[10] > tol2)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
     M[14] = (M[14] - M[12]*w2_0 - M[13]*w2_1)/M[10];
+    const double tol3 = 64 * DBL_EPSILON * M[15];
     const double w3_0 = M[12]*M[0];
     const double w3_1 = M[13]*M[5];
     const double w3_2 = M[14]*M[10];
     M[15] = M[15] - M[12]*w3_0 - M[13]*w3_1 - M[14]*w3_2;
-    if (!(M[15] > 0.0)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
+    if (!(M[15] > tol3)) return CAR_TRAILER_NOT_POSITIVE_DEFINITE;
     return CAR_TRAILER_OK;
 }
 

@@ -61,27 +61,36 @@ class _IEEE:
 _RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
+#: C's DBL_EPSILON (<float.h>): a pivot d_j <= 64 * DBL_EPSILON * M_jj is singular.
+DBL_EPSILON = 2.0 ** -52
+
+
 def _ldl(M):
-    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
-    if not M[0] > 0.0:
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C,
+    a pivot d_j not above 64 * DBL_EPSILON * M_jj (rounding noise) is not positive definite."""
+    tol0 = 64 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
         raise NotPositiveDefinite('mass matrix is not positive definite')
     M[8] = M[8]/M[0]
     M[12] = M[12]/M[0]
-    if not M[5] > 0.0:
+    tol1 = 64 * DBL_EPSILON * M[5]
+    if not M[5] > tol1:
         raise NotPositiveDefinite('mass matrix is not positive definite')
     M[9] = M[9]/M[5]
     M[13] = M[13]/M[5]
+    tol2 = 64 * DBL_EPSILON * M[10]
     w2_0 = M[8]*M[0]
     w2_1 = M[9]*M[5]
     M[10] = M[10] - M[8]*w2_0 - M[9]*w2_1
-    if not M[10] > 0.0:
+    if not M[10] > tol2:
         raise NotPositiveDefinite('mass matrix is not positive definite')
     M[14] = (M[14] - M[12]*w2_0 - M[13]*w2_1)/M[10]
+    tol3 = 64 * DBL_EPSILON * M[15]
     w3_0 = M[12]*M[0]
     w3_1 = M[13]*M[5]
     w3_2 = M[14]*M[10]
     M[15] = M[15] - M[12]*w3_0 - M[13]*w3_1 - M[14]*w3_2
-    if not M[15] > 0.0:
+    if not M[15] > tol3:
         raise NotPositiveDefinite('mass matrix is not positive definite')
 
 

@@ -4,16 +4,20 @@
  * Operations: 268 after CSE (678 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "four_bar.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 1 x 1; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns FOUR_BAR_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns FOUR_BAR_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 16 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int four_bar_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return FOUR_BAR_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 16 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return FOUR_BAR_NOT_POSITIVE_DEFINITE;
     return FOUR_BAR_OK;
 }
 
@@ -49,8 +53,10 @@ void four_bar_default_parameters(double *p)
 /* Constraints A u + b = 0 with u = [u_s; u_r]: 1 independent speeds u_s (states),
  * 2 dependent speeds u_r.  CA is A (row-major 2 x 3), CB is b.
  * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot below 1e-13 of the largest entry of A_r is FOUR_BAR_CONSTRAINT_SINGULAR
- * (a locked or singular configuration for these dependent speeds). */
+ * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * FOUR_BAR_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see four_bar_kkt_factor. */
 static void four_bar_con_lu_solve(const double *LU, const int *piv, double *b)
 {
     int i, k;
@@ -154,12 +160,16 @@ static void four_bar_con_lu_solve_t(const double *LU, const int *piv, double *b)
 #define FOUR_BAR_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 3 + (j)] : (M)[(j) * 3 + (i)])
 
 /* The reduced mass matrix MT = T^T M T with T = [I; CR], CR = -A_r^{-1} A_s (2 x 1),
- * factored by four_bar_ldl (M is read from its lower triangle). */
+ * factored by four_bar_ldl (M is read from its lower triangle).  MT_aa is a sum that
+ * cancels where the independent speed a moves no mass (a four-bar whose crank has zero
+ * length): rounding noise of its summands.  So each pivot d_a must also be above
+ * 16 * DBL_EPSILON * g_a, g_a = sum_ik |T_ia M_ik T_ka| the magnitude of MT_aa's summands
+ * (and four_bar_ldl's own test, relative to MT_aa), else FOUR_BAR_NOT_POSITIVE_DEFINITE. */
 static int four_bar_kkt_factor(const double *CA, const double *LU, const int *piv,
                                    const double *M, double *CR, double *MT)
 {
     int a, b, i, k;
-    double v[2];
+    double v[2], g[1];
     for (b = 0; b < 1; ++b) {
         for (i = 0; i < 2; ++i) {
             v[i] = -CA[i * 3 + b];
@@ -182,8 +192,25 @@ static int four_bar_kkt_factor(const double *CA, const double *LU, const int *pi
             }
             MT[a * 1 + b] = s;
         }
+        g[a] = fabs(FOUR_BAR_ML(M, a, a));
+        for (i = 0; i < 2; ++i) {
+            g[a] += 2.0 * fabs(FOUR_BAR_ML(M, a, 1 + i) * CR[i * 1 + a]);
+            for (k = 0; k < 2; ++k) {
+                g[a] += fabs(CR[i * 1 + a] * FOUR_BAR_ML(M, 1 + i, 1 + k)
+                             * CR[k * 1 + a]);
+            }
+        }
     }
-    return four_bar_ldl(MT);
+    i = four_bar_ldl(MT);
+    if (i != FOUR_BAR_OK) {
+        return i;
+    }
+    for (a = 0; a < 1; ++a) {
+        if (!(MT[a * 1 + a] > 16 * DBL_EPSILON * g[a])) {
+            return FOUR_BAR_NOT_POSITIVE_DEFINITE;
+        }
+    }
+    return FOUR_BAR_OK;
 }
 
 /* Solve [M  -A^T; A  0] [acc; lam] = [r2; r3] with the factors of four_bar_kkt_factor:

@@ -83,7 +83,7 @@ extern "C" {
 #define N_LINK_CART_R_F 0 /* F */
 
 /* SHA-256 (16 hex digits) of n_link_cart.h, .c and .py with this value blanked. */
-#define N_LINK_CART_CONTENT_HASH "f26c80d973a85a50"
+#define N_LINK_CART_CONTENT_HASH "2debdf3c70078dcd"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -4,20 +4,25 @@
  * Operations: 44 after CSE (48 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "paraboloid_normal.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 2 x 2; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 32 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int paraboloid_normal_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 32 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE;
     M[2] = M[2]/M[0];
+    const double tol1 = 32 * DBL_EPSILON * M[3];
     const double w1_0 = M[2]*M[0];
     M[3] = M[3] - M[2]*w1_0;
-    if (!(M[3] > 0.0)) return PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE;
+    if (!(M[3] > tol1)) return PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE;
     return PARABOLOID_NORMAL_OK;
 }
 
@@ -51,8 +56,10 @@ void paraboloid_normal_default_parameters(double *p)
 /* Constraints A u + b = 0 with u = [u_s; u_r]: 2 independent speeds u_s (states),
  * 1 dependent speeds u_r.  CA is A (row-major 1 x 3), CB is b.
  * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot below 1e-13 of the largest entry of A_r is PARABOLOID_NORMAL_CONSTRAINT_SINGULAR
- * (a locked or singular configuration for these dependent speeds). */
+ * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * PARABOLOID_NORMAL_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see paraboloid_normal_kkt_factor. */
 static void paraboloid_normal_con_lu_solve(const double *LU, const int *piv, double *b)
 {
     int i, k;
@@ -150,12 +157,16 @@ static void paraboloid_normal_con_lu_solve_t(const double *LU, const int *piv, d
 #define PARABOLOID_NORMAL_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 3 + (j)] : (M)[(j) * 3 + (i)])
 
 /* The reduced mass matrix MT = T^T M T with T = [I; CR], CR = -A_r^{-1} A_s (1 x 2),
- * factored by paraboloid_normal_ldl (M is read from its lower triangle). */
+ * factored by paraboloid_normal_ldl (M is read from its lower triangle).  MT_aa is a sum that
+ * cancels where the independent speed a moves no mass (a four-bar whose crank has zero
+ * length): rounding noise of its summands.  So each pivot d_a must also be above
+ * 32 * DBL_EPSILON * g_a, g_a = sum_ik |T_ia M_ik T_ka| the magnitude of MT_aa's summands
+ * (and paraboloid_normal_ldl's own test, relative to MT_aa), else PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE. */
 static int paraboloid_normal_kkt_factor(const double *CA, const double *LU, const int *piv,
                                    const double *M, double *CR, double *MT)
 {
     int a, b, i, k;
-    double v[1];
+    double v[1], g[2];
     for (b = 0; b < 2; ++b) {
         for (i = 0; i < 1; ++i) {
             v[i] = -CA[i * 3 + b];
@@ -178,8 +189,25 @@ static int paraboloid_normal_kkt_factor(const double *CA, const double *LU, cons
             }
             MT[a * 2 + b] = s;
         }
+        g[a] = fabs(PARABOLOID_NORMAL_ML(M, a, a));
+        for (i = 0; i < 1; ++i) {
+            g[a] += 2.0 * fabs(PARABOLOID_NORMAL_ML(M, a, 2 + i) * CR[i * 2 + a]);
+            for (k = 0; k < 1; ++k) {
+                g[a] += fabs(CR[i * 2 + a] * PARABOLOID_NORMAL_ML(M, 2 + i, 2 + k)
+                             * CR[k * 2 + a]);
+            }
+        }
     }
-    return paraboloid_normal_ldl(MT);
+    i = paraboloid_normal_ldl(MT);
+    if (i != PARABOLOID_NORMAL_OK) {
+        return i;
+    }
+    for (a = 0; a < 2; ++a) {
+        if (!(MT[a * 2 + a] > 32 * DBL_EPSILON * g[a])) {
+            return PARABOLOID_NORMAL_NOT_POSITIVE_DEFINITE;
+        }
+    }
+    return PARABOLOID_NORMAL_OK;
 }
 
 /* Solve [M  -A^T; A  0] [acc; lam] = [r2; r3] with the factors of paraboloid_normal_kkt_factor:

@@ -4,26 +4,32 @@
  * Operations: 335 after CSE (1079 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "rolling_disc.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 3 x 3; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns ROLLING_DISC_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns ROLLING_DISC_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 48 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int rolling_disc_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return ROLLING_DISC_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 48 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return ROLLING_DISC_NOT_POSITIVE_DEFINITE;
     M[3] = M[3]/M[0];
     M[6] = M[6]/M[0];
+    const double tol1 = 48 * DBL_EPSILON * M[4];
     const double w1_0 = M[3]*M[0];
     M[4] = M[4] - M[3]*w1_0;
-    if (!(M[4] > 0.0)) return ROLLING_DISC_NOT_POSITIVE_DEFINITE;
+    if (!(M[4] > tol1)) return ROLLING_DISC_NOT_POSITIVE_DEFINITE;
     M[7] = (M[7] - M[6]*w1_0)/M[4];
+    const double tol2 = 48 * DBL_EPSILON * M[8];
     const double w2_0 = M[6]*M[0];
     const double w2_1 = M[7]*M[4];
     M[8] = M[8] - M[6]*w2_0 - M[7]*w2_1;
-    if (!(M[8] > 0.0)) return ROLLING_DISC_NOT_POSITIVE_DEFINITE;
+    if (!(M[8] > tol2)) return ROLLING_DISC_NOT_POSITIVE_DEFINITE;
     return ROLLING_DISC_OK;
 }
 
@@ -61,8 +67,10 @@ void rolling_disc_default_parameters(double *p)
 /* Constraints A u + b = 0 with u = [u_s; u_r]: 3 independent speeds u_s (states),
  * 2 dependent speeds u_r.  CA is A (row-major 2 x 5), CB is b.
  * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot below 1e-13 of the largest entry of A_r is ROLLING_DISC_CONSTRAINT_SINGULAR
- * (a locked or singular configuration for these dependent speeds). */
+ * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * ROLLING_DISC_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see rolling_disc_kkt_factor. */
 static void rolling_disc_con_lu_solve(const double *LU, const int *piv, double *b)
 {
     int i, k;
@@ -166,12 +174,16 @@ static void rolling_disc_con_lu_solve_t(const double *LU, const int *piv, double
 #define ROLLING_DISC_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 5 + (j)] : (M)[(j) * 5 + (i)])
 
 /* The reduced mass matrix MT = T^T M T with T = [I; CR], CR = -A_r^{-1} A_s (2 x 3),
- * factored by rolling_disc_ldl (M is read from its lower triangle). */
+ * factored by rolling_disc_ldl (M is read from its lower triangle).  MT_aa is a sum that
+ * cancels where the independent speed a moves no mass (a four-bar whose crank has zero
+ * length): rounding noise of its summands.  So each pivot d_a must also be above
+ * 48 * DBL_EPSILON * g_a, g_a = sum_ik |T_ia M_ik T_ka| the magnitude of MT_aa's summands
+ * (and rolling_disc_ldl's own test, relative to MT_aa), else ROLLING_DISC_NOT_POSITIVE_DEFINITE. */
 static int rolling_disc_kkt_factor(const double *CA, const double *LU, const int *piv,
                                    const double *M, double *CR, double *MT)
 {
     int a, b, i, k;
-    double v[2];
+    double v[2], g[3];
     for (b = 0; b < 3; ++b) {
         for (i = 0; i < 2; ++i) {
             v[i] = -CA[i * 5 + b];
@@ -194,8 +206,25 @@ static int rolling_disc_kkt_factor(const double *CA, const double *LU, const int
             }
             MT[a * 3 + b] = s;
         }
+        g[a] = fabs(ROLLING_DISC_ML(M, a, a));
+        for (i = 0; i < 2; ++i) {
+            g[a] += 2.0 * fabs(ROLLING_DISC_ML(M, a, 3 + i) * CR[i * 3 + a]);
+            for (k = 0; k < 2; ++k) {
+                g[a] += fabs(CR[i * 3 + a] * ROLLING_DISC_ML(M, 3 + i, 3 + k)
+                             * CR[k * 3 + a]);
+            }
+        }
     }
-    return rolling_disc_ldl(MT);
+    i = rolling_disc_ldl(MT);
+    if (i != ROLLING_DISC_OK) {
+        return i;
+    }
+    for (a = 0; a < 3; ++a) {
+        if (!(MT[a * 3 + a] > 48 * DBL_EPSILON * g[a])) {
+            return ROLLING_DISC_NOT_POSITIVE_DEFINITE;
+        }
+    }
+    return ROLLING_DISC_OK;
 }
 
 /* Solve [M  -A^T; A  0] [acc; lam] = [r2; r3] with the factors of rolling_disc_kkt_factor:

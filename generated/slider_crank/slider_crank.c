@@ -4,16 +4,20 @@
  * Operations: 198 after CSE (303 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "slider_crank.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 1 x 1; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns SLIDER_CRANK_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns SLIDER_CRANK_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 16 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int slider_crank_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return SLIDER_CRANK_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 16 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return SLIDER_CRANK_NOT_POSITIVE_DEFINITE;
     return SLIDER_CRANK_OK;
 }
 
@@ -51,8 +55,10 @@ void slider_crank_default_parameters(double *p)
 /* Constraints A u + b = 0 with u = [u_s; u_r]: 1 independent speeds u_s (states),
  * 2 dependent speeds u_r.  CA is A (row-major 2 x 3), CB is b.
  * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot below 1e-13 of the largest entry of A_r is SLIDER_CRANK_CONSTRAINT_SINGULAR
- * (a locked or singular configuration for these dependent speeds). */
+ * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * SLIDER_CRANK_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see slider_crank_kkt_factor. */
 static void slider_crank_con_lu_solve(const double *LU, const int *piv, double *b)
 {
     int i, k;
@@ -156,12 +162,16 @@ static void slider_crank_con_lu_solve_t(const double *LU, const int *piv, double
 #define SLIDER_CRANK_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 3 + (j)] : (M)[(j) * 3 + (i)])
 
 /* The reduced mass matrix MT = T^T M T with T = [I; CR], CR = -A_r^{-1} A_s (2 x 1),
- * factored by slider_crank_ldl (M is read from its lower triangle). */
+ * factored by slider_crank_ldl (M is read from its lower triangle).  MT_aa is a sum that
+ * cancels where the independent speed a moves no mass (a four-bar whose crank has zero
+ * length): rounding noise of its summands.  So each pivot d_a must also be above
+ * 16 * DBL_EPSILON * g_a, g_a = sum_ik |T_ia M_ik T_ka| the magnitude of MT_aa's summands
+ * (and slider_crank_ldl's own test, relative to MT_aa), else SLIDER_CRANK_NOT_POSITIVE_DEFINITE. */
 static int slider_crank_kkt_factor(const double *CA, const double *LU, const int *piv,
                                    const double *M, double *CR, double *MT)
 {
     int a, b, i, k;
-    double v[2];
+    double v[2], g[1];
     for (b = 0; b < 1; ++b) {
         for (i = 0; i < 2; ++i) {
             v[i] = -CA[i * 3 + b];
@@ -184,8 +194,25 @@ static int slider_crank_kkt_factor(const double *CA, const double *LU, const int
             }
             MT[a * 1 + b] = s;
         }
+        g[a] = fabs(SLIDER_CRANK_ML(M, a, a));
+        for (i = 0; i < 2; ++i) {
+            g[a] += 2.0 * fabs(SLIDER_CRANK_ML(M, a, 1 + i) * CR[i * 1 + a]);
+            for (k = 0; k < 2; ++k) {
+                g[a] += fabs(CR[i * 1 + a] * SLIDER_CRANK_ML(M, 1 + i, 1 + k)
+                             * CR[k * 1 + a]);
+            }
+        }
     }
-    return slider_crank_ldl(MT);
+    i = slider_crank_ldl(MT);
+    if (i != SLIDER_CRANK_OK) {
+        return i;
+    }
+    for (a = 0; a < 1; ++a) {
+        if (!(MT[a * 1 + a] > 16 * DBL_EPSILON * g[a])) {
+            return SLIDER_CRANK_NOT_POSITIVE_DEFINITE;
+        }
+    }
+    return SLIDER_CRANK_OK;
 }
 
 /* Solve [M  -A^T; A  0] [acc; lam] = [r2; r3] with the factors of slider_crank_kkt_factor:

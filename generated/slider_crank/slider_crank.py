@@ -61,9 +61,15 @@ class _IEEE:
 _RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
+#: C's DBL_EPSILON (<float.h>): a pivot d_j <= 16 * DBL_EPSILON * M_jj is singular.
+DBL_EPSILON = 2.0 ** -52
+
+
 def _ldl(M):
-    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
-    if not M[0] > 0.0:
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C,
+    a pivot d_j not above 16 * DBL_EPSILON * M_jj (rounding noise) is not positive definite."""
+    tol0 = 16 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
         raise NotPositiveDefinite('mass matrix is not positive definite')
 
 
@@ -92,7 +98,8 @@ def _con_lu_solve(LU, piv, b):
 
 
 def _velocity_solve(CA, CB, us):
-    """LU of A_r with partial pivoting and u_r = -A_r^{-1} (A_s u_s + b); as in the C."""
+    """LU of A_r with partial pivoting and u_r = -A_r^{-1} (A_s u_s + b); as in the C, sum by
+    sum in its order."""
     m, n, ns = 2, 3, 1
     LU = [CA[i * n + ns + j] for i in range(m) for j in range(m)]
     amax = max(abs(a) for a in LU)
@@ -113,7 +120,12 @@ def _velocity_solve(CA, CB, us):
             LU[i * m + k] = lik
             for j in range(k + 1, m):
                 LU[i * m + j] -= lik * LU[k * m + j]
-    UR = [-(CB[i] + sum(CA[i * n + j] * us[j] for j in range(ns))) for i in range(m)]
+    UR = [0.0] * m
+    for i in range(m):
+        s = CB[i]
+        for j in range(ns):
+            s += CA[i * n + j] * us[j]
+        UR[i] = -s
     _con_lu_solve(LU, piv, UR)
     return LU, piv, UR
 
@@ -138,7 +150,8 @@ def _ml(M, i, j):
 
 
 def _kkt_factor(CA, LU, piv, M):
-    """CR = -A_r^{-1} A_s and the reduced mass matrix T^T M T, factored; as in the C."""
+    """CR = -A_r^{-1} A_s and the reduced mass matrix T^T M T, factored, its pivots checked
+    against the magnitude of its diagonal's summands too; as in the C."""
     m, n, ns = 2, 3, 1
     CR = [0.0] * (m * ns)
     for b in range(ns):
@@ -156,21 +169,49 @@ def _kkt_factor(CA, LU, piv, M):
                     s += CR[i * ns + a] * _ml(M, ns + i, ns + k) * CR[k * ns + b]
             MT[a * ns + b] = s
     _ldl(MT)
+    for a in range(ns):
+        g = abs(_ml(M, a, a))
+        for i in range(m):
+            g += 2.0 * abs(_ml(M, a, ns + i) * CR[i * ns + a])
+            for k in range(m):
+                g += abs(CR[i * ns + a] * _ml(M, ns + i, ns + k) * CR[k * ns + a])
+        if not MT[a * ns + a] > 16 * DBL_EPSILON * g:
+            raise NotPositiveDefinite("the reduced mass matrix is singular: independent speed %d "
+                                      "moves no mass (pivot %r)" % (a, MT[a * ns + a]))
     return CR, MT
 
 
 def _kkt_solve(LU, piv, M, CR, MT, r2, r3):
-    """[M -A^T; A 0] [acc; lam] = [r2; r3]; as in the C."""
+    """[M -A^T; A 0] [acc; lam] = [r2; r3]; as in the C, sum by sum in its order (the saddle
+    point can be ill-conditioned: another order of the same sums differs in more than the
+    last digits)."""
     m, n, ns = 2, 3, 1
     e = list(r3)
     _con_lu_solve(LU, piv, e)
-    w = [r2[i] - sum(_ml(M, i, ns + k) * e[k] for k in range(m)) for i in range(n)]
-    acc = [w[i] + sum(CR[k * ns + i] * w[ns + k] for k in range(m)) for i in range(ns)]
-    acc += [0.0] * m
+    w = [0.0] * n
+    for i in range(n):
+        s = r2[i]
+        for k in range(m):
+            s -= _ml(M, i, ns + k) * e[k]
+        w[i] = s
+    acc = [0.0] * n
+    for i in range(ns):
+        s = w[i]
+        for k in range(m):
+            s += CR[k * ns + i] * w[ns + k]
+        acc[i] = s
     _ldl_solve(MT, acc)
     for i in range(m):
-        acc[ns + i] = e[i] + sum(CR[i * ns + k] * acc[k] for k in range(ns))
-    lam = [sum(_ml(M, ns + i, k) * acc[k] for k in range(n)) - r2[ns + i] for i in range(m)]
+        s = e[i]
+        for k in range(ns):
+            s += CR[i * ns + k] * acc[k]
+        acc[ns + i] = s
+    lam = [0.0] * m
+    for i in range(m):
+        s = -r2[ns + i]
+        for k in range(n):
+            s += _ml(M, ns + i, k) * acc[k]
+        lam[i] = s
     _con_lu_solve_t(LU, piv, lam)
     return acc, lam
 

@@ -4,17 +4,22 @@
  * Operations: 19 after CSE (32 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "spherical_rod.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 2 x 2; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns SPHERICAL_ROD_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns SPHERICAL_ROD_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 32 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int spherical_rod_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return SPHERICAL_ROD_NOT_POSITIVE_DEFINITE;
-    if (!(M[3] > 0.0)) return SPHERICAL_ROD_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 32 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return SPHERICAL_ROD_NOT_POSITIVE_DEFINITE;
+    const double tol1 = 32 * DBL_EPSILON * M[3];
+    if (!(M[3] > tol1)) return SPHERICAL_ROD_NOT_POSITIVE_DEFINITE;
     return SPHERICAL_ROD_OK;
 }
 

@@ -4,17 +4,22 @@
  * Operations: 93 after CSE (185 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "spring_pendulum.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 2 x 2; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns SPRING_PENDULUM_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns SPRING_PENDULUM_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 32 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int spring_pendulum_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return SPRING_PENDULUM_NOT_POSITIVE_DEFINITE;
-    if (!(M[3] > 0.0)) return SPRING_PENDULUM_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 32 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return SPRING_PENDULUM_NOT_POSITIVE_DEFINITE;
+    const double tol1 = 32 * DBL_EPSILON * M[3];
+    if (!(M[3] > tol1)) return SPRING_PENDULUM_NOT_POSITIVE_DEFINITE;
     return SPRING_PENDULUM_OK;
 }
 
@@ -275,11 +280,19 @@ static int spring_pendulum_initial_step(double t0, const double *y, const double
 }
 
 /* LU factorisation with partial pivoting, in place (row-major 4 x 4): P A = L U,
- * piv[k] = row swapped with row k.  A zero (or NaN) pivot column is singular. */
+ * piv[k] = row swapped with row k.  A pivot column whose largest entry is not above
+ * 64 * DBL_EPSILON * max_ij |A_ij| (NaN included) is singular: rounding noise is all
+ * that a matrix singular in exact arithmetic leaves there, not an exact zero. */
 static int spring_pendulum_lu_factor(double *A, int *piv)
 {
     int i, j, k, r;
-    double amax, v, l;
+    double amax, v, l, tol = 0.0;
+    for (i = 0; i < 16; ++i) {
+        if (fabs(A[i]) > tol) {
+            tol = fabs(A[i]);
+        }
+    }
+    tol *= 64 * DBL_EPSILON;
     for (k = 0; k < 4; ++k) {
         r = k;
         amax = fabs(A[k * 4 + k]);
@@ -291,7 +304,7 @@ static int spring_pendulum_lu_factor(double *A, int *piv)
             }
         }
         piv[k] = r;
-        if (!(amax > 0.0) || !isfinite(amax)) {
+        if (!(amax > tol) || !isfinite(amax)) {
             return SPRING_PENDULUM_SINGULAR_ITERATION_MATRIX;
         }
         if (r != k) {

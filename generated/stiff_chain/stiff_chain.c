@@ -4,20 +4,28 @@
  * Operations: 430 after CSE (2415 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "stiff_chain.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 5 x 5; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns STIFF_CHAIN_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns STIFF_CHAIN_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 80 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int stiff_chain_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
-    if (!(M[6] > 0.0)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
-    if (!(M[12] > 0.0)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
-    if (!(M[18] > 0.0)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
-    if (!(M[24] > 0.0)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 80 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    const double tol1 = 80 * DBL_EPSILON * M[6];
+    if (!(M[6] > tol1)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    const double tol2 = 80 * DBL_EPSILON * M[12];
+    if (!(M[12] > tol2)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    const double tol3 = 80 * DBL_EPSILON * M[18];
+    if (!(M[18] > tol3)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    const double tol4 = 80 * DBL_EPSILON * M[24];
+    if (!(M[24] > tol4)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
     return STIFF_CHAIN_OK;
 }
 
@@ -569,11 +577,19 @@ static int stiff_chain_initial_step(double t0, const double *y, const double *f0
 }
 
 /* LU factorisation with partial pivoting, in place (row-major 10 x 10): P A = L U,
- * piv[k] = row swapped with row k.  A zero (or NaN) pivot column is singular. */
+ * piv[k] = row swapped with row k.  A pivot column whose largest entry is not above
+ * 160 * DBL_EPSILON * max_ij |A_ij| (NaN included) is singular: rounding noise is all
+ * that a matrix singular in exact arithmetic leaves there, not an exact zero. */
 static int stiff_chain_lu_factor(double *A, int *piv)
 {
     int i, j, k, r;
-    double amax, v, l;
+    double amax, v, l, tol = 0.0;
+    for (i = 0; i < 100; ++i) {
+        if (fabs(A[i]) > tol) {
+            tol = fabs(A[i]);
+        }
+    }
+    tol *= 160 * DBL_EPSILON;
     for (k = 0; k < 10; ++k) {
         r = k;
         amax = fabs(A[k * 10 + k]);
@@ -585,7 +601,7 @@ static int stiff_chain_lu_factor(double *A, int *piv)
             }
         }
         piv[k] = r;
-        if (!(amax > 0.0) || !isfinite(amax)) {
+        if (!(amax > tol) || !isfinite(amax)) {
             return STIFF_CHAIN_SINGULAR_ITERATION_MATRIX;
         }
         if (r != k) {

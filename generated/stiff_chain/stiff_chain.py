@@ -61,17 +61,27 @@ class _IEEE:
 _RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
+#: C's DBL_EPSILON (<float.h>): a pivot d_j <= 80 * DBL_EPSILON * M_jj is singular.
+DBL_EPSILON = 2.0 ** -52
+
+
 def _ldl(M):
-    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
-    if not M[0] > 0.0:
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C,
+    a pivot d_j not above 80 * DBL_EPSILON * M_jj (rounding noise) is not positive definite."""
+    tol0 = 80 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
         raise NotPositiveDefinite('mass matrix is not positive definite')
-    if not M[6] > 0.0:
+    tol1 = 80 * DBL_EPSILON * M[6]
+    if not M[6] > tol1:
         raise NotPositiveDefinite('mass matrix is not positive definite')
-    if not M[12] > 0.0:
+    tol2 = 80 * DBL_EPSILON * M[12]
+    if not M[12] > tol2:
         raise NotPositiveDefinite('mass matrix is not positive definite')
-    if not M[18] > 0.0:
+    tol3 = 80 * DBL_EPSILON * M[18]
+    if not M[18] > tol3:
         raise NotPositiveDefinite('mass matrix is not positive definite')
-    if not M[24] > 0.0:
+    tol4 = 80 * DBL_EPSILON * M[24]
+    if not M[24] > tol4:
         raise NotPositiveDefinite('mass matrix is not positive definite')
 
 

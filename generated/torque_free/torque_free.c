@@ -4,26 +4,32 @@
  * Operations: 40 after CSE (62 before).
  */
 #include <math.h>
+#include <float.h>   /* DBL_EPSILON: the pivot thresholds of the L D L^T and LU solvers */
 #include "torque_free.h"
 
 /* L D L^T factorisation of the mass matrix in place (row-major 3 x 3; the
  * lower triangle is read and overwritten: L below the diagonal, D on it).
- * Returns TORQUE_FREE_NOT_POSITIVE_DEFINITE when a pivot d_j is not positive (NaN included).
+ * Returns TORQUE_FREE_NOT_POSITIVE_DEFINITE when a pivot d_j is not above
+ * 48 * DBL_EPSILON * M_jj (NaN included): rounding noise, of either sign, is all that a
+ * matrix singular in exact arithmetic leaves there.
  * Unrolled for the structural nonzeros of M (and their fill-in).
  */
 static int torque_free_ldl(double *M)
 {
-    if (!(M[0] > 0.0)) return TORQUE_FREE_NOT_POSITIVE_DEFINITE;
+    const double tol0 = 48 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return TORQUE_FREE_NOT_POSITIVE_DEFINITE;
     M[3] = M[3]/M[0];
     M[6] = M[6]/M[0];
+    const double tol1 = 48 * DBL_EPSILON * M[4];
     const double w1_0 = M[3]*M[0];
     M[4] = M[4] - M[3]*w1_0;
-    if (!(M[4] > 0.0)) return TORQUE_FREE_NOT_POSITIVE_DEFINITE;
+    if (!(M[4] > tol1)) return TORQUE_FREE_NOT_POSITIVE_DEFINITE;
     M[7] = (M[7] - M[6]*w1_0)/M[4];
+    const double tol2 = 48 * DBL_EPSILON * M[8];
     const double w2_0 = M[6]*M[0];
     const double w2_1 = M[7]*M[4];
     M[8] = M[8] - M[6]*w2_0 - M[7]*w2_1;
-    if (!(M[8] > 0.0)) return TORQUE_FREE_NOT_POSITIVE_DEFINITE;
+    if (!(M[8] > tol2)) return TORQUE_FREE_NOT_POSITIVE_DEFINITE;
     return TORQUE_FREE_OK;
 }
 

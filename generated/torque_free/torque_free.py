@@ -61,21 +61,29 @@ class _IEEE:
 _RAISES = (ZeroDivisionError, ValueError, OverflowError)
 
 
+#: C's DBL_EPSILON (<float.h>): a pivot d_j <= 48 * DBL_EPSILON * M_jj is singular.
+DBL_EPSILON = 2.0 ** -52
+
+
 def _ldl(M):
-    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C."""
-    if not M[0] > 0.0:
+    """L D L^T factorisation of the mass matrix in place (row-major, lower triangle); as in the C,
+    a pivot d_j not above 48 * DBL_EPSILON * M_jj (rounding noise) is not positive definite."""
+    tol0 = 48 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
         raise NotPositiveDefinite('mass matrix is not positive definite')
     M[3] = M[3]/M[0]
     M[6] = M[6]/M[0]
+    tol1 = 48 * DBL_EPSILON * M[4]
     w1_0 = M[3]*M[0]
     M[4] = M[4] - M[3]*w1_0
-    if not M[4] > 0.0:
+    if not M[4] > tol1:
         raise NotPositiveDefinite('mass matrix is not positive definite')
     M[7] = (M[7] - M[6]*w1_0)/M[4]
+    tol2 = 48 * DBL_EPSILON * M[8]
     w2_0 = M[6]*M[0]
     w2_1 = M[7]*M[4]
     M[8] = M[8] - M[6]*w2_0 - M[7]*w2_1
-    if not M[8] > 0.0:
+    if not M[8] > tol2:
         raise NotPositiveDefinite('mass matrix is not positive definite')
 
 

@@ -1,9 +1,12 @@
 """Build: rendered texts to binaries, with the C compiler.
 
 :mod:`~mbgen.build.extension` compiles a :class:`~mbgen.abi.Rendered` into a cffi
-extension module, cached by content hash (``load``); :mod:`~mbgen.build.fmu` compiles an
-FMU's sources into this platform's shared library and writes the ``.fmu`` zip.  Nothing
-here renders code (:mod:`mbgen.codegen`) or calls a model (:mod:`mbgen.run`).
+extension module, cached by content hash (``load``), running cffi's build in a child
+process (:mod:`~mbgen.build.cffi_child`) so that threads may build at once;
+:mod:`~mbgen.build.cache` keeps the folder of compiled modules private and decides
+which file may be loaded (owner, mode, SHA-256 record); :mod:`~mbgen.build.fmu` compiles
+an FMU's sources into this platform's shared library and writes the ``.fmu`` zip.
+Nothing here renders code (:mod:`mbgen.codegen`) or calls a model (:mod:`mbgen.run`).
 
 How to add a build
 ------------------
@@ -14,7 +17,9 @@ How to add a build
 2. The caller one stage up: :mod:`mbgen.pipeline` for the extension, a root module such
    as :mod:`mbgen.export` for a product made from a scene.
 3. ``tests/build/test_cflags.py`` (the extension's flags and cache key),
-   ``tests/build/test_cache.py`` (a damaged or half-built module is rebuilt) and
+   ``tests/build/test_cache.py`` (a damaged, planted or half-built module is never
+   loaded; a full disk is a named error), ``tests/build/test_threads.py`` (threads and
+   processes building at once) and
    ``tests/test_export_fmu.py`` (the FMU builds and FMPy runs it) fail when a build
    breaks; add the new product's test beside them.
 """

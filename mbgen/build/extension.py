@@ -1,44 +1,45 @@
 """Build: ``Rendered -> compiled extension module`` with cffi (API mode, out of line).
 
 The module is named after a hash of its source (``_mbgen_<prefix>_<hash>``) and
-cached in :func:`cache_dir`, so loading an unchanged model again does not call
-the compiler.  A build happens in a private temporary folder and the finished
-extension is moved into the cache with an atomic rename, so concurrent builds
-and interrupted builds never leave a half-written module behind.
+cached in :func:`~mbgen.build.cache.cache_dir`, so loading an unchanged model again
+does not call the compiler.  What the cache trusts, and whose folder it uses, is
+:mod:`mbgen.build.cache`'s to say: a module is loaded only when it is the user's own
+build, whole and unchanged; anything else is rebuilt.
 
-The cache does not trust file names.  Next to every module the build records its
-size and SHA-256 (``<module>.sha256``, written after the module); a module is
-loaded only when it matches, otherwise it is rebuilt -- a truncated library would
-crash the interpreter (SIGBUS) when mapped, an empty one fail to import.  Every build
-folder holds an ``owner`` file (host and process id); folders left by builds that
-were killed are removed by the next build.  A default cache folder that cannot be
-written falls back to a private folder under the system's temporary directory; an
-explicit ``$MBGEN_CACHE_DIR`` that cannot be written is a
-:class:`~mbgen.errors.CacheError`.
+A build happens in a private folder inside the cache, in a child process
+(:mod:`mbgen.build.cffi_child`): cffi's build changes the working directory and the
+compiler writes to file descriptors 1 and 2, and neither may happen in a process whose
+other threads go on working.  So any number of threads may compile at once (threads
+that need the same module build it once), and the process's working directory,
+``sys.stdout`` and fds 1 and 2 are never touched.  The finished module and then its
+record are moved into the cache with atomic renames, so concurrent builds -- threads or
+processes -- and interrupted ones never leave a half-written module behind: a reader
+sees the old file or the new one, and a module whose record does not match is rebuilt.
 
 No ``os.chdir``, no ``sys.path`` edits: the module is loaded from its file.
 """
 
 from __future__ import annotations
 
-import getpass
 import hashlib
 import importlib.machinery
 import importlib.util
+import json
 import os
 import shutil
+import subprocess
 import sys
-import socket
 import sysconfig
 import tempfile
 import threading
-import time
-from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import BuildError, CacheError
 from ..fileio import write_files
 from ..abi import Rendered
+from . import cffi_child
+from .cache import (cache_dir, disk_error, disk_full, mentions_full_disk, owner_line,
+                    record_path, remove_stale_builds, verified, writable, write_record)
 
 #: Flags for the generated C.  -ffp-contract=off keeps results bitwise close to
 #: the Python module (no fused multiply-add contraction).
@@ -70,58 +71,11 @@ def cflags(rendered: Rendered) -> tuple[str, ...]:
         level = "-O1" if len(source) > LARGE_SOURCE_CHARS else "-O2"
     return tuple(level if f == "-O2" else f for f in CFLAGS)
 
+
 _loaded: dict[str, object] = {}
-_lock = threading.Lock()
-
-
-#: A build folder whose owner cannot be checked is stale after this many seconds.
-STALE_AFTER = 24 * 3600.0
-
-
-def _writable(root: Path) -> str | None:
-    """``None`` when ``root`` is (made) a writable folder, else why not."""
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        return f"{exc.strerror or exc}"
-    if not root.is_dir():
-        return "not a folder"
-    if not os.access(root, os.W_OK | os.X_OK):
-        return "not writable"
-    return None
-
-
-def cache_dir() -> Path:
-    """Folder of compiled modules: ``$MBGEN_CACHE_DIR`` or ``~/.cache/mbgen``.
-
-    A default folder that cannot be written falls back to
-    ``<tempdir>/mbgen-cache-<user id>``.
-
-    Raises
-    ------
-    CacheError
-        ``$MBGEN_CACHE_DIR`` (or the fallback) cannot be created or written.
-    """
-    env = os.environ.get("MBGEN_CACHE_DIR")
-    if env:
-        root = Path(env)
-        why = _writable(root)
-        if why:
-            raise CacheError(f"the cache folder MBGEN_CACHE_DIR={env!r} cannot be used ({why}); "
-                             f"point MBGEN_CACHE_DIR at a writable folder or unset it")
-        return root
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    root = Path(base) / "mbgen"
-    why = _writable(root)
-    if why is None:
-        return root
-    uid = os.getuid() if hasattr(os, "getuid") else getpass.getuser()
-    fallback = Path(tempfile.gettempdir()) / f"mbgen-cache-{uid}"
-    why2 = _writable(fallback)
-    if why2:
-        raise CacheError(f"no writable cache folder: {root} ({why}), {fallback} ({why2}); set "
-                         f"MBGEN_CACHE_DIR to a writable folder")
-    return fallback
+_lock = threading.RLock()  # re-entered by load's rebuild of a module that does not import
+#: One lock per module name: threads that need the same module build it once.
+_building: dict[str, threading.Lock] = {}
 
 
 def module_name(rendered: Rendered) -> str:
@@ -143,89 +97,6 @@ def compiled_path(rendered: Rendered) -> Path:
     return cache_dir() / (module_name(rendered) + _suffix())
 
 
-def _record_path(path: Path) -> Path:
-    return path.with_name(path.name + ".sha256")
-
-
-def _fingerprint(path: Path) -> str:
-    """``"<size> <sha256>"`` of the file at ``path``."""
-    h = hashlib.sha256()
-    size = 0
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-            size += len(block)
-    return f"{size} {h.hexdigest()}"
-
-
-def verified(path: Path) -> bool:
-    """Whether the module at ``path`` is the one its build recorded (size and SHA-256)."""
-    try:
-        recorded = _record_path(path).read_text().strip()
-        if os.stat(path).st_size != int(recorded.split()[0]):
-            return False  # cheap first: a truncated or empty file
-        return _fingerprint(path) == recorded
-    except (OSError, ValueError, IndexError):
-        return False
-
-
-def _stale(folder: Path, now: float) -> bool:
-    """A build folder left by a build that no longer runs."""
-    try:
-        host, pid = (folder / "owner").read_text().split()
-        if host == socket.gethostname():
-            try:
-                os.kill(int(pid), 0)
-            except ProcessLookupError:
-                return True
-            except (PermissionError, ValueError):
-                pass
-            else:
-                return False
-    except (OSError, ValueError):
-        pass
-    try:
-        return now - folder.stat().st_mtime > STALE_AFTER
-    except OSError:
-        return False
-
-
-def remove_stale_builds(root: Path | None = None) -> list[Path]:
-    """Remove the build folders (``_mbgen_*-*``) of killed builds; return what was removed."""
-    root = root or cache_dir()
-    now = time.time()
-    removed = []
-    for folder in root.glob("_mbgen_*-*"):
-        if folder.is_dir() and _stale(folder, now):
-            shutil.rmtree(folder, ignore_errors=True)
-            if not folder.exists():
-                removed.append(folder)
-    return removed
-
-
-@contextmanager
-def _capture_fds():
-    """Redirect file descriptors 1 and 2 into a temporary file (compiler chatter)."""
-    sys.stdout.flush()
-    sys.stderr.flush()
-    with tempfile.TemporaryFile(mode="w+b") as log:
-        saved = os.dup(1), os.dup(2)
-        os.dup2(log.fileno(), 1)
-        os.dup2(log.fileno(), 2)
-        box = {"text": ""}
-        try:
-            yield box
-        finally:
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os.dup2(saved[0], 1)
-            os.dup2(saved[1], 2)
-            os.close(saved[0])
-            os.close(saved[1])
-            log.seek(0)
-            box["text"] = log.read().decode(errors="replace")
-
-
 def compiler() -> str:
     cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
     exe = cc.split()[0]
@@ -242,43 +113,64 @@ def build(rendered: Rendered, *, force: bool = False) -> Path:
     ------
     BuildError
         With the compiler's own output when compilation fails.
+    CacheError
+        The cache folder is not private, read-only (and lacks the module), or full.
     """
     target = compiled_path(rendered)
-    if not force and target.exists() and verified(target):
+    if not force and verified(target):
         return target
-    compiler()
-    import cffi
-
     name = module_name(rendered)
-    remove_stale_builds(target.parent)
-    with tempfile.TemporaryDirectory(prefix=f"{name}-", dir=target.parent) as tmp:
-        tmpdir = Path(tmp)
-        (tmpdir / "owner").write_text(f"{socket.gethostname()} {os.getpid()}\n")
-        write_files(tmpdir, rendered.files)
-        ffi = cffi.FFI()
+    with _lock:
+        building = _building.setdefault(name, threading.Lock())
+    with building:
+        if not force and verified(target):  # another thread built it meanwhile
+            return target
+        root = target.parent
+        if not writable(root):
+            raise CacheError(f"the cache folder {root} is read-only and holds no usable "
+                             f"{target.name}; make it writable or point MBGEN_CACHE_DIR at "
+                             f"a writable folder")
+        compiler()
         try:
-            ffi.cdef(rendered.cdef + rendered.extension_cdef)
-        except Exception as exc:  # cffi.CDefError and friends
-            raise BuildError(f"cffi could not parse the declarations of {rendered.prefix}: "
-                             f"{exc}") from exc
-        ffi.set_source(name, f'#include "{rendered.prefix}.h"\n' + rendered.extension,
-                       sources=[str(tmpdir / f"{rendered.prefix}.c")],
-                       include_dirs=[str(tmpdir)], extra_compile_args=list(cflags(rendered)),
-                       libraries=["m"])
-        output = ""
-        try:
-            with _capture_fds() as box:
-                built = ffi.compile(tmpdir=str(tmpdir), verbose=False)
-            output = box["text"]
-        except Exception as exc:
-            output = box["text"] if "box" in locals() else ""
-            raise BuildError(f"compiling model {rendered.prefix!r} failed: {exc}\n"
-                             f"--- compiler output ---\n{output.strip()}") from exc
-        record = tmpdir / "record"
-        record.write_text(_fingerprint(Path(built)) + "\n")
-        os.replace(built, target)
-        os.replace(record, _record_path(target))  # after the module: a record proves it whole
+            remove_stale_builds(root)
+            with tempfile.TemporaryDirectory(prefix=f"{name}-", dir=root) as tmp:
+                folder = Path(tmp)
+                (folder / "owner").write_text(owner_line())
+                write_files(folder, rendered.files)
+                built = _compile(rendered, name, folder)
+                record = folder / "record"
+                write_record(built, record)
+                os.replace(built, target)
+                os.replace(record, record_path(target))  # after the module: it proves it whole
+        except OSError as exc:
+            raise disk_error(exc, root, name) from exc
     return target
+
+
+def _compile(rendered: Rendered, name: str, folder: Path) -> Path:
+    """Run cffi's build of ``rendered`` in a child process, in ``folder``; the module's path."""
+    spec = {"name": name, "cdef": rendered.cdef + rendered.extension_cdef,
+            "source": f'#include "{rendered.prefix}.h"\n' + rendered.extension,
+            "sources": [str(folder / f"{rendered.prefix}.c")], "include_dirs": [str(folder)],
+            "extra_compile_args": list(cflags(rendered)), "libraries": ["m"]}
+    child = subprocess.run([sys.executable, "-c", cffi_child.START, cffi_child.__file__],
+                           input=json.dumps(spec), cwd=folder, text=True, errors="replace",
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    output = child.stdout.strip()
+    try:
+        result = json.loads((folder / cffi_child.RESULT).read_text())
+    except (OSError, ValueError):
+        result = {"error": f"the build process ended with exit code {child.returncode}"}
+    full = mentions_full_disk(f"{result.get('error', '')}\n{output}")
+    if full:
+        raise disk_full(folder.parent, name, full)
+    if "cdef" in result:
+        raise BuildError(f"cffi could not parse the declarations of {rendered.prefix}: "
+                         f"{result['cdef']}")
+    if "error" in result or child.returncode != 0:
+        raise BuildError(f"compiling model {rendered.prefix!r} failed: {result.get('error')}\n"
+                         f"--- compiler output ---\n{output}")
+    return Path(result["module"])
 
 
 def _import(path: Path):
@@ -294,8 +186,10 @@ def _import(path: Path):
 def load(rendered: Rendered, *, force: bool = False):
     """Build if needed and import the extension; returns the cffi module (``.ffi``, ``.lib``).
 
-    A module that is loaded is one whose size and SHA-256 match its build's record
-    (else it is rebuilt first); one that still fails to import is rebuilt once more.
+    A module is imported from its file only after :func:`build` found it trusted
+    (:func:`mbgen.build.cache.verified`: the user's own, whole and unchanged), else it
+    is rebuilt first; one that still fails to import is rebuilt once more.  A module
+    already imported by this process is returned without reading the disk.
     """
     key = str(compiled_path(rendered))
     with _lock:

@@ -5,12 +5,13 @@ FMU: text}``); :func:`build_binary` compiles ``sources/<prefix>.c`` and
 ``sources/<prefix>_fmu.c`` with :data:`FMU_CFLAGS`, and :func:`write_fmu` writes the
 zip: the texts and ``binaries/<platform>/<prefix>.so|.dylib|.dll``
 (:func:`platform_folder`), every entry dated 1980-01-01 with mode 0644, written to a
-temporary file in the output folder and renamed into place (no half-written FMU).
+temporary file in the output folder and renamed into place (no half-written FMU;
+:func:`mbgen.fileio.atomic_path`).  The ``.fmu`` itself gets the mode of every other
+output: 0666 minus the umask, or the mode of the FMU it replaces.
 """
 
 from __future__ import annotations
 
-import os
 import platform
 import struct
 import subprocess
@@ -19,6 +20,7 @@ import zipfile
 from pathlib import Path
 
 from ..errors import BuildError
+from ..fileio import atomic_path
 from .extension import compiler
 
 #: Flags of the FMU's shared library.
@@ -64,20 +66,12 @@ def write_fmu(output_dir, prefix: str, files: dict[str, str], binary: bytes) -> 
     path = out / f"{prefix}.fmu"
     entries = sorted(files.items()) + [
         (f"binaries/{platform_folder()}/{prefix}{library_suffix()}", binary)]
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=out)
-    os.close(fd)
-    try:
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-            for arcname, data in entries:
-                info = zipfile.ZipInfo(arcname, date_time=(1980, 1, 1, 0, 0, 0))
-                info.compress_type = zipfile.ZIP_DEFLATED
-                info.external_attr = 0o644 << 16
-                zf.writestr(info, data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_path(path) as tmp, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+        for arcname, data in entries:
+            info = zipfile.ZipInfo(arcname, date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            zf.writestr(info, data)
     return path
 
 

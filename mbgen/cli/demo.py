@@ -1,6 +1,10 @@
 """``mbgen demo``: the main job on the pendulum on a rotating disc -- derive, CSE,
 render, compile, check against lambdify, simulate, and time the right-hand sides of
-compiled C, generated Python and lambdify side by side."""
+compiled C, generated Python and lambdify side by side.
+
+The generated code and the trajectory go into the folder as one generation, as
+``mbgen generate`` writes (:func:`mbgen.fileio.write_generated`): a file of the user's
+in the way is not replaced without ``--overwrite``."""
 
 from __future__ import annotations
 
@@ -10,7 +14,7 @@ import time
 from pathlib import Path
 
 from ..errors import EXIT_CHECK, EXIT_OK
-from ..fileio import write_files
+from ..fileio import write_generated
 from ..model.scene import load_scene
 from ..run.python import python_model
 from ..pipeline import run as run_pipeline
@@ -23,6 +27,9 @@ from ._common import check_folder, progress
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("-o", "--output", default="mbgen-demo", metavar="DIR",
                    help="folder for the generated code and trajectory (default mbgen-demo)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace files in the folder that mbgen did not write or that were "
+                        "changed since it wrote them")
 
 
 def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
@@ -44,14 +51,15 @@ def run(args) -> int:
     result = run_pipeline(scene)
     model = result.compiled
     folder = Path(args.output)
-    write_files(folder, result.rendered.files)
     progress("check against lambdify")
     report = check(scene, result=result, samples=50)
     progress("simulate")
     x0, p = scene.x0(model.layout), scene.p(model.layout)
     traj = simulate(model, x0, scene.t_span, method="DOP853", rtol=1e-10, atol=1e-12,
                     progress=False)
-    csv_path = traj.write_csv(folder / "trajectory.csv")
+    csv_path = folder / "trajectory.csv"
+    done = write_generated(folder, {**result.rendered.files, csv_path.name: traj.to_csv()},
+                           overwrite=args.overwrite)
     in_c = simulate_in_c(model, x0, scene.t_span, method="dopri5", rtol=1e-10, atol=1e-12)
     gap = float(abs(in_c.x[-1] - traj.x[-1]).max())
     progress("time the right-hand sides side by side")
@@ -81,6 +89,8 @@ def run(args) -> int:
     print("\n".join(f"  {a:<{width}}  {b}" for a, b in rows))
     print("final state: " + ", ".join(f"{n} = {v:.8f}" for n, v in traj.final.items()))
     print(f"generated code: {folder}/ ; trajectory: {csv_path}")
+    for line in done.remarks():
+        print(line)
     if not report.ok:
         print(report.format())
         return EXIT_CHECK

@@ -1,5 +1,10 @@
 """``mbgen generate SCENE``: write the generated C header, C source and Python (and
-``example.c``) into a folder; ``--explain`` prints what was left out and why."""
+``example.c``) into a folder; ``--explain`` prints what was left out and why.
+
+The folder gets one whole generation or keeps the one it had, and nothing the user
+changed or put there is lost (:func:`mbgen.fileio.write_generated`: a lock, the new
+files written into a sibling folder and swapped in, a manifest of content hashes).
+A scene file is Python and runs when it is loaded: trust it as you trust code."""
 
 from __future__ import annotations
 
@@ -22,9 +27,10 @@ def configure(p: argparse.ArgumentParser) -> None:
     add_scene_arguments(p, method_flag=True)
     p.add_argument("-o", "--output", metavar="DIR",
                    help="output folder (default mbgen-out/SCENE); a regeneration removes the "
-                        "files it wrote before and no longer produces")
+                        "files it wrote before, no longer produces and nobody changed since")
     p.add_argument("--overwrite", action="store_true",
-                   help="replace files in the output folder that mbgen did not write")
+                   help="replace files in the output folder that mbgen did not write or that "
+                        "were changed since it wrote them")
     p.add_argument("--outputs", metavar="LIST",
                    help="comma-separated outputs (e.g. rhs,jacobian,dopri5); default: the scene's")
     p.add_argument("--explain", action="store_true",
@@ -45,12 +51,14 @@ def run(args) -> int:
     example = render_example(scene, result.kernel)
     if example is not None:
         files["example.c"] = example
-    changed, removed = write_generated(folder, files, overwrite=args.overwrite)
+    done = write_generated(folder, files, overwrite=args.overwrite)
     for name in sorted(files):
-        state = "written" if folder / name in changed else "unchanged"
+        state = "written" if folder / name in done.changed else "unchanged"
         print(f"{folder / name}  ({state})")
-    for path in removed:
+    for path in done.removed:
         print(f"{path}  (removed: no longer generated)")
+    for line in done.remarks():
+        print(line)
     k = result.kernel
     print(f"operations: {k.ops_before} before CSE, {k.ops_after} after "
           f"({', '.join(f.output.value for f in k.functions)})")

@@ -68,7 +68,7 @@ def _ldl_bytes(kernel) -> int:
     if n <= UNROLL_MAX:
         lets = sum(1 for s in factor_program(n, kernel.mass_pattern) if s.kind == "let")
         return D * lets
-    return D * (n + 2) + I * 3
+    return D * (n + 3) + I * 3
 
 
 def _integrator_bytes(T, n: int, non_autonomous: bool) -> int:

@@ -1,8 +1,26 @@
 r"""Straight-line ``L D L^T`` solvers for the mass matrix's sparsity pattern.
 
 ``M`` is symmetric positive definite, so ``M = L D L^T`` with unit lower
-triangular ``L`` and diagonal ``D > 0``; a pivot ``d_j <= 0`` (or NaN) means
-``M`` is not positive definite.  Unlike Cholesky this needs no square root.
+triangular ``L`` and diagonal ``D > 0``.  Unlike Cholesky this needs no square root.
+
+Singular is singular: a pivot is compared with the scale of its column, not with 0.
+A matrix that is singular in exact arithmetic (a rank-one ``M``; the four-bar whose
+crank has zero length) leaves a pivot of rounding noise, of either sign, and dividing
+by it gives accelerations of 1e16.  The factorisation's own backward error is
+within ``(n + 1) eps M_jj`` on the diagonal (Higham, *Accuracy and Stability of
+Numerical Algorithms*, Thm. 10.3: ``|L| |D| |L^T|`` has the diagonal ``M_jj`` when
+``D > 0``) and the computed entries of ``M`` carry a few ulps more, so ::
+
+    d_j <= tol_j = PIVOT_ULPS * n * eps * M_jj     (eps = DBL_EPSILON = 2^-52)
+
+(or NaN) is "not positive definite": the pivot is indistinguishable from rounding
+(a pivot that small would leave at most a digit or two of ``u'``).  As LAPACK's
+pivoted Cholesky (``dpstrf``, tolerance ``n eps max_j A_jj``) the test is relative,
+but per column: it is invariant under a change of units of any coordinate
+(``M -> D M D``), so a diagonal ``M`` with entries 1e-20 and 1 is still solved.
+A matrix computed as a sum that may cancel checks its pivots against the
+magnitude of the summands as well: the reduced mass matrix ``T^T M T`` of a
+constrained model (``templates/model/constraints.c.j2``, ``kkt_factor``).
 
 For ``n_u <= UNROLL_MAX`` the factorisation and the solve are emitted as
 straight-line code that touches only the structural nonzeros of ``L`` (the
@@ -14,7 +32,7 @@ Storage: ``M`` row-major ``n x n``; the factor overwrites the lower triangle
 
 Algorithm (column ``j``, with ``w_k = L_jk d_k``)::
 
-    d_j  = M_jj - sum_k L_jk w_k
+    d_j  = M_jj - sum_k L_jk w_k                  (singular unless d_j > tol_j)
     L_ij = (M_ij - sum_k L_ik w_k) / d_j          (i > j)
     solve: b_i -= sum_k L_ik b_k (k < i);  b_i /= d_i;  b_i -= sum_k L_ki b_k (k > i)
 """
@@ -25,6 +43,14 @@ from dataclasses import dataclass
 
 #: Largest ``n_u`` whose solver is unrolled into straight-line code.
 UNROLL_MAX = 12
+#: A pivot ``d_j <= PIVOT_ULPS * n * eps * M_jj`` is singular (the module docstring).
+PIVOT_ULPS = 16
+
+
+def pivot_factor(n: int) -> str:
+    """``"<PIVOT_ULPS n> * DBL_EPSILON"``: the factor of ``M_jj`` in the pivot threshold, the same
+    text in C (``<float.h>``) and in the generated Python (which defines ``DBL_EPSILON``)."""
+    return f"{PIVOT_ULPS * n} * DBL_EPSILON"
 
 
 def fill_pattern(n: int, pattern: frozenset) -> frozenset:
@@ -39,7 +65,7 @@ def fill_pattern(n: int, pattern: frozenset) -> frozenset:
 
 @dataclass(frozen=True)
 class Statement:
-    """One step: ``target = value``, a positivity check of ``target``, or ``target op= value``."""
+    """One step: ``target = value``, or a check ``target > value`` of a pivot."""
 
     kind: str      # "let" (new local), "set" (array element), "check"
     target: str
@@ -56,12 +82,13 @@ def factor_program(n: int, pattern: frozenset) -> list[Statement]:
     out: list[Statement] = []
     for j in range(n):
         ks = [k for k in range(j) if (j, k) in L]
+        out.append(Statement("let", f"tol{j}", f"{pivot_factor(n)} * {_m(n, j, j)}"))
         for k in ks:
             out.append(Statement("let", f"w{j}_{k}", f"{_m(n, j, k)}*{_m(n, k, k)}"))
         if ks:
             out.append(Statement("set", _m(n, j, j), " - ".join(
                 [_m(n, j, j)] + [f"{_m(n, j, k)}*w{j}_{k}" for k in ks])))
-        out.append(Statement("check", _m(n, j, j)))
+        out.append(Statement("check", _m(n, j, j), f"tol{j}"))
         for i in range(j + 1, n):
             if (i, j) not in L:
                 continue
@@ -105,7 +132,7 @@ def solve_ops(n: int, pattern: frozenset) -> int:
         pattern = frozenset((i, j) for i in range(n) for j in range(i))
     ops = 0
     for st in factor_program(n, pattern) + solve_program(n, pattern):
-        if st.kind != "check":
+        if st.kind != "check" and not st.target.startswith("tol"):
             ops += st.value.count("*") + st.value.count(" - ") + st.value.count("/")
     return ops
 
@@ -119,7 +146,7 @@ def c_lines(program: list[Statement], fail: str) -> list[str]:
         elif s.kind == "set":
             out.append(f"{s.target} = {s.value};")
         else:
-            out.append(f"if (!({s.target} > 0.0)) return {fail};")
+            out.append(f"if (!({s.target} > {s.value})) return {fail};")
     return out
 
 
@@ -130,6 +157,6 @@ def py_lines(program: list[Statement], fail: str) -> list[str]:
         if s.kind in ("let", "set"):
             out.append(f"{s.target} = {s.value}")
         else:
-            out.append(f"if not {s.target} > 0.0:")
+            out.append(f"if not {s.target} > {s.value}:")
             out.append(f"    raise {fail}")
     return out

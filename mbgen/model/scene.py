@@ -295,6 +295,9 @@ def _scene_function(module, name):
 def load_scene(name_or_path: str, *, force: bool = False, **options) -> Scene:
     """Build a built-in scene by name, or a scene file by path.
 
+    A scene file is Python and runs when it is loaded, with the caller's rights (mbgen
+    does not sandbox it): trust a scene file as you trust code.
+
     Options are passed to the scene's ``scene(**options)``; string values (from
     the command line) are converted to the type of the option's default: a
     float option must be finite, an int option integral, a bool option one

@@ -9,6 +9,7 @@ their time.  Each failure is an :class:`~mbgen.errors.ArgumentError` (a
 
 from __future__ import annotations
 
+import math
 import numbers
 
 import numpy as np
@@ -38,6 +39,15 @@ def real_number(value, what: str) -> float:
     except OverflowError:
         raise ArgumentError(f"{what} = {value!r:.40} is too large for a double "
                             f"(|value| > 1.8e308); pass a finite float") from None
+
+
+def tolerance(value, what: str) -> float:
+    """A tolerance: a finite real number >= 0 (ArgumentError naming ``what`` otherwise; NaN
+    would accept anything, ``res > nan`` being false, and infinity everything)."""
+    v = real_number(value, what)
+    if not (math.isfinite(v) and v >= 0):
+        raise ArgumentError(f"{what} must be a finite number >= 0; got {value!r:.40}")
+    return v
 
 
 def real_vector(value, n: int, what: str, names) -> np.ndarray:
@@ -104,4 +114,4 @@ def step_count(value, what: str = "max_steps", limit: int = LONG_MAX) -> int:
     return v
 
 
-__all__ = ["F64", "LONG_MAX", "real_number", "real_vector", "times", "step_count"]
+__all__ = ["F64", "LONG_MAX", "real_number", "real_vector", "times", "step_count", "tolerance"]

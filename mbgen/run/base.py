@@ -25,7 +25,7 @@ from ..errors import (ArgumentError, ConstraintError, MbgenError, NonFiniteResul
                       SingularConstraintError, SingularMassMatrixError)
 from ..symbolic.layout import Layout
 from . import named
-from .arguments import F64, real_number, real_vector, step_count
+from .arguments import F64, real_number, real_vector, step_count, tolerance
 
 
 class ModelBase:
@@ -137,28 +137,38 @@ class ModelBase:
         Speeds need nothing: only the independent speeds are states; the
         dependent ones always come from the velocity constraints.
 
+        The result's residual is at most ``tol (1 + max|q|)``, with ``q`` the
+        coordinates of the given ``x`` (a scale fixed before the first step: near a
+        dead point Newton's steps are huge, and a tolerance that grew with the
+        iterate once accepted a state far off the loop).
+
         Raises
         ------
+        ArgumentError
+            ``tol`` is not a finite number >= 0.
         ConstraintError
-            Newton did not converge (the message gives the residual), or the
-            constraint Jacobian of the dependent coordinates is singular.
+            Newton did not converge within ``max_iterations`` (the message gives the
+            residual), or the constraint Jacobian of the dependent coordinates is
+            singular.
         """
         x = self._x(x).copy()
-        tol = real_number(tol, "tol")
-        if not tol >= 0:
-            raise ArgumentError(f"tol must be a number >= 0; got {tol!r}")
+        tol = tolerance(tol, "tol")
         max_iterations = step_count(max_iterations, "max_iterations")
         if not self.dependent_coordinates:
             return x
         for o in (Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN):
             self._require(o)
         idx = [self.state_names.index(n) for n in self.dependent_coordinates]
+        n_q = self.layout.n_q
+        bound = tol * (1.0 + float(np.max(np.abs(x[:n_q])))) if n_q else tol
         res = np.inf
-        for _ in range(max_iterations):
+        for iteration in range(max_iterations + 1):
             f = self._evaluate(Output.HOLONOMIC, t, x, p, r)
             res = float(np.max(np.abs(f)))
-            if res <= tol * (1.0 + float(np.max(np.abs(x[idx])))):
+            if res <= bound:        # the residual of the very state returned
                 return x
+            if iteration == max_iterations or not np.isfinite(res):
+                break
             J = self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)[:, idx]
             try:
                 x[idx] -= np.linalg.solve(J, f)
@@ -168,13 +178,11 @@ class ModelBase:
                     f"{list(self.dependent_coordinates)} at {dict(zip(self.state_names, x))}: "
                     f"their Jacobian is singular (a locked configuration); start elsewhere"
                 ) from None
-            if not np.all(np.isfinite(x)):
-                break
         raise ConstraintError(
             f"{self.name}: Newton on the configuration constraints did not converge for "
-            f"{list(self.dependent_coordinates)} (residual {res:.3g} after {max_iterations} "
-            f"iterations); give initial values of the dependent coordinates closer to a "
-            f"solution")
+            f"{list(self.dependent_coordinates)} (residual {res:.3g} > {bound:.3g} after "
+            f"{iteration} iterations); give initial values of the dependent coordinates "
+            f"closer to a solution")
 
     def bind(self, p=None, r=None, output: Output = Output.RHS, *,
              vectorized: bool = False) -> Callable:

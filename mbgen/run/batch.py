@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -109,9 +110,12 @@ def evaluate(model, info, t, x, p, r):
 
 
 def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
-              on_failure: str = "raise"):
+              on_failure: str = "raise", project: bool = True,
+              check_start: Callable | None = None):
     """Batch of trajectories in one C call: see :meth:`mbgen.run.compiled.CompiledModel.integrate`.
 
+    ``check_start(t0, x0, p, r)`` (the batch, validated) refuses starts off the configuration
+    constraints, as the single call does; ``project=False`` turns the C projection off.
     Returns a :class:`BatchIntegration`; with ``on_failure="raise"`` the first failed
     member raises :class:`~mbgen.errors.IntegrationError`.
     """
@@ -120,10 +124,17 @@ def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
     k, (xa, xs), (pa, ps), (ra, rs) = batch_args(model, x0, p, r, "initial states x0")
     if not np.all(np.isfinite(xa)):
         raise ArgumentError("initial states x0 must be finite")
+    if check_start:
+        check_start(t[0], xa if xs else xa[0], (pa if ps else pa[0]) if model.n_p else None,
+                    (ra if rs else ra[0]) if model.n_r else None)
     ffi, prefix = model.ffi, model.rendered.prefix
     buf = ffi.from_buffer
-    opt = ffi.new(f"{prefix}_options *", {"rtol": rtol, "atol": atol, "h0": h0,
-                                          "h_max": h_max, "max_steps": int(max_steps)})
+    settings = {"rtol": rtol, "atol": atol, "h0": h0, "h_max": h_max,
+                "max_steps": int(max_steps)}
+    projects = "no_projection" in dict(ffi.typeof(f"{prefix}_options").fields)
+    if projects:
+        settings["no_projection"] = 0 if project else 1
+    opt = ffi.new(f"{prefix}_options *", settings)
     stats = ffi.new(f"{prefix}_stats[]", k)
     status = np.zeros(k, dtype=np.intc)
     x_out = np.empty((k, t.size, model.n_x))
@@ -139,13 +150,15 @@ def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
         buf("int[]", status), *work)
     wall = time.perf_counter() - start
     struct = f"{prefix}_stats"
-    fields = ("n_steps", "n_rejected", "n_rhs", "n_jac", "n_lu", "t_reached")
+    fields = ("n_steps", "n_rejected", "n_rhs", "n_jac", "n_lu", "t_reached") + (
+        ("max_residual",) if projects else ())
+    floats = ["f8"] * (len(fields) - 5)
     layout = np.dtype(dict(names=list(fields),
-                           formats=[f"i{ffi.sizeof('long')}"] * 5 + ["f8"],
+                           formats=[f"i{ffi.sizeof('long')}"] * 5 + floats,
                            offsets=[ffi.offsetof(struct, f) for f in fields],
                            itemsize=ffi.sizeof(struct)))
     raw = np.frombuffer(ffi.buffer(stats), dtype=layout, count=k).astype(
-        [(f, "i8") for f in fields[:5]] + [("t_reached", "f8")])
+        [(f, "i8") for f in fields[:5]] + [(f, "f8") for f in fields[5:]])
     result = BatchIntegration(t, x_out, output.value, status.astype(int), raw, wall,
                               tuple(status_message(prefix, int(s)) for s in status))
     if on_failure == "raise" and status.any():
@@ -170,7 +183,9 @@ class BatchIntegration:
     status : ndarray (k,) of int
         C status per member (0: success).
     stats : structured ndarray (k,)
-        ``n_steps, n_rejected, n_rhs, n_jac, n_lu, t_reached`` per member.
+        ``n_steps, n_rejected, n_rhs, n_jac, n_lu, t_reached`` per member, and
+        ``max_residual`` (the largest configuration-constraint residual met, as
+        ``Trajectory.max_residual``) for a model with configuration constraints.
     wall_time : float
         Seconds in the one C call.
     messages : tuple of str

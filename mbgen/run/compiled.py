@@ -52,27 +52,31 @@ class CompiledModel(GeneratedModel):
 
         The common case (a float ``t``, a contiguous float64 ``x`` of the right
         length, default or float64 ``p`` and ``r``) goes straight to C: the
-        crossing from Python costs under a microsecond.  Anything else takes the
+        crossing from Python costs about a microsecond.  Anything else takes the
         validating path (named errors, conversions) or the batch loop.
+
+        Every array is handed to C through a buffer taken at this call
+        (``ffi.from_buffer``, with its type looked up once), never one cached
+        from an earlier call: an array may have been reallocated in place since
+        (``p.resize(..., refcheck=False)``), and its old memory freed.  Only the
+        default ``p`` and ``r``, copies this closure owns, keep their buffers.
         """
         ffi = self.ffi
-        buf = ffi.from_buffer
+        buf, darr = ffi.from_buffer, ffi.typeof("double[]")
         cfunc = getattr(self.lib, info.c_name)
         size, shape = info.out_size, info.out_shape
         has_p, has_r = "p" in info.args, "r" in info.args
         what = info.output
         check_x, check_p, check_r, as_t, fail = self._x, self._p, self._r, self._t, self._fail
         empty, ndarray, f64 = np.empty, np.ndarray, F64
-        xshape, stride = (self.n_x,), (8,)
+        xshape, pshape, rshape, stride = (self.n_x,), (self.n_p,), (self.n_r,), (8,)
         reshape = len(shape) != 1
-
-
         model = self
-        keep: list = []   # arrays behind the cached default buffers
+        keep: list = []   # the closure's own default arrays, behind their buffers
 
         def default_buffer(array):
             keep.append(array)
-            return buf("double[]", array)
+            return buf(darr, array)
 
         p_default = (default_buffer(self.default_parameters.copy())
                      if has_p and self.default_parameters is not None else None)
@@ -88,53 +92,47 @@ class CompiledModel(GeneratedModel):
                     return evaluate(model, info, t, x, p_, r_)
             xa = check_x(x)
             out = empty(size)
-            args = [as_t(t), buf("double[]", xa)]
+            args = [as_t(t), buf(darr, xa)]
             if has_p:
-                args.append(buf("double[]", check_p(p)))
+                args.append(buf(darr, check_p(p)))
             if has_r:
-                args.append(buf("double[]", check_r(r)))
-            status = cfunc(*args, buf("double[]", out))
+                args.append(buf(darr, check_r(r)))
+            status = cfunc(*args, buf(darr, out))
             if status:
                 fail(status, what, t, xa)
             return out.reshape(shape) if reshape else out
-
-        n_p, n_r = self.n_p, self.n_r
-        last = [(None, None), (None, None)]   # the last p, r arrays and their buffers
-
-        def vector(v, n, default, slot):
-            if v is None and default is not None:
-                return default
-            if v.__class__ is ndarray and v.dtype is f64 and v.shape == (n,) and \
-                    v.strides == stride:
-                seen, b = last[slot]
-                if v is not seen:   # a new array: a new buffer (the same array keeps its memory)
-                    b = buf("double[]", v)
-                    last[slot] = (v, b)
-                return b
-            return None
 
         def call(t, x, p=None, r=None):
             if not (t.__class__ is float and x.__class__ is ndarray and x.dtype is f64
                     and x.shape == xshape and x.strides == stride):
                 return slow(t, x, p, r)
-            pb = rb = None
             if has_p:
-                pb = p_default if p is None else vector(p, n_p, None, 0)
-                if pb is None:
+                if p is None:
+                    pb = p_default
+                    if pb is None:
+                        return slow(t, x, p, r)
+                elif p.__class__ is ndarray and p.dtype is f64 and p.shape == pshape and \
+                        p.strides == stride:
+                    pb = buf(darr, p)
+                else:
                     return slow(t, x, p, r)
             if has_r:
-                rb = r_default if r is None else vector(r, n_r, None, 1)
-                if rb is None:
+                if r is None:
+                    rb = r_default
+                elif r.__class__ is ndarray and r.dtype is f64 and r.shape == rshape and \
+                        r.strides == stride:
+                    rb = buf(darr, r)
+                else:
                     return slow(t, x, p, r)
             out = empty(size)
             if has_p and has_r:
-                status = cfunc(t, buf("double[]", x), pb, rb, buf("double[]", out))
+                status = cfunc(t, buf(darr, x), pb, rb, buf(darr, out))
             elif has_p:
-                status = cfunc(t, buf("double[]", x), pb, buf("double[]", out))
+                status = cfunc(t, buf(darr, x), pb, buf(darr, out))
             elif has_r:
-                status = cfunc(t, buf("double[]", x), rb, buf("double[]", out))
+                status = cfunc(t, buf(darr, x), rb, buf(darr, out))
             else:
-                status = cfunc(t, buf("double[]", x), buf("double[]", out))
+                status = cfunc(t, buf(darr, x), buf(darr, out))
             if status:
                 fail(status, what, t, x)
             return out.reshape(shape) if reshape else out
@@ -167,13 +165,18 @@ class CompiledModel(GeneratedModel):
     START_RESIDUAL_TOL = 1e-8
 
     def _check_consistent_start(self, t0, x0, p, r) -> None:
-        """Refuse an initial state off the configuration constraints (ConstraintError)."""
-        res = float(np.max(np.abs(self.holonomic(float(t0), x0, p, r))))
-        scale = 1.0 + float(np.max(np.abs(x0[:self.layout.n_q]))) if self.layout.n_q else 1.0
-        if not res <= self.START_RESIDUAL_TOL * scale:
+        """Refuse an initial state off the configuration constraints (ConstraintError); a
+        batch (any of ``x0``, ``p``, ``r`` 2-D) names its first such member."""
+        res = np.max(np.abs(np.atleast_2d(self.holonomic(float(t0), x0, p, r))), axis=1)
+        n_q = self.layout.n_q
+        scale = 1.0 + np.max(np.abs(np.atleast_2d(x0)[:, :n_q]), axis=1) if n_q else 1.0
+        bad = np.flatnonzero(~(res <= self.START_RESIDUAL_TOL * scale))
+        if bad.size:
+            i = int(bad[0])
+            member = f"batch member {i} of {res.size}: " if is_batch(x0, p, r) else ""
             raise ConstraintError(
-                f"{self.name}: the initial state violates the configuration constraints "
-                f"(residual {res:.3g}); complete its dependent coordinates "
+                f"{self.name}: {member}the initial state violates the configuration "
+                f"constraints (residual {res[i]:.3g}); complete its dependent coordinates "
                 f"({', '.join(self.dependent_coordinates)}) with model.consistent(x0) first "
                 f"(mbgen.run.simulate.simulate does this), or pass project=False to integrate "
                 f"from it as given")
@@ -212,9 +215,11 @@ class CompiledModel(GeneratedModel):
             Batches only: ``"raise"`` (the first failed member raises) or
             ``"record"`` (statuses and messages are returned per member).
         project : bool
-            Models with configuration constraints: project the dependent
-            coordinates back onto the constraints after every step (``False``
-            only records the drift, ``Integration.max_residual``).
+            Models with configuration constraints: refuse a start off the constraints
+            (:class:`~mbgen.errors.ConstraintError`; a batch names the member) and
+            project the dependent coordinates back onto the constraints after every
+            step (``False`` integrates from the start as given and only records the
+            drift, ``Integration.max_residual``; a batch's ``stats["max_residual"]``).
 
         Returns
         -------
@@ -261,13 +266,17 @@ class CompiledModel(GeneratedModel):
             raise ArgumentError(f"h_max must be >= 0 (0: unbounded); got {h_max!r}")
         max_steps = step_count(max_steps, limit=2**(8 * self.ffi.sizeof("long") - 1) - 1)
 
+        checks_start = bool(project and self.dependent_coordinates
+                            and Output.HOLONOMIC in self.outputs)
         if xa is None:
             if table is not None:
                 raise ValueError("an InputTable drives one trajectory; integrate the batch "
                                  "members one by one, or give constant inputs r")
             return batch_integrate(self, output, t, x0, p, r, rtol=rtol, atol=atol, h0=h0,
-                                   h_max=h_max, max_steps=max_steps, on_failure=on_failure)
-        if project and self.dependent_coordinates and Output.HOLONOMIC in self.outputs:
+                                   h_max=h_max, max_steps=max_steps, on_failure=on_failure,
+                                   project=project, check_start=self._check_consistent_start
+                                   if checks_start else None)
+        if checks_start:
             self._check_consistent_start(t[0], xa, p, r)
         ffi, prefix = self.ffi, self.rendered.prefix
         buf = ffi.from_buffer

@@ -4,9 +4,15 @@ No optimising CSE, no printer of ours: expressions go straight from the
 derivation into NumPy code through sympy's own printer, and ``M u' = F`` is
 solved with :func:`numpy.linalg.cholesky` and :func:`numpy.linalg.solve`, each
 speed first measured in its own mass's units (a diagonal scaling, so a mass of
-1e-20 loses no digits).  This is what the compiled C and the generated Python are
-checked against; :attr:`LambdifiedModel.resolution` says how many digits the last
-evaluation's solves can vouch for.  Nodes the
+1e-20 loses no digits; :attr:`LambdifiedModel.resolution` says how many digits the
+last evaluation's solves can vouch for).
+Singular is singular here as in the generated code (:mod:`mbgen.codegen.solver`):
+the mass matrix (of a constrained model: ``Z^T M Z`` on the null space ``Z`` of the
+constraints) is singular when a squared Cholesky pivot ``d_j`` is not above
+``PIVOT_ULPS n eps`` times the magnitude of the summands of its diagonal entry
+(``M_jj``; ``(|Z|^T |M| |Z|)_jj``), and the constraint block ``A_r`` when a pivot of its
+LU with partial pivoting is not above ``CONSTRAINT_PIVOT max|A_r|``.  This
+is what the compiled C and the generated Python are checked against.  Nodes the
 derived graph shares are named once (:func:`mbgen.symbolic.graph.split_shared`), so
 the printed code is as large as the graph, not as its expanded tree.
 
@@ -171,11 +177,14 @@ class LambdifiedModel(ModelBase):
         return d[wide] * y[:len(d)], e[wide] * y[len(d):]
 
     # ------------------------------------------------------------ shared steps
-    def _mf(self, at: _At):
+    def _mf(self, output, at: _At):
+        """``M`` and ``F`` of an unconstrained model (SingularMassMatrixError for a singular ``M``)."""
         eq, n = self.equations, self._n_u
-        M = self._value(at, "M", lambda: eq.mass_matrix)
+        M = self._value(at, "M", lambda: eq.mass_matrix).reshape(n, n)
         F = self._value(at, "F", lambda: eq.forcing)
-        return M.reshape(n, n), F.reshape(-1)
+        if not _positive_definite(M, np.abs(M)):
+            self._fail(1, output.value, at.t, at.x)
+        return M, F.reshape(-1)
 
     def _dependent_speeds(self, output, at: _At):
         """``A`` and ``u_r`` from ``A_r u_r = -(A_s u_s + b)`` (None, None without constraints)."""
@@ -186,7 +195,7 @@ class LambdifiedModel(ModelBase):
         A = self._value(at, "CA", lambda: c.velocity_matrix).reshape(c.m, L.n_u + L.n_d)
         b = self._value(at, "CB", lambda: c.velocity_bias).reshape(-1)
         Ar, As = A[:, L.n_u:], A[:, :L.n_u]
-        if np.linalg.matrix_rank(Ar) < c.m:
+        if not _smallest_lu_pivot(Ar) > CONSTRAINT_PIVOT * np.max(np.abs(Ar)):
             self._fail(7, output.value, at.t, at.x)
         return A, self._solve(Ar, -(As @ at.x[L.n_q:] + b))
 
@@ -202,10 +211,9 @@ class LambdifiedModel(ModelBase):
         F = self._value(at, "F", lambda: eq.forcing, ur).reshape(-1)
         beta = self._value(at, "beta", lambda: c.acceleration_bias, ur).reshape(-1)
         G = self._value(at, "G", lambda: eq.kinematics, ur).reshape(-1)
-        d, e = _saddle_scaling(M, A)
-        try:
-            np.linalg.cholesky(_null_space_matrix(d[:, None] * M * d, e[:, None] * A * d))
-        except np.linalg.LinAlgError:
+        d, e = _saddle_scaling(M, A)   # nondimensionalised: Z^T M Z loses no digits to units
+        Ms, Z = d[:, None] * M * d, _null_space(e[:, None] * A * d)
+        if not _positive_definite(Z.T @ Ms @ Z, np.abs(Z).T @ np.abs(Ms) @ np.abs(Z)):
             self._fail(1, output.value, at.t, at.x)
         acc, lam = self._solve_saddle(M, A, F, -beta)
         return _Solved(A, ur, M, G, acc, lam)
@@ -215,12 +223,8 @@ class LambdifiedModel(ModelBase):
         if self.equations.constraints is not None:
             s = self._solve_constrained(output, at)
             return np.concatenate([s.G, s.acc[:self.layout.n_u]])
-        M, F = self._mf(at)
+        M, F = self._mf(output, at)
         G = self._value(at, "G", lambda: self.equations.kinematics).reshape(-1)
-        try:
-            np.linalg.cholesky(M)
-        except np.linalg.LinAlgError:
-            self._fail(1, output.value, at.t, at.x)
         return np.concatenate([G, self._solve_mass(M, F)])
 
     def _mass_matrix(self, output, at: _At):
@@ -255,7 +259,7 @@ class LambdifiedModel(ModelBase):
             symbols = (list(acceleration_symbols(len(s.acc))), list(lambda_symbols(len(s.lam))))
             return self._value(at, "reactions", lambda: eq.reactions.matrix, s.ur, symbols,
                                (s.acc, s.lam)).reshape(-1, 6)
-        M, F = self._mf(at)
+        M, F = self._mf(output, at)
         acc = list(acceleration_symbols(self._n_u))
         return self._value(at, "reactions", lambda: eq.reactions.matrix, None, (acc,),
                            (self._solve_mass(M, F),)).reshape(-1, 6)
@@ -285,7 +289,7 @@ class LambdifiedModel(ModelBase):
             dR = self._lambdify(("dR", output), lambda: sm.Matrix(differentiate(list(
                 sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(acc)), variables)),
                                 (acc,))
-            M, F = self._mf(at)
+            M, F = self._mf(output, at)
             a = self._solve_mass(M, F)
             G_v = np.array(dG(*at, a), dtype=float).reshape(-1, len(variables))
             R_v = np.array(dR(*at, a), dtype=float).reshape(self._n_u, len(variables))
@@ -359,13 +363,47 @@ def _saddle_scaling(M, A):
     return d, 1.0 / np.where(rows > 0, rows, 1.0)
 
 
-def _null_space_matrix(M, A):
-    """``Z^T M Z`` for an orthonormal basis ``Z`` of the null space of ``A`` (positive definite
-    when the constrained system has a well-defined motion)."""
+#: A mass matrix's pivot ``d_j <= PIVOT_ULPS n eps M_jj`` is singular (the generated code's
+#: rule: :data:`mbgen.codegen.solver.PIVOT_ULPS`).
+PIVOT_ULPS = 16
+#: A pivot of the LU of the constraint block ``A_r`` not above this times ``max|A_r|`` is
+#: singular (``CONSTRAINT_SINGULAR``; as ``templates/model/constraints.c.j2``).
+CONSTRAINT_PIVOT = 1e-13
+
+
+def _null_space(A) -> np.ndarray:
+    """An orthonormal basis ``Z`` of the null space of ``A`` (columns): ``Z^T M Z`` is positive
+    definite when the constrained system has a well-defined motion."""
     _, sv, vt = np.linalg.svd(A)
     rank = int(np.sum(sv > 1e-12 * max(1.0, sv.max() if sv.size else 1.0)))
-    Z = vt[rank:].T
-    return Z.T @ M @ Z
+    return vt[rank:].T
+
+
+def _positive_definite(M, magnitude) -> bool:
+    """Whether the symmetric ``M`` (n x n) is positive definite beyond rounding: every squared
+    Cholesky pivot ``d_j`` above ``PIVOT_ULPS n eps magnitude_jj``, the magnitude of the
+    summands of ``M_jj`` (``|M|`` itself, or ``|Z|^T |M| |Z|`` for ``Z^T M Z``).  The rule
+    of the generated ``L D L^T`` (:mod:`mbgen.codegen.solver`), whose pivots are these."""
+    n = M.shape[0]
+    try:
+        pivots = np.diag(np.linalg.cholesky(M)) ** 2
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.all(pivots > PIVOT_ULPS * n * np.finfo(float).eps * np.diag(magnitude)))
+
+
+def _smallest_lu_pivot(A) -> float:
+    """``min_k |u_kk|`` of the LU factorisation of the square ``A`` with partial pivoting."""
+    U = np.array(A, dtype=float)
+    smallest = np.inf
+    for k in range(U.shape[0]):
+        p = k + int(np.argmax(np.abs(U[k:, k])))
+        U[[k, p]] = U[[p, k]]
+        if not abs(U[k, k]) > 0.0:    # zero or NaN: singular
+            return 0.0
+        smallest = min(smallest, abs(U[k, k]))
+        U[k + 1:] -= np.outer(U[k + 1:, k] / U[k, k], U[k])
+    return smallest
 
 
 def _inlined(eq: Equations) -> Equations:

@@ -23,8 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConstraintError, MbgenError
 from ..abi import Output
+from ..errors import ConstraintError, MbgenError
+from .arguments import tolerance
 
 
 @dataclass(frozen=True)
@@ -54,8 +55,10 @@ def linearize(model, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-8) ->
     The model needs the ``jacobian`` output (and ``input_jacobian`` when it has
     inputs, ``holonomic_jacobian`` when it has configuration constraints).  A
     state off the configuration constraints (residual above ``tol``) is refused:
-    complete it with ``model.consistent(x)`` first.
+    complete it with ``model.consistent(x)`` first.  ``tol`` must be a finite
+    number >= 0 (:class:`~mbgen.errors.ArgumentError`).
     """
+    tol = tolerance(tol, "tol")
     for o in (Output.JACOBIAN,) + ((Output.INPUT_JACOBIAN,) if model.n_r else ()):
         if o not in model.outputs:
             raise MbgenError(f"linearize needs the {o.value!r} output of {model.name!r}; "
@@ -73,7 +76,7 @@ def linearize(model, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-8) ->
                 raise MbgenError(f"linearize needs the {o.value!r} output of {model.name!r} "
                                  f"(it has configuration constraints)")
         res = float(np.max(np.abs(model.holonomic(t, x, p, r))))
-        if res > tol:
+        if not res <= tol:
             raise ConstraintError(f"{model.name}: the state violates the configuration "
                                   f"constraints (residual {res:.3g}); linearise at a consistent "
                                   f"state, e.g. model.consistent(x)")

@@ -16,7 +16,11 @@ with the closest names ("did you mean").  A name left out takes
 * ``x``: 0, as a scene's ``initial_state``.
 
 A value may be a number or a 1-D sequence of ``k`` numbers; any sequence makes
-the result a ``(k, n)`` batch (numbers are repeated over the batch).
+the result a ``(k, n)`` batch (numbers are repeated over the batch).  A number is
+real: a Python or NumPy integer or float, or any other ``numbers.Real`` (a
+``Fraction``).  ``None``, a complex, a string, a bool or anything else is an
+:class:`~mbgen.errors.ArgumentTypeError` (a ``TypeError``) naming the entry: never a
+NaN, a real part, or a number parsed from text.
 
 :class:`InputTable` is a piecewise-linear input ``r(t)``: the generated C
 integrators interpolate it at every stage time (no Python in the loop), the
@@ -26,12 +30,13 @@ solve_ivp paths call it.
 from __future__ import annotations
 
 import difflib
+import numbers
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import UnknownNameError
+from ..errors import ArgumentError, ArgumentTypeError, UnknownNameError
 
 
 def did_you_mean(name: str, names: Sequence[str]) -> str:
@@ -57,6 +62,30 @@ def check_names(given, names: Sequence[str], what: str, model: str = "") -> None
                                    f"{did_you_mean(key, names)} ({what}: {listing})")
 
 
+def real_values(value, what: str) -> np.ndarray:
+    """``value`` (a real number or a sequence of them, nested or not) as a float64 array of its
+    shape.
+
+    Raises ArgumentTypeError naming ``what`` for anything not real (``None``, complex,
+    str, bool, ...) and ArgumentError for an integer too large for a double.
+    """
+    try:
+        a = np.asarray(value)
+    except (TypeError, ValueError):   # ragged sequences and the like
+        a = None
+    if a is not None and a.dtype.kind in "iuf" and isinstance(value, (list, tuple)):
+        a = np.asarray(value, dtype=object)   # the items themselves: numpy makes [1.0, True] floats
+    if a is None or a.dtype.kind not in "iufO" or a.dtype.kind == "O" and not all(
+            isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)) for v in a.flat):
+        raise ArgumentTypeError(f"{what} must be a real number or a sequence of them; "
+                                f"got {value!r:.80}")
+    try:
+        return a.astype(np.float64)
+    except OverflowError:
+        raise ArgumentError(f"{what} holds a number too large for a double: "
+                            f"{value!r:.40}") from None
+
+
 def vector(values: Mapping, names: Sequence[str], what: str, *,
            defaults: Mapping[str, float] | None = None, fill: float | None = None,
            model: str = "") -> np.ndarray:
@@ -79,14 +108,10 @@ def vector(values: Mapping, names: Sequence[str], what: str, *,
         else:
             missing.append(n)
             continue
-        try:
-            a = np.asarray(v, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise TypeError(f"{what} {n!r} must be a real number or a 1-D sequence of them; "
-                            f"got {v!r}") from None
+        a = real_values(v, f"{what} {n!r}")
         if a.ndim > 1:
-            raise ValueError(f"{what} {n!r} must be a number or a 1-D sequence (a batch); got "
-                             f"shape {a.shape}")
+            raise ArgumentError(f"{what} {n!r} must be a number or a 1-D sequence (a batch); "
+                                f"got shape {a.shape}")
         columns.append(a)
     if missing:
         owner = f" {model!r}" if model else ""
@@ -96,7 +121,7 @@ def vector(values: Mapping, names: Sequence[str], what: str, *,
     if not sizes:
         return np.array(columns, dtype=np.float64).reshape(len(names))
     if len(sizes) > 1:
-        raise ValueError(f"{what} by name: batch sequences differ in length {sorted(sizes)}")
+        raise ArgumentError(f"{what} by name: batch sequences differ in length {sorted(sizes)}")
     k = sizes.pop()
     return np.ascontiguousarray(np.stack([np.broadcast_to(a, (k,)) for a in columns], axis=1))
 
@@ -149,15 +174,18 @@ class InputTable:
     values: object
 
     def __post_init__(self):
-        t = np.asarray(self.times, dtype=np.float64)
+        t = real_values(self.times, "InputTable times")
         if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)):
             raise ValueError(f"InputTable times must be a 1-D array of finite times; got "
                              f"{self.times!r}")
         if np.any(np.diff(t) <= 0):
             raise ValueError("InputTable times must be strictly increasing")
         object.__setattr__(self, "times", np.ascontiguousarray(t))
-        if not isinstance(self.values, Mapping):
-            v = np.asarray(self.values, dtype=np.float64)
+        if isinstance(self.values, Mapping):
+            for n, c in self.values.items():
+                real_values(c, f"InputTable input {n!r}")
+        else:
+            v = real_values(self.values, "InputTable values")
             if v.ndim == 1:
                 v = v[:, None]
             if v.ndim != 2 or v.shape[0] != t.size:
@@ -174,7 +202,7 @@ class InputTable:
             k = self.times.size
             cols = []
             for n in model.input_names:
-                c = np.asarray(self.values.get(n, np.zeros(k)), dtype=np.float64)
+                c = real_values(self.values.get(n, np.zeros(k)), f"InputTable input {n!r}")
                 if c.shape != (k,):
                     raise ValueError(f"InputTable input {n!r} must have one value per time "
                                      f"({k}); got shape {c.shape}")
@@ -210,4 +238,4 @@ def driven(model, output, p: np.ndarray, r_of) -> Callable:
 
 
 __all__ = ["InputTable", "arrays", "check_names", "did_you_mean", "driven", "inputs", "parameters",
-           "states", "vector"]
+           "real_values", "states", "vector"]

@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
+import mpmath
 import sympy as sm
 
 from .. import Model, Output, Scene
@@ -66,33 +66,43 @@ WEAVE_SPEED, CAPSIZE_SPEED = 4.292, 6.024
 
 
 def _frame_data(b: dict) -> dict:
-    """The benchmark's numbers in this model's z-up rear and front frames (nominal pose)."""
-    lam, w, c, rR, rF = b["lam"], b["w"], b["c"], b["rR"], b["rF"]
-    x_axis = np.array([math.cos(lam), 0.0, math.sin(lam)])       # r1 in n at pitch -lam
-    z_axis = np.array([-math.sin(lam), 0.0, math.cos(lam)])      # r3: the head axis
-    C = np.column_stack([x_axis, [0.0, 1.0, 0.0], z_axis])
-    flip = np.diag([1.0, -1.0, -1.0])                             # z down -> z up
+    """The benchmark's numbers in this model's z-up rear and front frames (nominal pose).
 
-    def inertia(xx, yy, zz, xz):
-        return C.T @ (flip @ np.array([[xx, 0, xz], [0, yy, 0], [xz, 0, zz]]) @ flip) @ C
+    Computed in 40-digit arithmetic (mpmath) from the doubles of :data:`BENCHMARK` and
+    rounded once to doubles, so the constants, and the code generated with them baked
+    in, are the same bits on every machine: a BLAS matrix product (numpy's ``@``) sums in
+    an order and with fused multiply-adds that depend on the CPU's kernel, which changed
+    the Whipple bicycle's CSE (7196 against 7186 operations) from machine to machine.
+    """
+    with mpmath.workprec(133):                                    # 40 decimal digits
+        v = {k: mpmath.mpf(x) for k, x in b.items()}
+        lam, w, c, rR, rF = v["lam"], v["w"], v["c"], v["rR"], v["rF"]
+        cl, sl = mpmath.cos(lam), mpmath.sin(lam)
+        x_axis = mpmath.matrix([cl, 0, sl])                       # r1 in n at pitch -lam
+        z_axis = mpmath.matrix([-sl, 0, cl])                      # r3: the head axis
+        C = mpmath.matrix([[cl, 0, -sl], [0, 1, 0], [sl, 0, cl]])
+        flip = mpmath.diag([1, -1, -1])                           # z down -> z up
 
-    def offset(x, z, origin):
-        r = np.array([x, 0.0, -z]) - origin
-        return float(r @ x_axis), float(r @ z_axis)
+        def inertia(xx, yy, zz, xz):
+            return C.T * (flip * mpmath.matrix([[xx, 0, xz], [0, yy, 0], [xz, 0, zz]])
+                          * flip) * C
 
-    hub_r, hub_f = np.array([0.0, 0.0, rR]), np.array([w, 0.0, rF])
-    out = dict(d1=math.cos(lam) * (w + c) - rR * math.sin(lam),
-               d2=(rF - rR) * math.cos(lam) - w * math.sin(lam),
-               d3=rF * math.sin(lam) - c * math.cos(lam), rR=rR, rF=rF, g=b["g"],
-               mB=b["mB"], mH=b["mH"], mR=b["mR"], mF=b["mF"],
-               IRxx=b["IRxx"], IRyy=b["IRyy"], IFxx=b["IFxx"], IFyy=b["IFyy"])
-    out["xB"], out["zB"] = offset(b["xB"], b["zB"], hub_r)
-    out["xH"], out["zH"] = offset(b["xH"], b["zH"], hub_f)
-    IB = inertia(b["IBxx"], b["IByy"], b["IBzz"], b["IBxz"])
-    IH = inertia(b["IHxx"], b["IHyy"], b["IHzz"], b["IHxz"])
-    out.update(IBxx=IB[0, 0], IByy=IB[1, 1], IBzz=IB[2, 2], IBxz=IB[0, 2],
-               IHxx=IH[0, 0], IHyy=IH[1, 1], IHzz=IH[2, 2], IHxz=IH[0, 2])
-    return {k: float(v) for k, v in out.items()}
+        def offset(x, z, origin):
+            r = mpmath.matrix([x, 0, -z]) - origin
+            return (r.T * x_axis)[0], (r.T * z_axis)[0]
+
+        hub_r, hub_f = mpmath.matrix([0, 0, rR]), mpmath.matrix([w, 0, rF])
+        out = dict(d1=cl * (w + c) - rR * sl, d2=(rF - rR) * cl - w * sl,
+                   d3=rF * sl - c * cl, rR=rR, rF=rF, g=v["g"],
+                   mB=v["mB"], mH=v["mH"], mR=v["mR"], mF=v["mF"],
+                   IRxx=v["IRxx"], IRyy=v["IRyy"], IFxx=v["IFxx"], IFyy=v["IFyy"])
+        out["xB"], out["zB"] = offset(v["xB"], v["zB"], hub_r)
+        out["xH"], out["zH"] = offset(v["xH"], v["zH"], hub_f)
+        IB = inertia(v["IBxx"], v["IByy"], v["IBzz"], v["IBxz"])
+        IH = inertia(v["IHxx"], v["IHyy"], v["IHzz"], v["IHxz"])
+        out.update(IBxx=IB[0, 0], IByy=IB[1, 1], IBzz=IB[2, 2], IBxz=IB[0, 2],
+                   IHxx=IH[0, 0], IHyy=IH[1, 1], IHzz=IH[2, 2], IHxz=IH[0, 2])
+        return {k: float(x) for k, x in out.items()}
 
 
 #: The constants of :func:`build_model` for the benchmark bicycle.

@@ -1,25 +1,34 @@
-"""The build cache verifies what it loads.
+"""The build cache verifies what it loads, and loads only what its user built.
 
-Loading happens in a child process: a truncated library used to crash the
-interpreter (SIGBUS) when mapped, so the crash must not take the test run down.
+A damaged module is loaded in a child process: a truncated library used to crash the
+interpreter (SIGBUS) when mapped, so the crash must not take the test run down.  A
+planted library is refused before it is mapped (its constructor would run), and a
+full disk or a read-only cache is a named error (CacheError), never an OSError.
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
+import importlib.machinery
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import textwrap
 from pathlib import Path
 
 import pytest
 
-from mbgen.build.extension import (STALE_AFTER, cache_dir, compiled_path, remove_stale_builds,
-                                   verified)
+from mbgen.build.cache import STALE_AFTER, cache_dir, remove_stale_builds, verified
+from mbgen.build import extension
+from mbgen.build.extension import build, compiled_path, load, module_name
 from mbgen.errors import CacheError
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
+
+from models import pendulum
 
 LOAD = textwrap.dedent("""
     import numpy as np
@@ -59,8 +68,7 @@ def cache(built, tmp_path, monkeypatch):
     return tmp_path, path, answer
 
 
-@pytest.mark.parametrize("damage", ["truncate", "empty",
-                                    pytest.param("flip", marks=pytest.mark.slow),
+@pytest.mark.parametrize("damage", ["truncate", "empty", "flip",
                                     pytest.param("no-record", marks=pytest.mark.slow)])
 def test_a_damaged_module_is_rebuilt_not_loaded(cache, damage):
     root, path, answer = cache
@@ -69,9 +77,11 @@ def test_a_damaged_module_is_rebuilt_not_loaded(cache, damage):
         path.write_bytes(data[: len(data) // 5])  # 20%: mapping it was a SIGBUS
     elif damage == "empty":
         path.write_bytes(b"")
-    elif damage == "flip":  # same size, one byte changed
+    elif damage == "flip":  # same size, one byte changed, same modification time
+        stat = path.stat()
         i = len(data) // 3
         path.write_bytes(data[:i] + bytes([data[i] ^ 0xFF]) + data[i + 1:])
+        os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns))
     else:
         path.with_name(path.name + ".sha256").unlink()
     assert not verified(path)
@@ -104,10 +114,11 @@ def test_a_killed_build_leaves_nothing_behind_after_the_next(tmp_path, monkeypat
     monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
     # a child killed in the middle of its build: SIGKILL when the compiler would start
     killer = textwrap.dedent("""
-        import os, signal, cffi
-        def compile(self, *a, **k):
+        import os, signal
+        from mbgen.build import extension
+        def compile(*a, **k):
             os.kill(os.getpid(), signal.SIGKILL)
-        cffi.FFI.compile = compile
+        extension._compile = compile
     """) + LOAD
     proc = subprocess.run([sys.executable, "-c", killer], env={**os.environ},
                           capture_output=True, timeout=600)
@@ -139,3 +150,184 @@ def test_an_unusable_default_cache_folder_falls_back(tmp_path, monkeypatch):
     monkeypatch.setattr(tempfile, "tempdir", None)
     root = cache_dir()
     assert root.is_dir() and str(root).startswith(str(tmp_path / "tmp"))
+
+
+# ------------------------------------------------------------ whose folder, whose file
+def _tiny(name):
+    return run(pendulum(name), build=False).rendered
+
+
+def _module_file(folder: Path, rendered) -> Path:
+    return folder / (module_name(rendered) + importlib.machinery.EXTENSION_SUFFIXES[0])
+
+
+PLANTED = r"""
+#include <stdio.h>
+__attribute__((constructor)) static void planted(void) {
+    FILE *f = fopen("%s", "w");
+    if (f) fclose(f);
+}
+"""
+
+
+def _plant(path: Path, marker: Path, scratch: Path) -> None:
+    """A library at ``path`` whose constructor creates ``marker``, with a matching record."""
+    source = scratch / "planted.c"
+    source.write_text(PLANTED % marker)
+    subprocess.run([extension.compiler(), "-shared", "-fPIC", "-o", str(path), str(source)],
+                   check=True)
+    data = path.read_bytes()
+    path.with_name(path.name + ".sha256").write_text(
+        f"{len(data)} {hashlib.sha256(data).hexdigest()}\n")
+
+
+def _shared_fallback(tmp_path, monkeypatch) -> Path:
+    """An unusable home cache, and a fallback folder under TMPDIR that anyone can write."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    monkeypatch.delenv("MBGEN_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(blocker))
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    tmp.chmod(0o1777)
+    monkeypatch.setenv("TMPDIR", str(tmp))
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    shared = tmp / f"mbgen-cache-{os.getuid()}"
+    shared.mkdir()
+    shared.chmod(0o777)
+    return shared
+
+
+def _owned_by_someone_else(path: Path, monkeypatch) -> None:
+    """Give ``path`` another owner (as root), or pretend to be another user."""
+    if os.geteuid() == 0:
+        os.chown(path, 65534, 65534)
+    else:
+        other = os.stat(path).st_uid + 1
+        monkeypatch.setattr(os, "getuid", lambda: other)
+        monkeypatch.setattr(os, "geteuid", lambda: other)
+
+
+def test_a_library_planted_in_a_shared_fallback_folder_is_not_loaded(tmp_path, monkeypatch):
+    shared = _shared_fallback(tmp_path, monkeypatch)
+    rendered = _tiny("planted")
+    marker = tmp_path / "constructor-ran"
+    _plant(_module_file(shared, rendered), marker, tmp_path)
+    with pytest.raises(CacheError) as info:
+        load(rendered)
+    message = str(info.value)
+    assert str(shared) in message and "0o777" in message
+    assert "chmod" in message and "MBGEN_CACHE_DIR" in message
+    assert not marker.exists(), "the planted library's constructor ran"
+    shared.chmod(0o700)  # the plant itself would pass: only the folder's mode refused it
+    assert verified(_module_file(shared, rendered))
+
+
+@pytest.mark.parametrize("mode", [0o777, 0o770, 0o702], ids=oct)
+def test_a_cache_folder_others_can_write_is_refused(tmp_path, monkeypatch, mode):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    tmp_path.chmod(mode)
+    with pytest.raises(CacheError, match=f"{tmp_path}.*{oct(mode)}.*chmod go-w"):
+        cache_dir()
+
+
+def test_a_cache_folder_owned_by_someone_else_is_refused(tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    cache.mkdir(mode=0o700)
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(cache))
+    _owned_by_someone_else(cache, monkeypatch)
+    with pytest.raises(CacheError, match=f"{cache}.*owned by.*MBGEN_CACHE_DIR"):
+        cache_dir()
+
+
+def test_new_cache_folders_are_private(tmp_path, monkeypatch):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path / "new" / "cache"))
+    assert cache_dir().stat().st_mode & 0o777 == 0o700
+    shared = _shared_fallback(tmp_path, monkeypatch)
+    shared.rmdir()
+    assert cache_dir() == shared and shared.stat().st_mode & 0o777 == 0o700
+
+
+def test_the_folder_is_checked_before_every_load_not_only_when_made(tmp_path, monkeypatch):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    rendered = _tiny("everyload")
+    path = build(rendered)
+    tmp_path.chmod(0o777)
+    with pytest.raises(CacheError, match="0o777"):
+        build(rendered)
+    tmp_path.chmod(0o700)
+    path.chmod(0o666)  # the module file itself: others could have changed it
+    assert not verified(path)
+    assert build(rendered) == path and verified(path)
+    assert path.stat().st_mode & 0o022 == 0
+
+
+def _read_only(folder: Path, monkeypatch) -> None:
+    """Make ``folder`` read-only; root writes anyway, so its access check says no, too."""
+    folder.chmod(0o500)
+    real = os.access
+
+    def access(path, mode, **kwargs):
+        if Path(path) == folder and mode & os.W_OK:
+            return False
+        return real(path, mode, **kwargs)
+
+    monkeypatch.setattr(os, "access", access)
+
+
+def test_a_read_only_cache_that_holds_the_module_loads_it(tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(cache))
+    rendered = _tiny("readonly")
+    build(rendered)
+    before = sorted(cache.iterdir())
+    _read_only(cache, monkeypatch)
+    try:
+        mod = load(rendered)
+        assert hasattr(mod.lib, "readonly_rhs")
+        with pytest.raises(CacheError, match=f"{cache}.*read-only.*MBGEN_CACHE_DIR"):
+            load(_tiny("readonly2"))
+        assert sorted(cache.iterdir()) == before
+    finally:
+        cache.chmod(0o700)
+
+
+# ------------------------------------------------------------------------ a full disk
+def test_a_full_disk_while_writing_the_sources_is_a_named_error(tmp_path, monkeypatch):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+
+    def full(folder, files):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(Path(folder) / "x.c"))
+
+    monkeypatch.setattr(extension, "write_files", full)
+    with pytest.raises(CacheError) as info:
+        load(_tiny("fulldisk"))
+    message = str(info.value)
+    assert str(tmp_path) in message and "no space left" in message.lower()
+    assert "\n" not in message
+    assert not [p for p in tmp_path.iterdir() if p.is_dir()], "the build folder stayed"
+
+
+FULL_DISK_CC = """#!/bin/sh
+echo "cc1: fatal error: error writing to /tmp/ccXz1.s: No space left on device" >&2
+exit 1
+"""
+
+
+def full_disk_compiler(folder: Path) -> Path:
+    """A C compiler that fails as gcc does on a full disk."""
+    cc = folder / "full-disk-cc"
+    cc.write_text(FULL_DISK_CC)
+    cc.chmod(0o755)
+    return cc
+
+
+def test_a_full_disk_while_compiling_is_a_named_error(tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(cache))
+    monkeypatch.setenv("CC", str(full_disk_compiler(tmp_path)))
+    with pytest.raises(CacheError) as info:
+        load(_tiny("fullcc"))
+    message = str(info.value)
+    assert str(cache) in message and "no space left" in message.lower()
+    assert "\n" not in message

@@ -1,10 +1,14 @@
-"""Where ``generate`` and ``golden`` write.
+"""Where ``generate``, ``demo`` and ``golden`` write.
 
 ``generate`` writes to ``mbgen-out/SCENE`` by default, never the golden tree; a
 regeneration removes only the files it wrote and overwrites none it did not write;
-the header's bytes do not depend on the caller's folder; ``golden`` refuses to run
-outside a source checkout and removes stale files.
+a file the user changed since mbgen wrote it is neither overwritten (a named error)
+nor removed (kept, and said so); ``demo`` writes through the same function; the
+header's bytes do not depend on the caller's folder; ``golden`` refuses to run outside
+a source checkout and removes stale files.
 """
+
+import json
 
 from mbgen.cli import EXIT_MODEL, EXIT_OK, main
 from mbgen.model.scene import load_scene
@@ -44,6 +48,53 @@ def test_generate_does_not_overwrite_files_it_did_not_write(tmp_path, capsys):
     assert not (out / "disc_pendulum.h").exists()
     assert main(["generate", "disc_pendulum", "-o", str(out), "--overwrite"]) == EXIT_OK
     assert "my own code" not in (out / "disc_pendulum.c").read_text()
+
+
+def test_regeneration_keeps_an_edited_file_it_no_longer_generates(tmp_path, capsys):
+    """Issue 18: a regeneration with fewer outputs deleted an edited example.c."""
+    out = tmp_path / "out"
+    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_OK
+    (out / "example.c").write_text("/* my edits */\n")
+    capsys.readouterr()
+    assert main(["generate", "disc_pendulum", "-o", str(out), "--outputs", "rhs"]) == EXIT_OK
+    assert (out / "example.c").read_text() == "/* my edits */\n"
+    assert f"{out / 'example.c'}  (kept: changed since mbgen wrote it; no longer generated)" \
+        in capsys.readouterr().out.splitlines()
+    assert "example.c" not in json.loads((out / ".mbgen-manifest.json").read_text())["files"]
+
+
+def test_regeneration_refuses_to_overwrite_an_edited_file(tmp_path, capsys):
+    """Issue 18: a regeneration overwrote a generated file the user had edited."""
+    out = tmp_path / "out"
+    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_OK
+    (out / "disc_pendulum.c").write_text("/* tuned by hand */\n")
+    header = (out / "disc_pendulum.h").read_text()
+    capsys.readouterr()
+    assert main(["generate", "disc_pendulum", "-o", str(out), "--outputs", "rhs,jacobian"]) \
+        == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert "disc_pendulum.c (changed since mbgen wrote it)" in err and "--overwrite" in err
+    assert (out / "disc_pendulum.c").read_text() == "/* tuned by hand */\n"
+    assert (out / "disc_pendulum.h").read_text() == header          # nothing else changed
+    assert main(["generate", "disc_pendulum", "-o", str(out), "--outputs", "rhs,jacobian",
+                 "--overwrite"]) == EXIT_OK
+    assert "tuned by hand" not in (out / "disc_pendulum.c").read_text()
+
+
+def test_demo_does_not_overwrite_a_users_file(tmp_path, capsys):
+    """Issue 18: ``mbgen demo -o DIR`` overwrote a user's file of the same name."""
+    out = tmp_path / "demo"
+    out.mkdir()
+    (out / "trajectory.csv").write_text("my measurements\n")
+    assert main(["demo", "-o", str(out)]) == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert "trajectory.csv (mbgen did not write it)" in err and "--overwrite" in err
+    assert (out / "trajectory.csv").read_text() == "my measurements\n"
+    assert sorted(p.name for p in out.iterdir()) == ["trajectory.csv"]
+    assert main(["demo", "-o", str(out), "--overwrite"]) == EXIT_OK
+    assert (out / "trajectory.csv").read_text().startswith("t,")
+    assert set(json.loads((out / ".mbgen-manifest.json").read_text())["files"]) == {
+        "disc_pendulum.c", "disc_pendulum.h", "disc_pendulum.py", "trajectory.csv"}
 
 
 def test_generate_into_a_file_is_an_error(tmp_path, capsys):

@@ -4,7 +4,8 @@ Seams checked here:
 
 * Kane and Newton–Euler give the same ``M``, ``F`` and right-hand side on every
   built-in scene (numerically), and identical equations symbolically on the small ones;
-* the articulated-body recursion gives the accelerations of ``M u' = F``;
+* the articulated-body recursion gives the accelerations of ``M u' = F``, also with a force
+  and a torque on a massless link (the generalized forces ``tau`` of such loads);
 * joint reactions: a chain hanging at rest carries the weight below each joint; the
   pendulum on the rotating disc has the pivot force of a derivation by hand; a
   prescribed joint's motor torque equals sympy's KanesMethod with an auxiliary
@@ -89,6 +90,44 @@ def test_recursion_equals_mass_matrix_solve(name):
         for out in outs:
             assert close(getattr(a, out)(0.2, x, p), getattr(b, out)(0.2, x, p), 1e-11), out
             assert close(getattr(py, out)(0.2, x, p), getattr(a, out)(0.2, x, p), 1e-13), out
+
+
+def massless_link_scene() -> mbgen.Scene:
+    """A link without mass (frame A, angle q1) carrying a body on a second link (B, angle q2
+    relative to A): a force at the massless link's midpoint and a torque on it are loads on
+    a massless part, whose generalized forces reach u1' only through ``tau``."""
+    m = Model("massless_link")
+    q1, q2 = m.coordinates("q1 q2")
+    m.speeds("u1 u2")
+    l, mass, g, f, T = m.constants("l m g f T")
+    N = m.newtonian()
+    A = m.rotate(N, "A", 3, q1)
+    B = m.rotate(A, "B", 3, q2)
+    PA = m.point("PA", m.origin, l * A.x)
+    m.body("bob", B, mass, (0, 0, mass * l**2 / 12), m.point("G", PA, l / 2 * B.x))
+    m.gravity(-g * N.y)
+    m.force(m.point("H", m.origin, l / 2 * A.x), f * N.x + 2 * f * N.y)
+    m.torque(A, T * N.z)
+    return mbgen.Scene("massless_link", m,
+                       parameters=dict(l=0.8, m=1.3, g=9.81, f=7.0, T=-2.5))
+
+
+def test_recursion_keeps_the_loads_on_massless_parts():
+    """Kane, the mass-matrix solve and the recursion give the same accelerations when a force
+    and a torque act on a massless link (once the recursion dropped them: 17.04 vs -0.11)."""
+    scn = massless_link_scene()
+    kane = mbgen.compile(scn, ("rhs",), method="kane", name="massless_link_kane")
+    rec = mbgen.run(scn, ("rhs",), method="newton_euler", form=Form.RECURSIVE,
+                    name="massless_link_rec")
+    assert rec.kernel.form is Form.RECURSIVE
+    py = mbgen.python_model(rec.rendered)
+    without = np.array(kane.default_parameters)
+    without[[kane.parameter_names.index("f"), kane.parameter_names.index("T")]] = 0.0
+    for x in states(kane):
+        want = kane.rhs(0.0, x)
+        assert not close(want, kane.rhs(0.0, x, without), 1e-3)   # the loads matter
+        assert close(rec.compiled.rhs(0.0, x), want, 1e-11), (x, want)
+        assert close(py.rhs(0.0, x), want, 1e-11)
 
 
 def test_recursion_checks_its_pivots():

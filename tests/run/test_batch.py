@@ -7,6 +7,7 @@ from scipy.integrate import solve_ivp
 
 import mbgen
 from mbgen.model.scene import load_scene
+from mbgen.scenes import four_bar
 
 
 @pytest.fixture(scope="module")
@@ -93,3 +94,47 @@ def test_failed_members_are_recorded_or_raised(pendulum):
     assert np.array_equal(out.x[0], out.x[1])
     with pytest.raises(mbgen.IntegrationError, match="member 2 of 3"):
         model.integrate("dopri5", t, x0, p)
+
+
+@pytest.fixture(scope="module")
+def triple_rocker():
+    scene = load_scene("four_bar", dead_point=True)
+    return scene, mbgen.compile(scene, ("rhs", "holonomic", "holonomic_jacobian", "dopri5"))
+
+
+def test_constrained_batch_checks_each_start_like_the_single_call(triple_rocker):
+    """A start off the loop is refused (naming the member), as the single call refuses it;
+    ``project=False`` integrates it as given, unprojected, as the single call does."""
+    scene, model = triple_rocker
+    x0 = scene.x0(model.layout)
+    off = x0 + np.array([0.0, 0.3, 0.0, 0.0])
+    t = np.linspace(0.0, 0.5, 6)
+    with pytest.raises(mbgen.ConstraintError):
+        model.integrate("dopri5", t, off)
+    with pytest.raises(mbgen.ConstraintError, match="member 1 of 2"):
+        model.integrate("dopri5", t, np.array([x0, off]), on_failure="record")
+    p = np.tile(model.default_parameters, (2, 1))
+    p[1, 0] = 2.1                                         # x0 is off the loop of crank 2.1
+    with pytest.raises(mbgen.ConstraintError, match="member 1 of 2"):
+        model.integrate("dopri5", t, x0, p)
+    drift = model.integrate("dopri5", t, np.array([x0, off]), project=False)
+    single = model.integrate("dopri5", t, off, project=False)
+    assert np.array_equal(drift.x[1], single.x)
+    assert drift.stats["max_residual"][1] == single.max_residual > 0.1
+    projected = model.integrate("dopri5", t, np.array([x0, x0]))
+    assert np.array_equal(projected.x[0], model.integrate("dopri5", t, x0).x)
+
+
+def test_constrained_batch_names_constraint_failures(triple_rocker):
+    """A member started at the dead point fails as the single call does: CONSTRAINT_SINGULAR."""
+    scene, model = triple_rocker
+    x0 = scene.x0(model.layout)
+    lock = four_bar.dead_point_state(four_bar.DEAD_POINT_LENGTHS, 0.0)   # the crank's limit
+    dead = model.consistent(lock)
+    t = [0.0, 0.5]
+    with pytest.raises(mbgen.IntegrationError) as single:
+        model.integrate("dopri5", t, dead)
+    out = model.integrate("dopri5", t, np.array([x0, dead]), on_failure="record")
+    assert out.status.tolist() == [0, single.value.status]
+    assert out.messages[1].startswith("FOUR_BAR_CONSTRAINT_SINGULAR: ")
+    assert out.messages[1] in str(single.value)

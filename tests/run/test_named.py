@@ -1,5 +1,6 @@
 """Numbers by name: p, r and x as mappings in every runtime call, bit-identical to arrays."""
 
+from fractions import Fraction
 from functools import cache
 
 import numpy as np
@@ -7,7 +8,8 @@ import pytest
 from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
-from mbgen import Output, UnknownNameError
+from mbgen import InputTable, Output, UnknownNameError
+from mbgen.errors import ArgumentError, ArgumentTypeError
 from mbgen.run.named import did_you_mean, vector
 from mbgen.scenes import n_link_cart
 
@@ -124,3 +126,34 @@ def test_wrong_values_by_name_are_named_errors():
     model = builtin()
     with pytest.raises(TypeError, match="parameters 'g' must be a real number"):
         model.rhs(0.0, np.zeros(model.n_x), {"g": "heavy"})
+
+
+@pytest.mark.parametrize("value", [None, 1 + 2j, np.complex128(0.5), "9.81", b"9.81", True,
+                                   [1.0, None], [1.0, 2j], ["1", "2"], {"g": 1.0}, object()])
+def test_non_real_values_by_name_are_refused_naming_the_entry(value):
+    """``None`` became NaN, a complex its real part, ``"9.81"`` the number: each is a
+    TypeError (ArgumentTypeError) that names the entry, in p, x and r alike."""
+    model = builtin()
+    x = np.zeros(model.n_x)
+    for call in (lambda: model.rhs(0.0, x, {"g": value}),
+                 lambda: model.integrate("dopri5", [0.0, 0.1], x, {"g": value})):
+        with pytest.raises(ArgumentTypeError, match="parameters 'g' must be a real number"):
+            call()
+    state = model.state_names[0]
+    with pytest.raises(ArgumentTypeError, match=f"states '{state}'"):
+        model.rhs(0.0, {state: value})
+    with pytest.raises(ArgumentTypeError, match="inputs 'F'"):
+        model.rhs(0.0, x, None, {"F": value})
+    with pytest.raises(ArgumentTypeError, match="InputTable"):
+        InputTable([0.0, 1.0], {"F": [0.0, value]})
+
+
+def test_real_values_of_every_kind_by_name_still_work():
+    model = builtin()
+    x = np.zeros(model.n_x)
+    want = model.rhs(0.0, x, {"g": 4.0})
+    for value in (4, 4.0, np.float32(4.0), np.int64(4), Fraction(8, 2), np.array(4.0)):
+        assert np.array_equal(model.rhs(0.0, x, {"g": value}), want)
+    assert model.rhs(0.0, x, {"g": [4, Fraction(8, 2), np.float32(4.0)]}).shape == (3, model.n_x)
+    with pytest.raises(ArgumentError, match="too large"):
+        model.rhs(0.0, x, {"g": 10**400})

@@ -127,8 +127,7 @@ def test_inputs_of_n_link_cart():
 
 
 def test_fast_path_sees_a_parameter_array_changed_in_place():
-    """The fast path reuses the buffer of the last p array: values changed in place and
-    alternating arrays must still be honoured."""
+    """Values changed in place and alternating arrays are honoured by the fast path."""
     import mbgen
     from mbgen.model.scene import load_scene
 
@@ -145,3 +144,23 @@ def test_fast_path_sees_a_parameter_array_changed_in_place():
     assert np.array_equal(m.rhs(0.0, x, p), changed)
     assert not np.array_equal(m.rhs(0.0, x, other), changed)
     assert np.array_equal(m.rhs(0.0, x, p), changed)
+
+
+def test_fast_path_reads_a_reallocated_array_not_its_freed_memory():
+    """``p.resize`` (and ``r``'s) reallocates in place: the next call reads the array's new
+    memory.  Grown (the new tail filled) and shrunk back, then refilled: each call equals the
+    call with a fresh array of the same values (once it read the freed first buffer)."""
+    scene = mbgen.load_scene("n_link_cart", n=2)
+    m = mbgen.compile(scene, ("rhs",))
+    x = np.full(m.n_x, 0.3)
+    p, r = m.default_parameters.copy(), np.array([0.5])
+    m.rhs(0.0, x, p, r)                                     # the arrays' first buffers
+    for scale in (1.5, 0.7, 2.0):
+        for a in (p, r):
+            n = a.size
+            a.resize(1 << 16, refcheck=False)               # moves: the old block is freed
+            a[n:] = -7.0
+            a.resize(n, refcheck=False)
+        p[:] = m.default_parameters * scale
+        r[:] = [scale]
+        np.testing.assert_array_equal(m.rhs(0.0, x, p, r), m.rhs(0.0, x, p.copy(), r.copy()))

@@ -7,12 +7,16 @@ import subprocess
 
 import numpy as np
 import pytest
+import sympy as sm
 
 import mbgen
+from mbgen.abi import INTEGRATOR_STATUS_CODES
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
 from mbgen.codegen.targets import Targets
 from mbgen.run.stepper import Stepper
+
+import models
 
 CC = shutil.which("gcc") or shutil.which("cc")
 
@@ -189,3 +193,91 @@ def test_step_target_compiles_strictly_as_c_and_cxx(name, tmp_path):
                                "-c", src, "-o", "m.o"], cwd=tmp_path, capture_output=True,
                               text=True)
         assert done.returncode == 0 and not done.stderr, done.stderr
+
+
+# ------------------------------------------------------------------ time and bad arguments
+def driven_pendulum():
+    """The support pendulum driven by the torque ``a sin(w t)``: its RHS depends on ``t``."""
+    m = models.pendulum("driven_pendulum")
+    a, w = m.constants("a w")
+    m.torque(m.frame("B"), a * sm.sin(w * mbgen.t) * m.frame("N").z)
+    return mbgen.Scene("driven_pendulum", m,
+                       parameters={"l": 1.0, "g": 9.81, "m": 1.0, "a": 2.0, "w": 3.0},
+                       initial_state={"q": 0.5, "u": 0.0}, t_span=(0.0, 2.0))
+
+
+@pytest.fixture(scope="module")
+def driven():
+    scene = driven_pendulum()
+    return scene, mbgen.compile(scene, ("rhs", "dopri5", "rk4"), targets=Targets(step=True))
+
+
+@pytest.fixture(scope="module")
+def cart():
+    scene = load_scene("n_link_cart", n=2)
+    return scene, mbgen.compile(scene, targets=Targets(step=True))
+
+
+def test_steps_from_t0_follow_integrate_over_t0_to_t0_plus_nh(driven):
+    """The step API keeps t0: from t0 = 3.7 on a model with explicit time, n steps of h are
+    integrate over [t0, t0 + n h] (t0 + k h exact in binary below 4, so bit for bit)."""
+    scene, model = driven
+    x0 = scene.x0(model.layout)
+    t0, h, n = 3.7, 0.0625, 4
+    t = t0 + h * np.arange(n + 1)
+    assert np.all(np.diff(t) == h) and t[-1] < 4.0
+    whole = model.integrate("rk4", t, x0, h=h)
+    s = Stepper(model, "rk4", t0, x0)
+    rows = [s.x] + [s.step(h) for _ in t[1:]]
+    assert np.array_equal(np.array(rows), whole.x)
+    assert s.t == t[-1]
+    whole = model.integrate("dopri5", [t0, t[-1]], x0, rtol=1e-9, atol=1e-12)
+    s = Stepper(model, "dopri5", t0, x0, rtol=1e-9, atol=1e-12)
+    s.step(t[-1] - t0)
+    assert s.t == t[-1] and np.array_equal(s.x, whole.x[-1])
+
+
+@pytest.mark.parametrize("method", ["rk4", "dopri5", "rosenbrock"])
+def test_a_step_that_cannot_advance_time_is_an_error(pendulum, chain, method):
+    """t + h == t (h below the resolution of t) is STEP_TOO_SMALL, never OK with t unchanged;
+    a step that is not a positive finite number is BAD_ARGUMENT.  The state stays as it was."""
+    scene, model = chain if method == "rosenbrock" else pendulum
+    x0 = scene.x0(model.layout)
+    s = Stepper(model, method, 1e16, x0)
+    assert 1e16 + 1.0 == 1e16
+    with pytest.raises(mbgen.IntegrationError, match="STEP_TOO_SMALL"):
+        s.step(1.0)
+    assert s.t == 1e16 and np.array_equal(s.x, x0) and s.memory.n_rhs == 0
+    s = Stepper(model, method, 0.0, x0)
+    for h in (float("nan"), float("inf"), -1.0, 0.0, -0.0):
+        with pytest.raises(mbgen.IntegrationError, match="BAD_ARGUMENT"):
+            s.step(h)
+    assert s.t == 0.0 and np.array_equal(s.x, x0) and s.memory.n_rhs == 0
+    s = Stepper(model, method, 1e308, x0)
+    with pytest.raises(mbgen.IntegrationError, match="BAD_ARGUMENT"):
+        s.step(1e308)                                           # t + h overflows
+    assert s.t == 1e308 and s.memory.n_rhs == 0
+
+
+@pytest.mark.parametrize("method", ["rk4", "dopri5", "rosenbrock"])
+def test_null_pointers_are_bad_arguments(cart, chain, method):
+    """mem, x0, p and r = NULL in the C step functions return BAD_ARGUMENT (no segfault)."""
+    scene, model = chain if method == "rosenbrock" else cart
+    ffi, lib, prefix = model.ffi, model.lib, model.rendered.prefix
+    init = getattr(lib, f"{prefix}_{method}_init")
+    step = getattr(lib, f"{prefix}_{method}_step")
+    bad = {name: code for name, code, _ in INTEGRATOR_STATUS_CODES}["BAD_ARGUMENT"]
+    x0 = ffi.from_buffer("double[]", np.ascontiguousarray(scene.x0(model.layout)))
+    args = [ffi.from_buffer("double[]", np.ascontiguousarray(v))
+            for v, n in ((model.default_parameters, model.n_p), (np.zeros(model.n_r), model.n_r))
+            if n]
+    assert args
+    mem = ffi.new(f"{prefix}_{method}_memory *")
+    assert init(ffi.NULL, 0.0, x0, 1e-6, 1e-9) == bad
+    assert init(mem, 0.0, ffi.NULL, 1e-6, 1e-9) == bad
+    assert init(mem, 0.0, x0, 1e-6, 1e-9) == 0
+    assert step(ffi.NULL, 0.1, *args) == bad
+    for i in range(len(args)):
+        assert step(mem, 0.1, *args[:i], ffi.NULL, *args[i + 1:]) == bad
+    assert mem.t == 0.0 and mem.n_rhs == 0
+    assert step(mem, 0.1, *args) == 0 and mem.t == 0.1

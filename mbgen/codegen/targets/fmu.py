@@ -28,6 +28,25 @@ experiment's tolerance (``fmi2SetupExperiment``; default the scene's
 over a communication step.  Model exchange exposes the RHS to the importer's
 integrator (no events, except for configuration constraints, below).
 
+The FMI 2.0 state machine (the standard's section 2.1 and its model-exchange and
+co-simulation state charts, 3.2.3 and 4.2.4): the instance's state is one of
+:data:`FMI2_STATES`, and each FMI function names the states it may be called in
+(:data:`FMI2_ALLOWED`, the standard's tables as the Modelica Reference-FMUs enforce them,
+rendered into the C as one mask per function).  A call in any other state -- exiting
+initialisation without entering it, ``fmi2SetupExperiment`` or entering initialisation in
+step mode, ``fmi2DoStep`` before initialisation, anything but the getters, ``fmi2Reset``
+and ``fmi2FreeInstance`` after ``fmi2Terminate`` -- returns ``fmi2Error`` and logs
+"illegal call sequence".  As the standard says of ``fmi2Error``, every call that returns
+it leaves the instance in the error state, from which only the getters, ``fmi2Reset``
+(back to instantiated, start values restored) and ``fmi2FreeInstance`` are allowed.
+
+Time: ``fmi2DoStep`` refuses (``fmi2Error`` and a logged message naming the values) a
+``currentCommunicationPoint`` that is NaN or not the FMU's time within
+:data:`COMMUNICATION_POINT_TOL` (relative to ``max(1, |t|)``, the tolerance the
+Reference-FMUs allow for the master's rounding: a step backwards or a jump ahead is
+refused), and a ``communicationStepSize`` that is not a positive finite number.
+``fmi2SetupExperiment`` and ``fmi2SetTime`` refuse a time that is not finite.
+
 Configuration constraints: co-simulation projects after every step (the step
 API).  Model exchange cannot, as the importer's integrator owns the state: so
 ``fmi2CompletedIntegratorStep`` asks for a step event once the residual
@@ -58,6 +77,60 @@ from .step import adaptive_method
 
 #: Model exchange: residual (relative to 1 + max|q_r|) above which a step event projects.
 PROJECT_TOL = 1e-9
+#: fmi2DoStep: largest |currentCommunicationPoint - t| / max(1, |t|) taken for the FMU's time t.
+COMMUNICATION_POINT_TOL = 1e-5
+
+#: The FMI 2.0 states an instance can be in: the standard's, less those it never enters
+#: (stepInProgress, stepFailed, stepCanceled: steps are synchronous and a failed step is an
+#: error; fatal: never returned).
+FMI2_STATES = ("instantiated", "initialization_mode", "event_mode", "continuous_time_mode",
+               "step_complete", "terminated", "error")
+_SET_UP = ("instantiated", "initialization_mode")
+_RUNNING = ("event_mode", "continuous_time_mode", "step_complete")
+_ENDED = ("terminated", "error")
+_GETTERS = ("initialization_mode",) + _RUNNING + _ENDED
+_ME_GETTERS = ("initialization_mode", "event_mode", "continuous_time_mode") + _ENDED
+
+#: ``{FMI 2.0 function: the states it may be called in}`` (fmi2Instantiate, fmi2FreeInstance,
+#: fmi2GetVersion and fmi2GetTypesPlatform are always allowed).  A call in another state is
+#: refused with fmi2Error.
+FMI2_ALLOWED = {
+    "fmi2SetDebugLogging": FMI2_STATES,
+    "fmi2SetupExperiment": ("instantiated",),
+    "fmi2EnterInitializationMode": ("instantiated",),
+    "fmi2ExitInitializationMode": ("initialization_mode",),
+    "fmi2Terminate": _RUNNING,
+    "fmi2Reset": FMI2_STATES,
+    **dict.fromkeys(("fmi2GetReal", "fmi2GetInteger", "fmi2GetBoolean", "fmi2GetString",
+                     "fmi2GetDirectionalDerivative"), _GETTERS),
+    "fmi2SetReal": _SET_UP + _RUNNING,
+    **dict.fromkeys(("fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString"),
+                    _SET_UP + ("event_mode", "step_complete")),
+    **dict.fromkeys(("fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate",
+                     "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate",
+                     "fmi2DeSerializeFMUstate"), FMI2_STATES),
+    # model exchange
+    "fmi2EnterEventMode": ("event_mode", "continuous_time_mode"),
+    "fmi2NewDiscreteStates": ("event_mode",),
+    "fmi2EnterContinuousTimeMode": ("event_mode",),
+    "fmi2CompletedIntegratorStep": ("continuous_time_mode",),
+    "fmi2SetTime": ("event_mode", "continuous_time_mode"),
+    "fmi2SetContinuousStates": ("continuous_time_mode",),
+    "fmi2GetEventIndicators": _ME_GETTERS,
+    "fmi2GetContinuousStates": _ME_GETTERS,
+    "fmi2GetDerivatives": ("event_mode", "continuous_time_mode") + _ENDED,
+    "fmi2GetNominalsOfContinuousStates": ("instantiated", "event_mode",
+                                          "continuous_time_mode") + _ENDED,
+    # co-simulation
+    "fmi2SetRealInputDerivatives": _SET_UP + ("step_complete",),
+    "fmi2GetRealOutputDerivatives": ("step_complete",) + _ENDED,
+    "fmi2DoStep": ("step_complete",),
+    "fmi2CancelStep": (),                     # only while a step is in progress: never
+    **dict.fromkeys(("fmi2GetStatus", "fmi2GetRealStatus", "fmi2GetIntegerStatus",
+                     "fmi2GetBooleanStatus", "fmi2GetStringStatus"),
+                    ("step_complete", "terminated")),
+}
+
 #: Outputs that become FMU output variables (the others are derivatives or integrators).
 FMU_OUTPUTS = (Output.ENERGY, Output.POSITIONS, Output.VELOCITIES, Output.MASS_MATRIX,
                Output.FORCING)
@@ -168,7 +241,8 @@ def fmu_files(scene, kernel, rendered) -> dict[str, str]:
         p0=[_c(v) for v in p0], rtol="1e-06", codes=codes, project_tol=_c(PROJECT_TOL),
         rhs_args="".join(f", c->{a}" for a in infos[Output.RHS].args[2:]),
         step_args="".join(f", m->{a}" for a, n in (("p", n_p), ("r", n_r)) if n),
-        project=project))
+        project=project, states=FMI2_STATES, allowed=FMI2_ALLOWED,
+        point_tol=_c(COMMUNICATION_POINT_TOL)))
     files = {xml: description,
              types: env.get_template(types_t).render(
                  version=__version__, prefix=prefix, upper=prefix.upper()),
@@ -178,4 +252,5 @@ def fmu_files(scene, kernel, rendered) -> dict[str, str]:
     return files
 
 
-__all__ = ["FMU", "Fmu", "fmu_files", "FMU_OUTPUTS", "PROJECT_TOL"]
+__all__ = ["FMU", "Fmu", "fmu_files", "FMU_OUTPUTS", "PROJECT_TOL", "COMMUNICATION_POINT_TOL",
+           "FMI2_STATES", "FMI2_ALLOWED"]

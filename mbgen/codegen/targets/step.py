@@ -27,10 +27,19 @@ iteration matrix) lives in it, so the functions' stack use is small and
 stated in the header.  No allocation, no globals: one memory per simulated
 system, any number in parallel.
 
-With the same tolerances, ``dopri5_step(mem, T)`` from ``t = 0`` takes exactly
-the steps of ``<prefix>_dopri5`` over ``[0, T]`` (and gives the same bits);
+With the same tolerances, ``dopri5_step(mem, T)`` from ``t = t0`` takes exactly
+the steps of ``<prefix>_dopri5`` over ``[t0, t0 + T]`` (and gives the same bits);
 likewise for Rosenbrock.  On failure the status is returned and ``mem->t``,
 ``mem->x`` keep the last accepted state.
+
+Arguments: ``mem``, ``x0``, ``p`` or ``r`` ``NULL``, non-finite ``t0``, ``x0`` or
+tolerances, and an ``h`` that is not a positive finite number (or makes ``t + h``
+overflow) return ``BAD_ARGUMENT``.  A step that cannot advance time -- ``h`` below
+the resolution of ``t``, so that ``t + h == t`` (``t = 1e16``, ``h = 1``) -- returns
+``STEP_TOO_SMALL``, the status the adaptive methods give when their own step falls
+below the resolution of ``t``: ``h`` is a valid number, but time would not move, so
+the call is refused rather than answering OK with ``t`` unchanged.  Neither touches
+``mem``.
 
 Configuration constraints: after every accepted step the dependent coordinates
 are projected back onto ``f_h(q, t) = 0`` by the integrators' projection
@@ -85,6 +94,7 @@ def step_context(kernel, prefix: str) -> dict:
                          f"integrator output (e.g. Output.DOPRI5)")
     params = "".join(f", const double *{a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
     args = "".join(f", {a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
+    null_args = "".join(f" || !{a}" for a, n in (("p", L.n_p), ("r", L.n_r)) if n)
     methods = []
     for m in names:
         view = method_view(Output(m))
@@ -102,6 +112,7 @@ def step_context(kernel, prefix: str) -> dict:
         adaptive=any(m["adaptive"] for m in methods),
         params=params,
         args=args,
+        null_args=null_args,
         n_p=L.n_p,
         n_r=L.n_r,
         n=max(L.n_x, 1),

@@ -1,0 +1,59 @@
+"""``consistent(x)``: Newton on the configuration constraints ends on the loop or raises.
+
+Near the triple rocker's dead point the Jacobian of the dependent coordinates is nearly
+singular and Newton's steps are huge: from these starts it once wandered to ``q2 ~ -7900``
+and stopped there with a residual of 2.5e-9, 2500 times its tolerance, because the
+tolerance grew with the iterate (``tol (1 + max|q_r|)``).  Now the tolerance is fixed by
+the state it was given, the result is the state whose residual was checked, and a tolerance
+that is not a finite number >= 0 is refused.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import mbgen
+from mbgen.errors import ArgumentError
+from mbgen.model.scene import load_scene
+from mbgen.scenes import four_bar
+
+
+@pytest.fixture(scope="module")
+def triple_rocker():
+    scene = load_scene("four_bar", dead_point=True)
+    model = mbgen.compile(scene, ("rhs", "holonomic", "holonomic_jacobian"))
+    return scene, model
+
+
+#: Crank angles just below the dead point and far guesses of q2, q3 (seen to go wrong).
+DEAD = four_bar.dead_angle(**four_bar.DEAD_POINT_LENGTHS)
+STARTS = [(DEAD - 1e-6, -4.0, -0.8), (DEAD - 1e-10, -3.4, -1.9), (DEAD - 1e-10, -3.1, 1.3),
+          (DEAD - 1e-10, -3.8, 0.8), (DEAD - 1e-10, -2.8, -1.0)]
+
+
+@pytest.mark.parametrize("q", STARTS)
+def test_near_a_dead_point_the_result_is_on_the_loop_or_an_error(triple_rocker, q):
+    _, model = triple_rocker
+    x = np.array([*q, 0.0])
+    try:
+        y = model.consistent(x)
+    except mbgen.ConstraintError as exc:
+        assert "did not converge" in str(exc) or "singular" in str(exc)
+        return
+    assert y[0] == x[0]
+    assert np.max(np.abs(model.holonomic(0.0, y))) <= 1e-12 * (1.0 + np.max(np.abs(x[:3])))
+
+
+@pytest.mark.parametrize("tol", [math.nan, math.inf, -1e-12])
+def test_a_tolerance_must_be_a_finite_number(triple_rocker, tol):
+    scene, model = triple_rocker
+    with pytest.raises(ArgumentError, match="tol"):
+        model.consistent(scene.x0(model.layout), tol=tol)
+
+
+def test_the_default_start_is_unchanged(triple_rocker):
+    scene, model = triple_rocker
+    x0 = scene.x0(model.layout)
+    y = model.consistent(x0 + np.array([0.0, 1e-3, -1e-3, 0.0]))
+    np.testing.assert_allclose(y, x0, atol=1e-10)
