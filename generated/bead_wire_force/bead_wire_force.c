@@ -474,14 +474,17 @@ static int bead_wire_force_initial_step(double t0, const double *y, const double
 
 /* Project the dependent coordinates (s) back onto the configuration
  * constraints f_h(q, t) = 0 after an accepted step: Newton on them alone, to
- * max|f_h| <= 1e-12 (1 + max|q_r|), at most 12 iterations (BEAD_WIRE_FORCE_PROJECTION_FAILED
- * otherwise).  stats->max_residual records the largest max|f_h| met before projecting;
+ * max|f_h| <= 1e-12 (1 + max|q_r|) with q_r as the step left them (the bound does not
+ * grow with the iterates, so Newton running off near a dead point is no convergence), at
+ * most 12 iterations (BEAD_WIRE_FORCE_PROJECTION_FAILED otherwise); a pivot of the dependent
+ * coordinates' Jacobian at or below 1e-13 max|entry| is BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR.
+ * stats->max_residual records the largest max|f_h| met before projecting;
  * opt->no_projection = 1 only records it (to measure drift). */
 static int bead_wire_force_project(double t, double *x, const double *p,
                                 const bead_wire_force_options *opt, bead_wire_force_stats *stats)
 {
     double f[1], J[2], a[1], dq[1];
-    double res, scale, big, tmp;
+    double res, scale, big, amax, tmp;
     int it, i, j, k, pr, status;
     status = bead_wire_force_holonomic(t, x, p, f);
     if (status != BEAD_WIRE_FORCE_OK) {
@@ -499,11 +502,11 @@ static int bead_wire_force_project(double t, double *x, const double *p,
     if (opt->no_projection) {
         return BEAD_WIRE_FORCE_OK;
     }
+    scale = 1.0;
+    if (1.0 + fabs(x[1]) > scale) {
+        scale = 1.0 + fabs(x[1]);
+    }
     for (it = 0; ; ++it) {
-        scale = 1.0;
-        if (1.0 + fabs(x[1]) > scale) {
-            scale = 1.0 + fabs(x[1]);
-        }
         if (res <= 1e-12 * scale) {
             return BEAD_WIRE_FORCE_OK;
         }
@@ -514,8 +517,12 @@ static int bead_wire_force_project(double t, double *x, const double *p,
         if (status != BEAD_WIRE_FORCE_OK) {
             return status;
         }
+        amax = 0.0;
         for (i = 0; i < 1; ++i) {
             a[i * 1 + 0] = J[i * 2 + 1];
+            if (fabs(a[i * 1 + 0]) > amax) {
+                amax = fabs(a[i * 1 + 0]);
+            }
             dq[i] = -f[i];
         }
         for (k = 0; k < 1; ++k) {
@@ -527,7 +534,7 @@ static int bead_wire_force_project(double t, double *x, const double *p,
                     pr = i;
                 }
             }
-            if (!(big > 0.0)) {
+            if (!(big > 1e-13 * amax)) {
                 return BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR;
             }
             if (pr != k) {

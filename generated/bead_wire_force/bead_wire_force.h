@@ -65,7 +65,7 @@ extern "C" {
 #define BEAD_WIRE_FORCE_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of bead_wire_force.h, .c and .py with this value blanked. */
-#define BEAD_WIRE_FORCE_CONTENT_HASH "4dfaa1ad7a64a233"
+#define BEAD_WIRE_FORCE_CONTENT_HASH "f31ed3dae0e6243c"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -707,14 +707,17 @@ static int four_bar_initial_step(double t0, const double *y, const double *f0, c
 
 /* Project the dependent coordinates (q2, q3) back onto the configuration
  * constraints f_h(q, t) = 0 after an accepted step: Newton on them alone, to
- * max|f_h| <= 1e-12 (1 + max|q_r|), at most 12 iterations (FOUR_BAR_PROJECTION_FAILED
- * otherwise).  stats->max_residual records the largest max|f_h| met before projecting;
+ * max|f_h| <= 1e-12 (1 + max|q_r|) with q_r as the step left them (the bound does not
+ * grow with the iterates, so Newton running off near a dead point is no convergence), at
+ * most 12 iterations (FOUR_BAR_PROJECTION_FAILED otherwise); a pivot of the dependent
+ * coordinates' Jacobian at or below 1e-13 max|entry| is FOUR_BAR_CONSTRAINT_SINGULAR.
+ * stats->max_residual records the largest max|f_h| met before projecting;
  * opt->no_projection = 1 only records it (to measure drift). */
 static int four_bar_project(double t, double *x, const double *p,
                                 const four_bar_options *opt, four_bar_stats *stats)
 {
     double f[2], J[6], a[4], dq[2];
-    double res, scale, big, tmp;
+    double res, scale, big, amax, tmp;
     int it, i, j, k, pr, status;
     status = four_bar_holonomic(t, x, p, f);
     if (status != FOUR_BAR_OK) {
@@ -732,14 +735,14 @@ static int four_bar_project(double t, double *x, const double *p,
     if (opt->no_projection) {
         return FOUR_BAR_OK;
     }
+    scale = 1.0;
+    if (1.0 + fabs(x[1]) > scale) {
+        scale = 1.0 + fabs(x[1]);
+    }
+    if (1.0 + fabs(x[2]) > scale) {
+        scale = 1.0 + fabs(x[2]);
+    }
     for (it = 0; ; ++it) {
-        scale = 1.0;
-        if (1.0 + fabs(x[1]) > scale) {
-            scale = 1.0 + fabs(x[1]);
-        }
-        if (1.0 + fabs(x[2]) > scale) {
-            scale = 1.0 + fabs(x[2]);
-        }
         if (res <= 1e-12 * scale) {
             return FOUR_BAR_OK;
         }
@@ -750,9 +753,16 @@ static int four_bar_project(double t, double *x, const double *p,
         if (status != FOUR_BAR_OK) {
             return status;
         }
+        amax = 0.0;
         for (i = 0; i < 2; ++i) {
             a[i * 2 + 0] = J[i * 3 + 1];
+            if (fabs(a[i * 2 + 0]) > amax) {
+                amax = fabs(a[i * 2 + 0]);
+            }
             a[i * 2 + 1] = J[i * 3 + 2];
+            if (fabs(a[i * 2 + 1]) > amax) {
+                amax = fabs(a[i * 2 + 1]);
+            }
             dq[i] = -f[i];
         }
         for (k = 0; k < 2; ++k) {
@@ -764,7 +774,7 @@ static int four_bar_project(double t, double *x, const double *p,
                     pr = i;
                 }
             }
-            if (!(big > 0.0)) {
+            if (!(big > 1e-13 * amax)) {
                 return FOUR_BAR_CONSTRAINT_SINGULAR;
             }
             if (pr != k) {

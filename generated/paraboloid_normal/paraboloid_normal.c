@@ -539,14 +539,17 @@ static int paraboloid_normal_initial_step(double t0, const double *y, const doub
 
 /* Project the dependent coordinates (q3) back onto the configuration
  * constraints f_h(q, t) = 0 after an accepted step: Newton on them alone, to
- * max|f_h| <= 1e-12 (1 + max|q_r|), at most 12 iterations (PARABOLOID_NORMAL_PROJECTION_FAILED
- * otherwise).  stats->max_residual records the largest max|f_h| met before projecting;
+ * max|f_h| <= 1e-12 (1 + max|q_r|) with q_r as the step left them (the bound does not
+ * grow with the iterates, so Newton running off near a dead point is no convergence), at
+ * most 12 iterations (PARABOLOID_NORMAL_PROJECTION_FAILED otherwise); a pivot of the dependent
+ * coordinates' Jacobian at or below 1e-13 max|entry| is PARABOLOID_NORMAL_CONSTRAINT_SINGULAR.
+ * stats->max_residual records the largest max|f_h| met before projecting;
  * opt->no_projection = 1 only records it (to measure drift). */
 static int paraboloid_normal_project(double t, double *x, const double *p,
                                 const paraboloid_normal_options *opt, paraboloid_normal_stats *stats)
 {
     double f[1], J[3], a[1], dq[1];
-    double res, scale, big, tmp;
+    double res, scale, big, amax, tmp;
     int it, i, j, k, pr, status;
     status = paraboloid_normal_holonomic(t, x, p, f);
     if (status != PARABOLOID_NORMAL_OK) {
@@ -564,11 +567,11 @@ static int paraboloid_normal_project(double t, double *x, const double *p,
     if (opt->no_projection) {
         return PARABOLOID_NORMAL_OK;
     }
+    scale = 1.0;
+    if (1.0 + fabs(x[2]) > scale) {
+        scale = 1.0 + fabs(x[2]);
+    }
     for (it = 0; ; ++it) {
-        scale = 1.0;
-        if (1.0 + fabs(x[2]) > scale) {
-            scale = 1.0 + fabs(x[2]);
-        }
         if (res <= 1e-12 * scale) {
             return PARABOLOID_NORMAL_OK;
         }
@@ -579,8 +582,12 @@ static int paraboloid_normal_project(double t, double *x, const double *p,
         if (status != PARABOLOID_NORMAL_OK) {
             return status;
         }
+        amax = 0.0;
         for (i = 0; i < 1; ++i) {
             a[i * 1 + 0] = J[i * 3 + 2];
+            if (fabs(a[i * 1 + 0]) > amax) {
+                amax = fabs(a[i * 1 + 0]);
+            }
             dq[i] = -f[i];
         }
         for (k = 0; k < 1; ++k) {
@@ -592,7 +599,7 @@ static int paraboloid_normal_project(double t, double *x, const double *p,
                     pr = i;
                 }
             }
-            if (!(big > 0.0)) {
+            if (!(big > 1e-13 * amax)) {
                 return PARABOLOID_NORMAL_CONSTRAINT_SINGULAR;
             }
             if (pr != k) {

@@ -705,14 +705,17 @@ static int slider_crank_initial_step(double t0, const double *y, const double *f
 
 /* Project the dependent coordinates (q3, q2) back onto the configuration
  * constraints f_h(q, t) = 0 after an accepted step: Newton on them alone, to
- * max|f_h| <= 1e-12 (1 + max|q_r|), at most 12 iterations (SLIDER_CRANK_PROJECTION_FAILED
- * otherwise).  stats->max_residual records the largest max|f_h| met before projecting;
+ * max|f_h| <= 1e-12 (1 + max|q_r|) with q_r as the step left them (the bound does not
+ * grow with the iterates, so Newton running off near a dead point is no convergence), at
+ * most 12 iterations (SLIDER_CRANK_PROJECTION_FAILED otherwise); a pivot of the dependent
+ * coordinates' Jacobian at or below 1e-13 max|entry| is SLIDER_CRANK_CONSTRAINT_SINGULAR.
+ * stats->max_residual records the largest max|f_h| met before projecting;
  * opt->no_projection = 1 only records it (to measure drift). */
 static int slider_crank_project(double t, double *x, const double *p, const double *r,
                                 const slider_crank_options *opt, slider_crank_stats *stats)
 {
     double f[2], J[6], a[4], dq[2];
-    double res, scale, big, tmp;
+    double res, scale, big, amax, tmp;
     int it, i, j, k, pr, status;
     status = slider_crank_holonomic(t, x, p, r, f);
     if (status != SLIDER_CRANK_OK) {
@@ -730,14 +733,14 @@ static int slider_crank_project(double t, double *x, const double *p, const doub
     if (opt->no_projection) {
         return SLIDER_CRANK_OK;
     }
+    scale = 1.0;
+    if (1.0 + fabs(x[2]) > scale) {
+        scale = 1.0 + fabs(x[2]);
+    }
+    if (1.0 + fabs(x[1]) > scale) {
+        scale = 1.0 + fabs(x[1]);
+    }
     for (it = 0; ; ++it) {
-        scale = 1.0;
-        if (1.0 + fabs(x[2]) > scale) {
-            scale = 1.0 + fabs(x[2]);
-        }
-        if (1.0 + fabs(x[1]) > scale) {
-            scale = 1.0 + fabs(x[1]);
-        }
         if (res <= 1e-12 * scale) {
             return SLIDER_CRANK_OK;
         }
@@ -748,9 +751,16 @@ static int slider_crank_project(double t, double *x, const double *p, const doub
         if (status != SLIDER_CRANK_OK) {
             return status;
         }
+        amax = 0.0;
         for (i = 0; i < 2; ++i) {
             a[i * 2 + 0] = J[i * 3 + 2];
+            if (fabs(a[i * 2 + 0]) > amax) {
+                amax = fabs(a[i * 2 + 0]);
+            }
             a[i * 2 + 1] = J[i * 3 + 1];
+            if (fabs(a[i * 2 + 1]) > amax) {
+                amax = fabs(a[i * 2 + 1]);
+            }
             dq[i] = -f[i];
         }
         for (k = 0; k < 2; ++k) {
@@ -762,7 +772,7 @@ static int slider_crank_project(double t, double *x, const double *p, const doub
                     pr = i;
                 }
             }
-            if (!(big > 0.0)) {
+            if (!(big > 1e-13 * amax)) {
                 return SLIDER_CRANK_CONSTRAINT_SINGULAR;
             }
             if (pr != k) {
