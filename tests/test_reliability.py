@@ -26,6 +26,7 @@ from mbgen.build.cache import verified
 from mbgen.build.extension import build, load
 from mbgen.build.fmu import write_fmu
 from mbgen.cli import EXIT_MODEL, EXIT_OK, EXIT_USAGE, main
+from mbgen.codegen.optimize import Form
 from mbgen.codegen.targets import Targets
 from mbgen.errors import (ArgumentError, ArgumentTypeError, CacheError, ConstraintError,
                           SingularMassMatrixError)
@@ -36,7 +37,7 @@ from mbgen.run.stepper import Stepper
 from mbgen.scenes import four_bar
 from mbgen.studies import cluster
 from mbgen.verify.check import CheckReport, check, compare, reference_model
-from models import pendulum, scene_file
+from models import massless_link_scene, pendulum, scene_file, two_input_cart
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -342,3 +343,37 @@ def test_the_fmu_follows_the_umask(tmp_path):
     finally:
         os.umask(old)
     assert os.stat(path).st_mode & 0o777 == 0o644                       # not mkstemp's 0600
+
+
+# --- Injected faults: linearize's B (every input's column, a constrained model's speed rows)
+def _input_differences(model, x, r, h=1e-6):
+    return np.stack([(model.rhs(0.0, x, None, r + h * e) - model.rhs(0.0, x, None, r - h * e))
+                     / (2 * h) for e in np.eye(model.n_r)], axis=1)
+
+
+def test_linearize_gives_every_input_its_column_and_a_constrained_model_its_speed_rows():
+    model = mbgen.compile(two_input_cart(), ("rhs", "jacobian", "input_jacobian"))
+    x, r = np.array([0.2, 0.4, -0.3, 0.1]), np.array([0.5, -0.2])
+    np.testing.assert_allclose(mbgen.linearize(model, x, r=r).B, _input_differences(model, x, r),
+                               rtol=1e-7, atol=1e-9)
+    scene = load_scene("slider_crank")
+    crank = mbgen.compile(scene, ("rhs", "jacobian", "input_jacobian", "holonomic",
+                                  "holonomic_jacobian"))
+    x = crank.consistent(scene.x0(crank.layout) + np.array([0.3, 0, 0, 0.5]))
+    lin = mbgen.linearize(crank, x, r=np.array([0.4]))
+    keep = [crank.state_names.index(s) for s in lin.states]
+    np.testing.assert_allclose(lin.B, _input_differences(crank, x, np.array([0.4]))[keep],
+                               rtol=1e-7, atol=1e-9)
+    assert abs(lin.B[1, 0]) > 0.1                                  # the speed row is there
+
+
+# --- Injected fault: the articulated-body recursion and loads on massless parts
+def test_the_recursion_keeps_the_loads_on_massless_parts():
+    scn = massless_link_scene()
+    kane = mbgen.compile(scn, ("rhs",), method="kane", name="massless_link_kane")
+    rec = run(scn, ("rhs",), method="newton_euler", form=Form.RECURSIVE,
+              name="massless_link_rec")
+    x = np.array([0.3, -0.7, 0.5, 1.1])
+    np.testing.assert_allclose(rec.compiled.rhs(0.0, x), kane.rhs(0.0, x), rtol=1e-11,
+                               atol=1e-11)
+

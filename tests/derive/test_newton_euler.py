@@ -29,6 +29,8 @@ from mbgen.codegen.optimize import Form
 from mbgen.model.scene import builtin_names
 from mbgen.scenes import disc_pendulum
 
+from models import massless_link_scene
+
 HEAVY = {"bicycle", "spatial_arm"}   # their own tests cover them; slow with every output
 
 
@@ -90,26 +92,6 @@ def test_recursion_equals_mass_matrix_solve(name):
         for out in outs:
             assert close(getattr(a, out)(0.2, x, p), getattr(b, out)(0.2, x, p), 1e-11), out
             assert close(getattr(py, out)(0.2, x, p), getattr(a, out)(0.2, x, p), 1e-13), out
-
-
-def massless_link_scene() -> mbgen.Scene:
-    """A link without mass (frame A, angle q1) carrying a body on a second link (B, angle q2
-    relative to A): a force at the massless link's midpoint and a torque on it are loads on
-    a massless part, whose generalized forces reach u1' only through ``tau``."""
-    m = Model("massless_link")
-    q1, q2 = m.coordinates("q1 q2")
-    m.speeds("u1 u2")
-    l, mass, g, f, T = m.constants("l m g f T")
-    N = m.newtonian()
-    A = m.rotate(N, "A", 3, q1)
-    B = m.rotate(A, "B", 3, q2)
-    PA = m.point("PA", m.origin, l * A.x)
-    m.body("bob", B, mass, (0, 0, mass * l**2 / 12), m.point("G", PA, l / 2 * B.x))
-    m.gravity(-g * N.y)
-    m.force(m.point("H", m.origin, l / 2 * A.x), f * N.x + 2 * f * N.y)
-    m.torque(A, T * N.z)
-    return mbgen.Scene("massless_link", m,
-                       parameters=dict(l=0.8, m=1.3, g=9.81, f=7.0, T=-2.5))
 
 
 def test_recursion_keeps_the_loads_on_massless_parts():

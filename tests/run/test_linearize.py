@@ -20,30 +20,14 @@ import sympy as sm
 import mbgen
 from mbgen.errors import ArgumentError
 from mbgen.model.scene import load_scene
+from models import two_input_cart
 
 OUTPUTS = ("rhs", "jacobian", "input_jacobian", "holonomic", "holonomic_jacobian")
 
 
 @cache
 def cart_pendulum():
-    """A cart (``x``) pushed by ``F``, a pendulum on it (``th``) driven by ``T`` and a spring."""
-    m = mbgen.Model("cart_pendulum")
-    x, th = m.coordinates("x th")
-    m.speeds("v w")
-    mc, mp, l, g, k = m.constants("mc mp l g k")
-    F, T = m.inputs("F T")
-    N = m.newtonian()
-    C = m.point("C", m.origin, x * N.x)
-    B = m.rotate(N, "B", 3, th)
-    m.particle("cart", C, mc)
-    m.particle("bob", m.point("P", C, -l * B.y), mp)
-    m.gravity(-g * N.y)
-    m.spring("s", m.origin, C, k)
-    m.force(C, F * N.x + T * sm.sin(th) * N.x)     # T also pushes the cart: B is full
-    m.torque(B, T * N.z)
-    scene = mbgen.Scene("cart_pendulum", m, parameters=dict(mc=2.0, mp=0.7, l=0.9, g=9.81,
-                                                            k=3.0))
-    return mbgen.compile(scene, OUTPUTS[:3])
+    return mbgen.compile(two_input_cart(), OUTPUTS[:3])
 
 
 @cache

@@ -2,6 +2,8 @@
 
 from pathlib import Path
 
+import sympy as sm
+
 import mbgen
 
 
@@ -39,6 +41,48 @@ def pendulum(name="pendulum") -> mbgen.Model:
     m.particle("bob", P, mass)
     m.gravity(-g * N.y)
     return m
+
+
+def two_input_cart() -> mbgen.Scene:
+    """A cart (``x``) pushed by ``F``, a pendulum on it (``th``) driven by ``T`` and a spring:
+    two inputs, both reaching both speeds (``B`` is full)."""
+    m = mbgen.Model("cart_pendulum")
+    x, th = m.coordinates("x th")
+    m.speeds("v w")
+    mc, mp, l, g, k = m.constants("mc mp l g k")
+    F, T = m.inputs("F T")
+    N = m.newtonian()
+    C = m.point("C", m.origin, x * N.x)
+    B = m.rotate(N, "B", 3, th)
+    m.particle("cart", C, mc)
+    m.particle("bob", m.point("P", C, -l * B.y), mp)
+    m.gravity(-g * N.y)
+    m.spring("s", m.origin, C, k)
+    m.force(C, F * N.x + T * sm.sin(th) * N.x)     # T also pushes the cart: B is full
+    m.torque(B, T * N.z)
+    scene = mbgen.Scene("cart_pendulum", m, parameters=dict(mc=2.0, mp=0.7, l=0.9, g=9.81,
+                                                            k=3.0))
+    return scene
+
+
+def massless_link_scene() -> mbgen.Scene:
+    """A link without mass (frame A, angle q1) carrying a body on a second link (B, angle q2
+    relative to A): a force at the massless link's midpoint and a torque on it are loads on
+    a massless part, whose generalized forces reach u1' only through ``tau``."""
+    m = mbgen.Model("massless_link")
+    q1, q2 = m.coordinates("q1 q2")
+    m.speeds("u1 u2")
+    l, mass, g, f, T = m.constants("l m g f T")
+    N = m.newtonian()
+    A = m.rotate(N, "A", 3, q1)
+    B = m.rotate(A, "B", 3, q2)
+    PA = m.point("PA", m.origin, l * A.x)
+    m.body("bob", B, mass, (0, 0, mass * l**2 / 12), m.point("G", PA, l / 2 * B.x))
+    m.gravity(-g * N.y)
+    m.force(m.point("H", m.origin, l / 2 * A.x), f * N.x + 2 * f * N.y)
+    m.torque(A, T * N.z)
+    return mbgen.Scene("massless_link", m,
+                       parameters=dict(l=0.8, m=1.3, g=9.81, f=7.0, T=-2.5))
 
 
 #: The pendulum as a scene file ("pend"); ``DESCRIPTION`` is written above it.
