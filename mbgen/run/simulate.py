@@ -30,7 +30,7 @@ from scipy import integrate as ivp
 
 from ..abi import INTEGRATORS, Output
 from ..errors import ArgumentError, IntegrationError, StiffnessWarning, UsageError
-from ..integrators import METHODS
+from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from . import named
 from .base import ModelBase
 from .integration import Trajectory
@@ -126,7 +126,8 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
 
 
 def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None = None,
-             rtol: float = 1e-9, atol: float = 1e-12, n_out: int = 201, t_eval=None,
+             rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, n_out: int = 201,
+             t_eval=None,
              progress: bool = True, say: Callable[[str], None] | None = None,
              rk4_steps: int = 10000, project: bool = True,
              max_steps: int | None = None) -> Trajectory:
@@ -149,7 +150,8 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
         integrator (``dopri5``, ``rosenbrock``, ``rk4`` with the fixed step
         ``(t1 - t0) / rk4_steps``).
     rtol, atol : float
-        Error tolerances.
+        Error tolerances (default :data:`mbgen.integrators.DEFAULT_RTOL`,
+        ``DEFAULT_ATOL``: 1e-6, 1e-9, as every integration mbgen runs).
     n_out : int
         Number of equally spaced output times when ``t_eval`` is not given.
     progress : bool
@@ -199,8 +201,8 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
                       auto, reason, int(max_steps or MAX_STEPS))
 
 
-def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = 1e-9,
-                  atol: float = 1e-12, n_out: int = 201, p=None, r=None,
+def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = DEFAULT_RTOL,
+                  atol: float = DEFAULT_ATOL, n_out: int = 201, p=None, r=None,
                   rk4_steps: int = 10000, progress: bool = False,
                   project: bool = True) -> Trajectory:
     """Integrate with a generated C integrator (``model.integrate``); see :func:`simulate`."""
