@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import difflib
+import math
 import os
 import sys
 from dataclasses import replace
@@ -196,6 +197,16 @@ def with_numbers(scene, args):
             check_names(states, known, "states", scene.name)
         scene = replace(scene, initial_state={**scene.initial_state, **states})
     return scene
+
+
+def end_time(scene, t_end: float | None, flag: str = "--t-end") -> float:
+    """``t_end`` (default: the scene's), refused unless finite and after the scene's start."""
+    t0 = float(scene.t_span[0])
+    t1 = float(scene.t_span[1]) if t_end is None else float(t_end)
+    if not math.isfinite(t1) or not t1 > t0:
+        raise UsageError(f"{flag} {t1!r}: give a finite end time after the scene's start "
+                         f"{t0!r}")
+    return t1
 
 
 def initial_state(scene, model):

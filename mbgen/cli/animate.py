@@ -7,7 +7,8 @@ import argparse
 
 from ..errors import EXIT_OK, UsageError
 from ..viz.animate import FORMATS, animate_scene
-from ._common import add_scene_arguments, check_count, check_file, positive_float, scene_from
+from ._common import (add_scene_arguments, check_count, check_file, end_time, positive_float,
+                      scene_from)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -28,6 +29,6 @@ def run(args) -> int:
     check_count(args.frames, "--frames", 2, what="frames")
     scene = scene_from(args)
     path = animate_scene(scene, args.output or f"{scene.name}.html", frames=args.frames,
-                         t_end=args.t_end, fps=args.fps)
+                         t_end=end_time(scene, args.t_end), fps=args.fps)
     print(f"{scene.name}: {args.frames} frames -> {path}")
     return EXIT_OK

@@ -20,9 +20,10 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
+from ..abi import Output
 from ..codegen.targets import Targets
 from ..codegen.targets.example import render_example
-from ..errors import EXIT_OK, UsageError
+from ..errors import EXIT_OK, ModelError, UsageError
 from ..fileio import plain_name, write_generated
 from ..pipeline import run as run_pipeline
 from ..verify.audit import audit
@@ -61,7 +62,10 @@ def run(args) -> int:
     scene = scene_from(args)
     if args.step:
         scene = replace(scene, targets=replace(scene.targets or Targets(), step=True))
-    outputs = args.outputs.split(",") if args.outputs else None
+    try:
+        outputs = Output.parse(args.outputs.split(",")) if args.outputs else None
+    except ModelError as exc:  # a mistake in the argument, not in the model
+        raise UsageError(f"--outputs: {exc}") from None
     folder = Path(args.output) if args.output else \
         DEFAULT_OUTPUT / plain_name(scene.name, "scene name")
     check_output_folder(folder, "-o")  # before any work

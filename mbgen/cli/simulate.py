@@ -17,12 +17,11 @@ from ..abi import Output
 from ..errors import EXIT_OK
 from ..fileio import plain_name
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL
-from ..model.scene import check_span
 from ..pipeline import compile
 from ..run.simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate
 from ..viz.plots import plot_simulation
 from ._common import (MAX_POINTS, add_integrator_argument, add_number_arguments,
-                      add_scene_arguments, check_count, check_file, initial_state,
+                      add_scene_arguments, check_count, check_file, end_time, initial_state,
                       input_signals, nonnegative_float, note, positive_int, progress,
                       resolve_inputs, scene_from, stage_lines, with_numbers)
 
@@ -58,7 +57,7 @@ def run(args) -> int:
     if method is not None:  # an unknown method is refused before any work
         choose_method(_NoModel, method if method.lower() not in C_METHODS else None)
     scene = with_numbers(scene_from(args), args)
-    check_span(scene.t_span[0], scene.t_span[1] if args.t_end is None else args.t_end, "--t-end")
+    t_end = end_time(scene, args.t_end)
     csv = check_file(args.csv or plain_name(f"{scene.name}.csv", "default CSV name"), "--csv")
     check_count(args.points, "--points", 2, MAX_POINTS, "output times")
     signals = input_signals(args)
@@ -73,7 +72,6 @@ def run(args) -> int:
     model = compile(scene, outputs, stage=stage)
     x0 = initial_state(scene, model)
     r = resolve_inputs(signals, model)
-    t_end = args.t_end if args.t_end is not None else scene.t_span[1]
     if stage is not None:
         progress("simulate")
     traj = simulate(model, x0, (scene.t_span[0], t_end), r=r, method=method, rtol=args.rtol,

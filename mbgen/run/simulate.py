@@ -44,6 +44,7 @@ _STABILITY = {"RK23": 2.5, "RK45": 3.3, "DOP853": 6.0}
 STIFF_MIN_STEPS = 2000      # below this many steps nothing is called stiffness-bound
 PROGRESS_DELAY = 2.0        # seconds before a progress bar appears
 MAX_STEPS = 1_000_000       # default step limit of the solve_ivp paths (C: the integrator's own)
+RK4_STEPS = 10_000          # default steps of the fixed-step rk4 over the span
 
 
 def holonomic_outputs(scene) -> tuple:
@@ -129,7 +130,7 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
              rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, n_out: int = 201,
              t_eval=None,
              progress: bool = True, say: Callable[[str], None] | None = None,
-             rk4_steps: int = 10000, project: bool = True,
+             rk4_steps: int = RK4_STEPS, project: bool = True,
              max_steps: int | None = None) -> Trajectory:
     """Integrate ``model`` from ``x0`` over ``t_span``.
 
@@ -203,7 +204,7 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
 
 def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = DEFAULT_RTOL,
                   atol: float = DEFAULT_ATOL, n_out: int = 201, p=None, r=None,
-                  rk4_steps: int = 10000, progress: bool = False,
+                  rk4_steps: int = RK4_STEPS, progress: bool = False,
                   project: bool = True) -> Trajectory:
     """Integrate with a generated C integrator (``model.integrate``); see :func:`simulate`."""
     return simulate(model, x0, t_span, method=method, rtol=rtol, atol=atol, n_out=n_out, p=p,

@@ -61,6 +61,27 @@ def test_an_animation_file_of_another_kind_exits_2(tmp_path, capsys):
     usage_error(["animate", "disc_pendulum", "--frames", "1"], capsys, "--frames 1")
 
 
+@pytest.mark.parametrize("argv, message", [
+    (["simulate", "disc_pendulum", "--t-end", "inf"], "--t-end inf: give a finite end time"),
+    (["animate", "disc_pendulum", "--t-end", "-1"], "after the scene's start 0.0"),
+    (["sweep", "disc_pendulum", "--t-end", "nan"], "--t-end nan"),
+    (["sweep", "disc_pendulum", "--grid", "l=abc"], "grid 'l=abc': values must be numbers"),
+    (["sweep", "disc_pendulum", "--samples", "q2=weird:1:2"], "unknown distribution 'weird'"),
+    (["sweep", "disc_pendulum", "--grid", "ll=1,2"], "did you mean 'l'?"),
+    (["sweep", "disc_pendulum", "--integrator", "foo"], "choose dopri5, rk4, rosenbrock"),
+    (["generate", "disc_pendulum", "--outputs", "rhss"], "--outputs: unknown output 'rhss'"),
+])
+def test_a_mistake_in_an_argument_exits_2(argv, message, tmp_path, capsys):
+    """Were 3 (--t-end of simulate, a sweep's grid and samples, generate --outputs), 5 (animate
+    --t-end; a sweep with --t-end nan ran every member into BAD_ARGUMENT) or a traceback
+    (sweep --method foo)."""
+    where = {"generate": "-o", "animate": "-o"}.get(argv[0], "--csv")
+    target = tmp_path / ("out.html" if argv[0] == "animate" else "out")
+    usage_error(argv + [where, str(target), "--serial"] if argv[0] == "sweep"
+                else argv + [where, str(target)], capsys, message)
+    assert not target.exists()
+
+
 def test_a_missing_scene_stays_a_scene_error(tmp_path, capsys):
     """The README's table: an unknown scene or a missing scene file is 3, in every command."""
     for argv in (["generate", "no_such_scene"], ["simulate", str(tmp_path / "missing.py")],
@@ -216,3 +237,11 @@ def test_golden_prints_the_summary_first_and_the_diff_with_v(tmp_path, capsys):
     assert out.splitlines()[0].endswith("run mbgen golden --update")
     assert "@@" in out and "disc_pendulum_edited" in out
     assert out.index("  changed:") < out.index("@@")
+
+
+def test_sweep_runs_rk4_with_simulates_step(tmp_path, capsys):
+    """``sweep --method rk4`` stopped with "pass h", which the command line could not pass."""
+    csv = tmp_path / "s.csv"
+    assert main(["sweep", "disc_pendulum", "--integrator", "rk4", "--serial", "--quiet", "-n",
+                 "2", "--t-end", "1", "--csv", str(csv)]) == EXIT_OK
+    assert "rk4" in capsys.readouterr().out and len(csv.read_text().splitlines()) == 3
