@@ -241,8 +241,7 @@ def _target(folder: Path) -> Path:
         raise OutputPathError("the current folder no longer exists (did a generation replace "
                               "it?); run 'cd .' to enter the folder now at its path") from None
     if not target.name:
-        raise OutputPathError(f"cannot generate into {str(folder)!r}: give a folder below it "
-                              f"with -o")
+        raise OutputPathError(f"cannot generate into {str(folder)!r}: choose a folder below it")
     return target
 
 
@@ -394,8 +393,7 @@ def _carry(src: Path, dst: Path, target: Path) -> None:
     except OSError as exc:
         reason = exc.strerror or str(exc)
     raise OutputPathError(f"{src} cannot be carried into the new generation ({reason}); nothing "
-                          f"was written: move it out of {target} or choose another output "
-                          f"folder (-o)")
+                          f"was written: move it out of {target} or choose another folder (-o)")
 
 
 @cache
