@@ -5,11 +5,13 @@ No timing assertions: the machine is small and shared.
 
 import csv
 import io
+import sys
 
 import numpy as np
 import pytest
 
 from mbgen import IntegrationError, load_scene
+from mbgen.errors import MissingExtraError
 from mbgen.run.compiled import CompiledModel
 from mbgen.studies.workprecision import (CSV_COLUMNS, DEFAULT_RTOLS, Config, configurations,
                                          rk4_steps, typical_magnitude, work_precision)
@@ -181,7 +183,7 @@ def test_integrator_errors_are_recorded(monkeypatch):
 
 
 def test_bad_arguments():
-    with pytest.raises(ValueError, match="unknown method"):
+    with pytest.raises(ValueError, match="unknown integrator"):
         work_precision("bead_wire", methods=("RK23",))
     with pytest.raises(ValueError, match="backends"):
         work_precision("bead_wire", backends=("fortran",))
@@ -199,3 +201,12 @@ def test_full_default_run_on_disc_pendulum(tmp_path):
     assert report.fastest(1e-8) is not None
     report.write_csv(tmp_path / "wp.csv")
     report.plot(tmp_path / "wp.png")
+
+
+def test_plot_without_matplotlib_names_the_extra(report, tmp_path, monkeypatch):
+    """Was ``ModuleNotFoundError: matplotlib.transforms`` (a traceback in ``mbgen bench``)."""
+    for name in [m for m in sys.modules if m.split(".")[0] == "matplotlib"] + ["matplotlib"]:
+        monkeypatch.setitem(sys.modules, name, None)       # as on a core install
+    with pytest.raises(MissingExtraError, match=r"pip install 'mbgen\[plot\]'"):
+        report.plot(tmp_path / "wp.png")
+    assert not (tmp_path / "wp.png").exists()

@@ -1,0 +1,101 @@
+"""``mbgen bench`` and ``mbgen stress`` on the command line: the help separates bench's
+modes and every option shows its default; ``--methods`` is the old spelling of
+``--integrators``; on a core install (no matplotlib) bench writes its CSV and says how to
+get the plot, before the sweep starts and after it."""
+
+import argparse
+import subprocess
+import sys
+
+import pytest
+
+from mbgen.cli import EXIT_OK, EXIT_USAGE, main, parser
+
+NOTE = "mbgen: note: matplotlib is not installed: the CSV is written, the plot is not " \
+       "(pip install 'mbgen[plot]' draws it)"
+
+
+def command_parser(name: str) -> argparse.ArgumentParser:
+    sub = next(a for a in parser([name])._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices[name]
+
+
+def test_bench_help_separates_its_modes_and_every_option_shows_its_default(capsys):
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    text = capsys.readouterr().out
+    for mode in ("mbgen bench SCENE ", "mbgen bench SCENE --stages", "mbgen bench scaling",
+                 "mbgen bench arm", "mbgen bench constraints"):
+        assert f"\n  {mode}" in text, mode
+    groups = {g.title: [a.dest for a in g._group_actions]
+              for g in command_parser("bench")._action_groups}
+    assert groups["SCENE (work-precision)"] == ["parameter", "state", "rtols", "integrators",
+                                                "integrators", "backends", "time_budget"]
+    assert groups["SCENE --stages"] == ["stages", "outputs"]
+    assert groups["arm"] == ["no_pinocchio", "no_cxx", "derivation"]
+    assert "pip install 'mbgen[plot]'" in text
+
+
+@pytest.mark.parametrize("command, shared", [("bench", {"parameter", "state"}),
+                                             ("stress", {"option", "force", "derivation"})])
+def test_every_option_has_help_that_shows_its_default(command, shared):
+    """``shared``: the arguments made by ``mbgen.cli._common`` for every command, checked
+    there; the others are the command's own."""
+    for action in command_parser(command)._actions:
+        if action.dest in {"help", "what", "scene", *shared} or action.help == argparse.SUPPRESS:
+            continue
+        assert action.help and "default" in action.help, action.option_strings
+
+
+def test_methods_is_the_old_spelling_of_integrators(tmp_path, capsys):
+    """Was a ValueError traceback for an unknown integrator; now one line, exit 2, and the
+    old spelling says the new one."""
+    out = ["-o", str(tmp_path / "out")]
+    assert main(["bench", "bead_wire", "--methods", "RK99", *out]) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert "mbgen: note: --methods is now --integrators (the old spelling still works)" in err
+    assert "mbgen: error: unknown integrator(s) ['RK99']" in err and "Traceback" not in err
+    assert main(["bench", "bead_wire", "--integrators", "RK99", *out]) == EXIT_USAGE
+    assert "note" not in capsys.readouterr().err
+    for bad in (["--rtols", "1e-3,tight"], ["--ns", "2,x"]):
+        with pytest.raises(SystemExit) as stop:
+            main(["bench", "scaling", *bad])
+        assert stop.value.code == EXIT_USAGE
+        assert "is not a comma-separated list" in capsys.readouterr().err
+
+
+def test_bench_without_matplotlib_writes_the_csv_and_says_how_to_get_the_plot(tmp_path):
+    """Issue 19.4: on a core install, ``ModuleNotFoundError: matplotlib`` came as a traceback
+    after the whole sweep.  matplotlib is hidden in a child process (``sys.modules``)."""
+    argv = ["bench", "bead_wire", "--rtols", "1e-3,1e-6", "--integrators", "RK45,dopri5",
+            "--backends", "c", "--repeats", "1", "-o", "out"]
+    code = ("import sys\nsys.modules['matplotlib'] = None\nfrom mbgen.cli import main\n"
+            f"sys.exit(main({argv!r}))\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=600)             # a hang guard, not a budget
+    assert proc.returncode == EXIT_OK, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert proc.stderr.splitlines()[0] == NOTE                # said before the sweep
+    assert (tmp_path / "out" / "work_precision.csv").read_text().startswith("method,")
+    assert not (tmp_path / "out" / "work_precision.png").exists()
+    assert proc.stdout.rstrip().endswith(
+        "no plot: matplotlib is not installed (pip install 'mbgen[plot]', then run this again)")
+
+
+def test_bench_scaling_without_matplotlib_says_so_before_the_sweep(tmp_path, monkeypatch,
+                                                                   capsys):
+    import mbgen.bench.scaling as bench
+    from mbgen.bench.scaling import ScalingRow
+
+    said_before = []
+
+    def sweep(ns, **kw):
+        said_before.append(capsys.readouterr().err)
+        return [ScalingRow(n, 0.1, 0.01, 0.02, 1.0, 1e-6, 100, 40) for n in ns]
+
+    monkeypatch.setattr(bench, "scaling", sweep)
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    assert main(["bench", "scaling", "--ns", "2,4", "-o", str(tmp_path)]) == EXIT_OK
+    assert said_before == [NOTE + "\n"]
+    assert (tmp_path / "scaling.csv").exists() and not (tmp_path / "scaling.png").exists()
+    assert "no plot: matplotlib is not installed" in capsys.readouterr().out
