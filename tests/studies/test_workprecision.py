@@ -1,10 +1,12 @@
 """Work-precision benchmark: errors fall with the tolerance, outputs complete, failures recorded.
 
-No timing assertions: the machine is small and shared.
+No timing assertions: the machine is small and shared.  A run whose points must all
+succeed has no time budget (``time_budget=math.inf``), so a loaded machine cannot stop one.
 """
 
 import csv
 import io
+import math
 import sys
 
 import numpy as np
@@ -30,7 +32,8 @@ def messages():
 @pytest.fixture(scope="module")
 def report(messages):
     return work_precision("disc_pendulum", rtols=RTOLS, methods=METHODS,
-                          backends=("python", "c"), repeats=1, progress=messages.append)
+                          backends=("python", "c"), repeats=1, time_budget=math.inf,
+                          progress=messages.append)
 
 
 def test_configurations():
@@ -143,7 +146,7 @@ def test_table_and_summary(report):
 
 def test_closed_form_reference_for_bead_wire():
     report = work_precision("bead_wire", rtols=(1e-4, 1e-7), methods=("RK45", "dopri5"),
-                            backends=("c",), repeats=1)
+                            backends=("c",), repeats=1, time_budget=math.inf)
     scene = load_scene("bead_wire")
     ref = report.reference
     assert ref.source == "closed form" and ref.check == "" and ref.disagreement == 0
@@ -173,7 +176,7 @@ def test_integrator_errors_are_recorded(monkeypatch):
 
     monkeypatch.setattr(CompiledModel, "integrate", failing)
     report = work_precision("bead_wire", rtols=(1e-4, 1e-7), methods=("RK45", "dopri5"),
-                            backends=("c",), repeats=1)
+                            backends=("c",), repeats=1, time_budget=math.inf)
     dopri5 = report.curve(Config("dopri5", "c"))
     assert [p.status for p in dopri5] == ["failed", "failed"]  # a failure skips nothing
     assert dopri5[0].message == "IntegrationError: step size too small"

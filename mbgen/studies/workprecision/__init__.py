@@ -104,6 +104,8 @@ def work_precision(scene: Scene | str, *, rtols: Sequence[float] = DEFAULT_RTOLS
         are skipped.  The pilot and each reference solve may take
         ``REFERENCE_BUDGET_FACTOR`` (5) times as long, and at least
         ``REFERENCE_BUDGET_MIN_S`` (60 s) (:mod:`mbgen.studies.workprecision.reference`).
+        ``math.inf`` stops nothing (what a test whose points must all succeed uses: its
+        verdict then does not depend on the machine's speed).
     progress : bool or callable, optional
         True: a tqdm bar on stderr; a callable gets one line of text per
         point (and per set-up stage).
