@@ -3,7 +3,7 @@ that a reader never sees half of a generation and nothing the user changed is lo
 
 Single files (:func:`write_atomic`, :func:`atomic_path`): written to a temporary beside
 the file, then renamed over it; an interrupted write leaves the old file (or nothing).  New
-files get 0666 minus the umask (:func:`file_mode`), replaced ones keep their mode.
+files get 0666 minus the umask, replaced ones keep their mode (:func:`keep_mode`).
 
 Generations (:func:`write_generated`, what ``mbgen generate`` and ``mbgen demo`` write)
 follow git's and pip's habits -- a lock, write aside, rename:
@@ -51,7 +51,6 @@ import secrets
 import shutil
 import stat
 import sys
-import tempfile
 import time
 from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
@@ -77,17 +76,21 @@ _PLAIN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,127}\Z")
 
 
 # ------------------------------------------------------------------ single files
-def file_mode(path: Path) -> int:
-    """Mode for a new file at ``path``: the old file's, else 0o666 minus the umask.
+def keep_mode(path: Path, new: Path) -> None:
+    """Give ``new`` the mode of the file at ``path`` that it replaces, if any.  A new file keeps
+    the 0666 minus umask it was created with: the umask is never set to be read (``os.umask``
+    is process-wide, and another thread may be creating files meanwhile)."""
+    with suppress(FileNotFoundError):
+        os.chmod(new, stat.S_IMODE(os.stat(path).st_mode))
 
-    (``tempfile.mkstemp`` creates files readable by the owner only.)
-    """
-    try:
-        return os.stat(path).st_mode & 0o777
-    except FileNotFoundError:
-        mask = os.umask(0)
-        os.umask(mask)
-        return 0o666 & ~mask
+
+def _new_temp(path: Path) -> Path:
+    """A new empty ``.<name>.<random>.tmp`` beside ``path``, 0666 minus the umask."""
+    while True:
+        tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
+        with suppress(FileExistsError):                  # odds 2**-32: draw again
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+            return tmp
 
 
 @contextmanager
@@ -95,11 +98,10 @@ def atomic_path(path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it replaces ``path``, else it is removed."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
+    tmp = _new_temp(path)
     try:
-        yield Path(tmp)
-        os.chmod(tmp, file_mode(path))
+        yield tmp
+        keep_mode(path, tmp)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -357,10 +359,10 @@ def _fill(target: Path, data: Mapping[str, bytes], plan: _Plan) -> Path:
     os.mkdir(aside)                     # FileExistsError at odds of 2**-32: run again
     try:
         (aside / MANIFEST).write_bytes(plan.manifest)     # first: it vouches for what follows
-        os.chmod(aside / MANIFEST, file_mode(target / MANIFEST))
+        keep_mode(target / MANIFEST, aside / MANIFEST)
         for name in plan.write:
             (aside / name).write_bytes(data[name])
-            os.chmod(aside / name, file_mode(target / name))
+            keep_mode(target / name, aside / name)
         for name in plan.carry:
             _carry(target / name, aside / name, target)
         if target.is_dir():
@@ -493,5 +495,5 @@ def _same(path: Path, twin: Path) -> bool:
         (_fingerprint(path) or "-") == _fingerprint(twin)
 
 
-__all__ = ["MANIFEST", "LOCK_WAIT", "Generation", "file_mode", "atomic_path", "write_atomic",
+__all__ = ["MANIFEST", "LOCK_WAIT", "Generation", "keep_mode", "atomic_path", "write_atomic",
            "write_files", "plain_name", "digest", "write_generated", "generation_lock"]

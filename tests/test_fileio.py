@@ -11,6 +11,7 @@ real child processes.
 import json
 import os
 import signal
+import stat
 import subprocess
 import sys
 import textwrap
@@ -313,3 +314,22 @@ def test_without_fcntl_the_lock_is_an_exclusive_file(tmp_path, monkeypatch):
     (tmp_path / ".out.lock").unlink()
     write(out, "two")
     assert generations(out) == {"two"} and siblings(out) == []
+
+
+def test_new_files_get_the_umask_without_setting_it(tmp_path, monkeypatch):
+    """The umask is process-wide: setting it to read it would give another thread's new files
+    the wrong mode.  New files get 0666 minus the umask from the kernel; replaced files keep
+    their mode."""
+    old = os.umask(0o027)
+    try:
+        monkeypatch.setattr(os, "umask", lambda *a: pytest.fail("os.umask was called"))
+        fileio.write_atomic(tmp_path / "a.txt", "a\n")
+        fileio.write_generated(tmp_path / "out", {"b.c": "int b;\n"})
+    finally:
+        monkeypatch.undo()
+        os.umask(old)
+    assert stat.S_IMODE(os.stat(tmp_path / "a.txt").st_mode) == 0o640
+    assert stat.S_IMODE(os.stat(tmp_path / "out" / "b.c").st_mode) == 0o640
+    os.chmod(tmp_path / "a.txt", 0o600)
+    fileio.write_atomic(tmp_path / "a.txt", "changed\n")
+    assert stat.S_IMODE(os.stat(tmp_path / "a.txt").st_mode) == 0o600
