@@ -11,8 +11,8 @@ from __future__ import annotations
 import argparse
 
 from ..errors import EXIT_CHECK, EXIT_OK
-from ..verify.stress import stress
-from ._common import add_scene_arguments, progress, scene_from
+from ..verify.stress import report_path, stress
+from ._common import add_scene_arguments, check_file, progress, scene_from
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -26,8 +26,12 @@ def configure(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    if args.output:  # a path that cannot be written is refused before the suite runs
+        report_path(check_file(args.output, "-o"))
     report = stress(scene_from(args), size="full" if args.full else "ci", progress=progress)
+    # the file first: a pipe closed early (``| head``) stops the printing, not the file
+    written = report.write(args.output) if args.output else None
     print(report.format())
-    if args.output:
-        print(f"wrote {report.write(args.output)}")
+    if written is not None:
+        print(f"wrote {written}")
     return EXIT_OK if report.ok else EXIT_CHECK

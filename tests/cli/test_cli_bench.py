@@ -1,9 +1,11 @@
 """``mbgen bench`` and ``mbgen stress`` on the command line: the help separates bench's
 modes and every option shows its default; ``--methods`` is the old spelling of
 ``--integrators``; on a core install (no matplotlib) bench writes its CSV and says how to
-get the plot, before the sweep starts and after it."""
+get the plot, before the sweep starts and after it; stress refuses a report path before
+it runs and writes the report before printing it."""
 
 import argparse
+import os
 import subprocess
 import sys
 
@@ -99,3 +101,30 @@ def test_bench_scaling_without_matplotlib_says_so_before_the_sweep(tmp_path, mon
     assert said_before == [NOTE + "\n"]
     assert (tmp_path / "scaling.csv").exists() and not (tmp_path / "scaling.png").exists()
     assert "no plot: matplotlib is not installed" in capsys.readouterr().out
+
+
+def test_stress_refuses_a_report_path_before_the_suite_runs(tmp_path, capsys, monkeypatch):
+    """Was the whole suite, then ``mbgen: numerical error: ... use .csv or .json`` (exit 5)."""
+    import mbgen.cli.stress as command
+
+    ran = []
+    monkeypatch.setattr(command, "stress", lambda *a, **k: ran.append(a))
+    assert main(["stress", "spherical_rod", "-o", str(tmp_path / "r.txt")]) == EXIT_USAGE
+    assert main(["stress", "spherical_rod", "-o", str(tmp_path)]) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert "use a file name ending in .csv or .json" in err and "is a folder" in err
+    assert ran == []
+
+
+def test_stress_writes_its_report_even_when_the_output_pipe_closes(tmp_path):
+    """``mbgen stress SCENE -o r.csv | head -1`` lost the file: the table was printed first,
+    and the closed pipe ended the command.  The reader here is gone before the child
+    prints (unbuffered, so the first print meets the closed pipe whatever its size)."""
+    code = ("import sys\nfrom mbgen.cli import main\n"
+            f"sys.exit(main(['stress', 'bead_wire', '-o', {str(tmp_path / 'r.csv')!r}]))\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.DEVNULL,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    proc.stdout.close()                                       # the reader went away
+    assert proc.wait(timeout=600) == EXIT_OK                  # a hang guard, not a budget
+    assert (tmp_path / "r.csv").read_text().startswith("kind,name,figure,")

@@ -131,7 +131,7 @@ from .context import SIZES, Context, Size, make_context
 from .extreme import classify_parameters
 from .precision import PointResult, check_point, evaluate_point, judge_point
 from .reference import HighPrecision, HighPrecisionValue, Reference
-from .report import BUDGET, HARNESS, MODEL, Case, StressReport
+from .report import BUDGET, HARNESS, MODEL, Case, StressReport, report_path
 from .singular import SINGULAR_PATHS
 
 Progress = Callable[[str], None]
@@ -198,7 +198,8 @@ def run_specs(ctx: Context, specs: Sequence[CaseSpec],
     return cases
 
 
-__all__ = ["stress", "run_specs", "case_specs", "CaseSpec", "StressReport", "Case", "MODEL",
+__all__ = ["stress", "run_specs", "case_specs", "CaseSpec", "StressReport", "report_path",
+           "Case", "MODEL",
            "BUDGET", "HARNESS", "Context", "make_context", "Size", "SIZES",
            "classify_parameters", "HighPrecision", "HighPrecisionValue", "PointResult", "evaluate_point",
            "judge_point", "check_point", "SINGULAR_PATHS"]

@@ -4,11 +4,12 @@ the number formatting the cells share."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
-from ...errors import MbgenError
+from ...errors import UsageError
 from ...fileio import write_atomic
 
 #: Width of :meth:`StressReport.format`.
@@ -237,17 +238,22 @@ class StressReport:
                        [repr(r["data"][k]) if k in r["data"] else "" for k in keys])
         return buf.getvalue()
 
-    def write(self, path) -> "Path":
+    def write(self, path) -> Path:
         """Write :meth:`to_csv` (``.csv``) or :meth:`to_json` (``.json``) atomically."""
-        from pathlib import Path
-
-        path = Path(path)
-        suffix = path.suffix.lower()
-        if suffix not in (".csv", ".json"):
-            raise MbgenError(f"stress report {str(path)!r}: use a file name ending in .csv "
-                             f"or .json")
-        write_atomic(path, self.to_csv() if suffix == ".csv" else self.to_json())
+        path = report_path(path)
+        write_atomic(path, self.to_csv() if path.suffix.lower() == ".csv" else self.to_json())
         return path
+
+
+def report_path(path) -> Path:
+    """``path`` as a :class:`~pathlib.Path` when it names a report file :meth:`StressReport.write`
+    can write (``.csv`` or ``.json``); else a :class:`~mbgen.errors.UsageError` naming them,
+    which ``mbgen stress -o`` raises before the suite runs."""
+    path = Path(path)
+    if path.suffix.lower() not in (".csv", ".json"):
+        raise UsageError(f"stress report {str(path)!r}: use a file name ending in .csv or "
+                         f".json")
+    return path
 
 
 def _shares(natural: list[int], least: list[int], room: int) -> list[int]:
