@@ -17,13 +17,18 @@ parent's code unless it sets its own.
     a check failed: :class:`CheckFailed` (errors above tolerance, golden files out
     of date).
 2 (:data:`EXIT_USAGE`)
-    usage: :class:`UsageError`, :class:`UnknownNameError`, :class:`CacheError`,
-    :class:`MissingExtraError`, :class:`BenchmarkError`, :class:`OutputBusyError`;
-    also (not an mbgen error) a file or folder that cannot be written or read
-    (``OSError``).
+    usage -- a mistake in what the user asked for, fixed by asking differently:
+    :class:`UsageError` (a bad argument, an output path that is a file or cannot be
+    written), :class:`UnknownNameError`, :class:`CacheError`, :class:`MissingExtraError`,
+    :class:`BenchmarkError`, and an output folder that cannot take a generation:
+    :class:`OutputPathError` (a file, the golden tree, not writable),
+    :class:`OutputConflictError` (a file of the user's in the way) and
+    :class:`OutputBusyError` (another generation holds the folder); also (not an mbgen
+    error) a file or folder that cannot be written or read (``OSError``).
 3 (:data:`EXIT_MODEL`)
-    bad model or scene: :class:`ModelError` and its subclasses, :class:`SceneError` (and
-    :class:`OutputConflictError`).
+    bad model or scene -- what the scene or model file states: :class:`ModelError` and
+    its subclasses, :class:`SceneError` (an unknown scene name, a scene file that does
+    not exist or fails, a bad ``-O`` option).
 4 (:data:`EXIT_BUILD`)
     the C compiler failed: :class:`BuildError`.
 5 (:data:`EXIT_NUMERIC`)
@@ -81,13 +86,6 @@ class SceneError(MbgenError, ValueError):
     """A scene cannot be found or loaded, or an option is invalid."""
 
     exit_code = EXIT_MODEL
-
-
-class OutputConflictError(SceneError):
-    """A generation would replace a file of the user's: one mbgen did not write, or one it
-    wrote and the user changed since (the folder's manifest records each file's SHA-256).
-    Nothing is written; the message names the files and the fix (``--overwrite``, or
-    another output folder)."""
 
 
 class OutputBusyError(MbgenError, RuntimeError):
@@ -188,6 +186,22 @@ class UsageError(MbgenError, ValueError):
     (``mbgen: error: ...``, exit code 2)."""
 
     exit_code = EXIT_USAGE
+
+
+class OutputPathError(UsageError, SceneError):
+    """An output folder cannot take a generation: it is a file, it is the checked-in golden
+    tree, it or its parent cannot be written, it holds what cannot be carried into the
+    new generation (a named pipe), or its manifest is damaged.  Nothing is written; the
+    message names the path and the fix.  A usage error (exit 2); also a
+    :class:`SceneError`, what these were before, so code catching that keeps working."""
+
+
+class OutputConflictError(OutputPathError):
+    """A generation would replace a file of the user's: one mbgen did not write, or one it
+    wrote and the user changed since (the folder's manifest records each file's SHA-256).
+    Nothing is written; the message names the files and the fix (``--overwrite``, or
+    another output folder).  A usage error (exit 2): the files are fine, the output
+    folder was the wrong choice."""
 
 
 class MissingExtraError(MbgenError, ImportError):

@@ -63,7 +63,7 @@ try:
 except ImportError:                                        # Windows
     fcntl = None
 
-from .errors import OutputBusyError, OutputConflictError, SceneError
+from .errors import OutputBusyError, OutputConflictError, OutputPathError, SceneError
 
 #: File listing what mbgen wrote into an output folder, with each file's content hash
 #: (JSON: ``{"files": {name: "sha256:<hex>"}}``; an older mbgen wrote ``{"files": [names]}``).
@@ -201,9 +201,9 @@ def write_generated(folder, files: Mapping[str, str], *, overwrite: bool = False
         A file mbgen did not write, or changed since mbgen wrote it, would be replaced.
     OutputBusyError
         Another generation held the folder for longer than ``wait``.
-    SceneError
-        ``folder`` is a file, a name is not plain, the manifest is damaged, an entry of
-        the folder cannot be carried into the new generation, or writing failed.
+    OutputPathError
+        ``folder`` is a file, the manifest is damaged, an entry cannot be carried into the
+        new generation, or writing failed (a name that is not plain: ``SceneError``).
     """
     shown = Path(folder)
     data = {plain_name(name): text.encode("utf-8") for name, text in files.items()}
@@ -220,8 +220,8 @@ def write_generated(folder, files: Mapping[str, str], *, overwrite: bool = False
                 old = _swap(aside, target)
             except OSError as exc:
                 shutil.rmtree(aside, ignore_errors=True)
-                raise SceneError(f"cannot put the new generation in place of {str(shown)!r}: "
-                                 f"{exc.strerror or exc}") from None
+                raise OutputPathError(f"cannot put the new generation in place of "
+                                      f"{str(shown)!r}: {exc.strerror or exc}") from None
             if cwd is not None and (cwd + os.sep).startswith(str(target) + os.sep):
                 os.chdir(cwd)
             if old is not None:
@@ -234,14 +234,14 @@ def write_generated(folder, files: Mapping[str, str], *, overwrite: bool = False
 def _target(folder: Path) -> Path:
     """The real path of the output folder (symbolic links resolved), checked."""
     if folder.exists() and not folder.is_dir():
-        raise SceneError(f"output folder {str(folder)!r} is a file; give a folder with -o")
+        raise OutputPathError(f"output folder {str(folder)!r} is a file; give a folder with -o")
     try:
         target = folder.resolve()
     except FileNotFoundError:       # the working folder is gone: a generation replaced it?
-        raise SceneError("the current folder no longer exists (did a generation into it replace "
-                         "it?); run 'cd .' to enter the folder now at its path") from None
+        raise OutputPathError("the current folder no longer exists (did a generation replace "
+                              "it?); run 'cd .' to enter the folder now at its path") from None
     if not target.name:
-        raise SceneError(f"cannot generate into {str(folder)!r}: give a folder below it with -o")
+        raise OutputPathError(f"cannot generate into {str(folder)!r}: choose a folder below it")
     return target
 
 
@@ -255,9 +255,9 @@ def generation_lock(folder, wait: float = LOCK_WAIT) -> Iterator[None]:
         target.parent.mkdir(parents=True, exist_ok=True)
         fd = _acquire(lock, time.monotonic() + wait, target)
     except OSError as exc:
-        raise SceneError(f"cannot write beside {str(target)!r} (its lock {lock.name}): "
-                         f"{exc.strerror or exc}; choose a folder whose parent you can "
-                         f"write") from None
+        raise OutputPathError(f"cannot write beside {str(target)!r} (its lock {lock.name}): "
+                              f"{exc.strerror or exc}; choose a folder whose parent you can "
+                              f"write") from None
     try:
         yield
     finally:                       # flock: unlink first, so a waiter that opened it retries
@@ -300,8 +300,8 @@ def _manifest(folder: Path) -> dict[str, str | None]:
         files = json.loads(path.read_text(encoding="utf-8"))["files"]
         records = dict.fromkeys(files) if isinstance(files, list) else dict(files)
     except (ValueError, KeyError, TypeError, OSError):
-        raise SceneError(f"{path} is damaged; remove it (and the files mbgen generated there) "
-                         f"and generate again") from None
+        raise OutputPathError(f"{path} is damaged; remove it (and the files mbgen generated "
+                              f"there) and generate again") from None
     return {n: (d if isinstance(d, str) and d.startswith("sha256:") else None)
             for n, d in records.items() if isinstance(n, str) and _PLAIN.match(n) and ".." not in n}
 
@@ -370,7 +370,8 @@ def _fill(target: Path, data: Mapping[str, bytes], plan: _Plan) -> Path:
     except BaseException as exc:
         shutil.rmtree(aside, ignore_errors=True)
         if isinstance(exc, OSError):
-            raise SceneError(f"cannot write into {str(target)!r}: {exc.strerror or exc}") from None
+            raise OutputPathError(f"cannot write into {str(target)!r}: {exc.strerror or exc}") \
+            from None
         raise
     return aside
 
@@ -391,8 +392,8 @@ def _carry(src: Path, dst: Path, target: Path) -> None:
         reason = "it is not a file, folder or link"
     except OSError as exc:
         reason = exc.strerror or str(exc)
-    raise SceneError(f"{src} cannot be carried into the new generation ({reason}); nothing was "
-                     f"written: move it out of {target} or choose another output folder (-o)")
+    raise OutputPathError(f"{src} cannot be carried into the new generation ({reason}); nothing "
+                          f"was written: move it out of {target} or choose another folder (-o)")
 
 
 @cache
@@ -444,7 +445,7 @@ def _recover(target: Path) -> list[str]:
     for path in left:
         try:
             records = _manifest(path)
-        except SceneError:              # killed while writing it: vouches for nothing
+        except OutputPathError:         # killed while writing it: vouches for nothing
             records = {}
         notes += _left_note(path, _discard(path, target, records)) or [
             f"{path}  (removed: left by a generation that was stopped)"]

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
-from typing import Iterable, Mapping, Sequence
+from typing import Callable, Iterable, Mapping, Sequence
 
 from .build.extension import compiled_path, load
 from .derive import Method, derive
@@ -97,7 +97,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
         name: str | None = None, sliced: bool = True,
         cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None,
-        method: Method | None = None, form: Form | None = None) -> PipelineResult:
+        method: Method | None = None, form: Form | None = None,
+        stage: Callable[[str], None] | None = None) -> PipelineResult:
     """Run every stage and time it: derive, bake, optimize, render, and (optionally) compile.
 
     Parameters
@@ -116,21 +117,26 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
     sliced : bool
         ``False`` ignores the scene's fixed parameters and input selection.
     targets : mbgen.codegen.targets.Targets, optional
-        What to render besides the outputs (the step API).
+        What to render besides the outputs (the step API; default: the scene's).
     method : Method, optional
         Derivation method (default: the scene's, else ``Method.KANE``).
     form : Form, optional
         How ``u'`` is computed (default: chosen by operation count; see
         :func:`mbgen.codegen.optimize.optimize`).
+    stage : callable, optional
+        Called with each stage's name (``derive``, ``bake``, ``cse``, ``render``,
+        ``compile``) as it starts: the command line's progress lines.
     """
     outs = _outputs(source, outputs)
     scene = source if isinstance(source, Scene) else None
     timings: dict[str, float] = {}
 
-    def timed(stage, fn, *args, **kw):
+    def timed(name, fn, *args, **kw):
+        if stage is not None:
+            stage(name)
         t0 = time.perf_counter()
         value = fn(*args, **kw)
-        timings[stage] = time.perf_counter() - t0
+        timings[name] = time.perf_counter() - t0
         return value
 
     wants_points = bool({Output.POSITIONS, Output.VELOCITIES} & set(outs))
@@ -148,6 +154,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         fixed = scene.fixed
     if inputs is None and sliced and scene:
         inputs = scene.inputs
+    if targets is None and scene:
+        targets = scene.targets
     baked = timed("bake", bake, equations, fixed, inputs)
     kernel = timed("cse", optimize, baked, outs, cse_backend, form)
     rendered = timed("render", render, kernel, targets)
@@ -166,7 +174,8 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
             fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
             name: str | None = None,
             cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None,
-            method: Method | None = None, form: Form | None = None) -> CompiledModel:
+            method: Method | None = None, form: Form | None = None,
+            stage: Callable[[str], None] | None = None) -> CompiledModel:
     """Generate, compile (cached by content hash) and load ``source``.
 
     Parameters
@@ -187,7 +196,10 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
     form : Form, optional
         ``Form.SOLVE`` or ``Form.RECURSIVE`` (default: fewer operations wins).
     targets : mbgen.codegen.targets.Targets, optional
-        What to render besides the outputs, e.g. ``Targets(step=True)`` for the step API.
+        What to render besides the outputs, e.g. ``Targets(step=True)`` for the step API
+        (default: the scene's).
+    stage : callable, optional
+        Called with each stage's name as it starts (see :func:`run`).
 
     Returns
     -------
@@ -195,4 +207,5 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         ``model.rhs(t, x, p=None, r=None)`` and the other requested outputs.
     """
     return run(source, outputs, parameters=parameters, fixed=fixed, inputs=inputs, name=name,
-               cse_backend=cse_backend, targets=targets, method=method, form=form).compiled
+               cse_backend=cse_backend, targets=targets, method=method, form=form,
+               stage=stage).compiled

@@ -161,7 +161,8 @@ EXIT_CODES = {
     "CheckFailed": (1, "check failed"), "CheckInconclusive": (6, "check inconclusive"),
     "UnknownNameError": (2, "error"), "UsageError": (2, "error"),
     "MissingExtraError": (2, "error"), "BenchmarkError": (2, "error"),
-    "OutputConflictError": (3, "error"), "OutputBusyError": (2, "error"),
+    "OutputPathError": (2, "error"), "OutputConflictError": (2, "error"),
+    "OutputBusyError": (2, "error"),
 }
 
 

@@ -25,7 +25,7 @@ from mbgen.abi import Output, status_name
 from mbgen.build.cache import verified
 from mbgen.build.extension import build, load
 from mbgen.build.fmu import write_fmu
-from mbgen.cli import EXIT_MODEL, EXIT_OK, EXIT_USAGE, main
+from mbgen.cli import EXIT_OK, EXIT_USAGE, main
 from mbgen.codegen.optimize import Form
 from mbgen.codegen.targets import Targets
 from mbgen.errors import (ArgumentError, ArgumentTypeError, CacheError, ConstraintError,
@@ -50,7 +50,7 @@ def test_regeneration_keeps_the_users_edits(tmp_path, capsys):
     assert main(["generate", "disc_pendulum", "-o", str(out), "--outputs", "rhs"]) == EXIT_OK
     assert (out / "example.c").read_text() == "/* my example */\n"        # not deleted
     (out / "disc_pendulum.c").write_text("/* my tuning */\n")
-    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_MODEL
+    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_USAGE  # issue 19: was 3
     assert (out / "disc_pendulum.c").read_text() == "/* my tuning */\n"   # not overwritten
     assert "--overwrite" in capsys.readouterr().err
 

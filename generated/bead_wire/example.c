@@ -18,7 +18,7 @@ int main(void)
     const double x0[BEAD_WIRE_N_X] = { 0.5, -0.8 };
     /* free parameters p = [omega] */
     const double p[BEAD_WIRE_N_P] = { 2.0 };
-    const bead_wire_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const bead_wire_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     bead_wire_stats stats;
     double t[N_OUT];
     double x[N_OUT * BEAD_WIRE_N_X];

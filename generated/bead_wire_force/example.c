@@ -19,7 +19,7 @@ int main(void)
     /* free parameters p = [omega, m] */
     const double p[BEAD_WIRE_FORCE_N_P] = { 2.0, 0.1 };
     /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
-    const bead_wire_force_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
+    const bead_wire_force_options options = { 1e-06, 1e-09, 0.0, 0.0, 0, 0 };
     bead_wire_force_stats stats;
     double t[N_OUT];
     double x[N_OUT * BEAD_WIRE_FORCE_N_X];

@@ -18,7 +18,7 @@ int main(void)
     const double x0[BENT_PIPE_N_X] = { 0.0, 0.5, 4.0, 0.0 };
     /* free parameters p = [phi, m, J] */
     const double p[BENT_PIPE_N_P] = { 2.0943951023931953, 0.2, 0.05 };
-    const bent_pipe_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const bent_pipe_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     bent_pipe_stats stats;
     double t[N_OUT];
     double x[N_OUT * BENT_PIPE_N_X];

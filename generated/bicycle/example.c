@@ -18,7 +18,7 @@ int main(void)
     const double x0[BICYCLE_N_X] = { 0.0, 0.0, 0.0, 0.05, 0.0, 0.0, 0.0, 0.0, 0.0, 13.333333333333334 };
     /* free parameters p = [g] */
     const double p[BICYCLE_N_P] = { 9.81 };
-    const bicycle_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const bicycle_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     bicycle_stats stats;
     double t[N_OUT];
     double x[N_OUT * BICYCLE_N_X];

@@ -20,7 +20,7 @@ int main(void)
     const double p[CAR_TRAILER_N_P] = { 1500.0, 600.0 };
     /* inputs r = [F_drive, delta], held constant */
     const double r[CAR_TRAILER_N_R] = { 0.0, 0.0 };
-    const car_trailer_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0, NULL, NULL };
+    const car_trailer_options options = { 1e-06, 1e-09, 0.0, 0.0, 0, 0, NULL, NULL };
     car_trailer_stats stats;
     double t[N_OUT];
     double x[N_OUT * CAR_TRAILER_N_X];

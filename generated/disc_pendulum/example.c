@@ -18,7 +18,7 @@ int main(void)
     const double x0[DISC_PENDULUM_N_X] = { 0.0, 1.0, 0.5, 0.0 };
     /* free parameters p = [s, l, g, m] */
     const double p[DISC_PENDULUM_N_P] = { 1.0, 4.0, 10.0, 1.0 };
-    const disc_pendulum_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const disc_pendulum_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     disc_pendulum_stats stats;
     double t[N_OUT];
     double x[N_OUT * DISC_PENDULUM_N_X];

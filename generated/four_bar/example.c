@@ -19,7 +19,7 @@ int main(void)
     /* free parameters p = [la, lb, lc, ld, ma, mb, mc] */
     const double p[FOUR_BAR_N_P] = { 1.0, 2.0, 2.0, 2.0, 1.0, 1.5, 1.2 };
     /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
-    const four_bar_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
+    const four_bar_options options = { 1e-06, 1e-09, 0.0, 0.0, 0, 0 };
     four_bar_stats stats;
     double t[N_OUT];
     double x[N_OUT * FOUR_BAR_N_X];

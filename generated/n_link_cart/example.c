@@ -20,7 +20,7 @@ int main(void)
     const double p[N_LINK_CART_N_P] = { 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 9.81 };
     /* inputs r = [F], held constant */
     const double r[N_LINK_CART_N_R] = { 0.0 };
-    const n_link_cart_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0, NULL, NULL };
+    const n_link_cart_options options = { 1e-06, 1e-09, 0.0, 0.0, 0, 0, NULL, NULL };
     n_link_cart_stats stats;
     double t[N_OUT];
     double x[N_OUT * N_LINK_CART_N_X];

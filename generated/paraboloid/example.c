@@ -18,7 +18,7 @@ int main(void)
     const double x0[PARABOLOID_N_X] = { 1.0, 0.0, 0.0, 2.5 };
     /* free parameters p = [k, m] */
     const double p[PARABOLOID_N_P] = { 0.5, 1.0 };
-    const paraboloid_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const paraboloid_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     paraboloid_stats stats;
     double t[N_OUT];
     double x[N_OUT * PARABOLOID_N_X];

@@ -19,7 +19,7 @@ int main(void)
     /* free parameters p = [k, m] */
     const double p[PARABOLOID_NORMAL_N_P] = { 0.5, 1.0 };
     /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
-    const paraboloid_normal_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
+    const paraboloid_normal_options options = { 1e-06, 1e-09, 0.0, 0.0, 0, 0 };
     paraboloid_normal_stats stats;
     double t[N_OUT];
     double x[N_OUT * PARABOLOID_NORMAL_N_X];

@@ -18,7 +18,7 @@ int main(void)
     const double x0[ROLLING_DISC_N_X] = { 0.0, 0.1, 0.0, 0.0, 0.0, 0.0, 2.0, 0.0 };
     /* free parameters p = [r, m, g] */
     const double p[ROLLING_DISC_N_P] = { 1.0, 1.0, 1.0 };
-    const rolling_disc_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const rolling_disc_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     rolling_disc_stats stats;
     double t[N_OUT];
     double x[N_OUT * ROLLING_DISC_N_X];

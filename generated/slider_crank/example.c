@@ -21,7 +21,7 @@ int main(void)
     /* inputs r = [T], held constant */
     const double r[SLIDER_CRANK_N_R] = { 0.0 };
     /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
-    const slider_crank_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0, 0, NULL, NULL };
+    const slider_crank_options options = { 1e-06, 1e-09, 0.0, 0.0, 0, 0, 0, NULL, NULL };
     slider_crank_stats stats;
     double t[N_OUT];
     double x[N_OUT * SLIDER_CRANK_N_X];

@@ -18,7 +18,7 @@ int main(void)
     const double x0[SPATIAL_ARM_N_X] = { -0.3, 0.3, -0.3, 0.3, 0.0, 0.0, 0.0, 0.0 };
     /* free parameters p = [m4, g] */
     const double p[SPATIAL_ARM_N_P] = { 2.0, 9.81 };
-    const spatial_arm_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const spatial_arm_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     spatial_arm_stats stats;
     double t[N_OUT];
     double x[N_OUT * SPATIAL_ARM_N_X];

@@ -18,7 +18,7 @@ int main(void)
     const double x0[SPHERICAL_ROD_N_X] = { 0.0, 2.5, 2.0, 0.0 };
     /* free parameters p = [L, m] */
     const double p[SPHERICAL_ROD_N_P] = { 1.0, 1.0 };
-    const spherical_rod_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const spherical_rod_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     spherical_rod_stats stats;
     double t[N_OUT];
     double x[N_OUT * SPHERICAL_ROD_N_X];

@@ -18,7 +18,7 @@ int main(void)
     const double x0[SPRING_PENDULUM_N_X] = { 1.0, 5.300365620566452e-06, 0.0, 0.0 };
     /* free parameters p = [m, l, k, g] */
     const double p[SPRING_PENDULUM_N_P] = { 1.0, 1.0, 1000000.0, 9.81 };
-    const spring_pendulum_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const spring_pendulum_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     spring_pendulum_stats stats;
     double t[N_OUT];
     double x[N_OUT * SPRING_PENDULUM_N_X];

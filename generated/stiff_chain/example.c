@@ -18,7 +18,7 @@ int main(void)
     const double x0[STIFF_CHAIN_N_X] = { 1.5, 2.5, 3.5, 4.5, 5.501, 0.0, 0.0, 0.0, 0.0, 0.0 };
     /* free parameters p = [m1, m2, m3, m4, m5, k0, k, c, a] */
     const double p[STIFF_CHAIN_N_P] = { 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 10000.0, 200.0, 1.0 };
-    const stiff_chain_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const stiff_chain_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     stiff_chain_stats stats;
     double t[N_OUT];
     double x[N_OUT * STIFF_CHAIN_N_X];

@@ -18,7 +18,7 @@ int main(void)
     const double x0[TORQUE_FREE_N_X] = { 0.3, -0.4, 0.5, 0.3, -0.2, 2.0 };
     /* free parameters p = [I11, I22, I33, I12, I23, I31] */
     const double p[TORQUE_FREE_N_P] = { 2.0, 3.0, 4.0, 0.3, -0.2, 0.25 };
-    const torque_free_options options = { 1e-08, 1e-10, 0.0, 0.0, 0 };
+    const torque_free_options options = { 1e-06, 1e-09, 0.0, 0.0, 0 };
     torque_free_stats stats;
     double t[N_OUT];
     double x[N_OUT * TORQUE_FREE_N_X];

@@ -19,7 +19,7 @@ int main(void)
     /* free parameters p = [g] */
     const double p[WHIPPLE_N_P] = { 9.81 };
     /* no_projection = 0: project the dependent coordinates back onto the constraints after each step */
-    const whipple_options options = { 1e-08, 1e-10, 0.0, 0.0, 0, 0 };
+    const whipple_options options = { 1e-06, 1e-09, 0.0, 0.0, 0, 0 };
     whipple_stats stats;
     double t[N_OUT];
     double x[N_OUT * WHIPPLE_N_X];

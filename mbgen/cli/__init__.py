@@ -13,8 +13,12 @@ Exit codes
 ----------
 0  success
 1  a check failed (errors above tolerance, golden files out of date)
-2  usage error (bad arguments)
-3  bad model or scene (unknown scene, missing file, malformed model, bad option)
+2  usage error: a mistake in what was asked, in every command alike -- a bad argument,
+   an unknown method, parameter, state or input name, an output path that is a file or
+   cannot be written, the golden tree as an output folder, a file of the user's in the
+   way of a generation (``--overwrite``), an unreadable input table
+3  bad model or scene: what the scene states (unknown scene name, a scene file that
+   does not exist or fails, a malformed model, a bad ``-O`` option)
 4  the C compiler failed
 5  numerical failure (singular mass matrix, non-finite result, integrator failure)
 6  check inconclusive: some output was compared on no sample (every sample failed in
@@ -22,7 +26,10 @@ Exit codes
    differed only within the reference's own rounding (an ill-conditioned state)
 
 An :class:`~mbgen.errors.MbgenError` that ends a command exits with its class's
-``exit_code`` (the table in :mod:`mbgen.errors`).
+``exit_code`` (the table in :mod:`mbgen.errors`).  Every option's help states its
+default (:class:`HelpFormatter`); ``--derivation`` and
+``--integrator`` mean one thing in every command (the old ``--method`` still works,
+with a note saying which of the two it is there).
 
 How to add a command
 --------------------
@@ -88,6 +95,18 @@ HEADINGS = {EXIT_CHECK: "check failed", EXIT_INCONCLUSIVE: "check inconclusive",
             EXIT_BUILD: "compiler error", EXIT_NUMERIC: "numerical error"}
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's help ends with its default, unless the text states it already
+    (a flag, or an option whose default is "none", shows none)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if (not action.option_strings or action.default in (None, False, argparse.SUPPRESS)
+                or "default" in text):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
 def command_module(name: str):
     """The module of command ``name`` (imported now)."""
     return importlib.import_module(f"{__name__}.{COMMANDS[name].module}")
@@ -101,13 +120,14 @@ def parser(commands: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """
     top = argparse.ArgumentParser(
         prog="mbgen", description="Multibody models to fast, verified C and Python.",
+        formatter_class=HelpFormatter,
         epilog="Exit codes: 0 ok, 1 check failed, 2 usage, 3 bad model/scene, 4 compiler "
                "failed, 5 numerical failure, 6 check inconclusive (nothing compared, or "
                "nothing resolved).")
     top.add_argument("--version", action="version", version=f"mbgen {__version__}")
     sub = top.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, command in COMMANDS.items():
-        p = sub.add_parser(name, help=command.help)
+        p = sub.add_parser(name, help=command.help, formatter_class=HelpFormatter)
         if commands is None or name in commands:
             module = command_module(name)
             module.configure(p)
@@ -149,6 +169,6 @@ def _os_error(exc: OSError) -> str:
     return f"cannot write{where}: {exc.strerror or exc}; choose a writable path"
 
 
-__all__ = ["COMMANDS", "Command", "EXIT_BUILD", "EXIT_CHECK", "EXIT_INCONCLUSIVE",
+__all__ = ["COMMANDS", "Command", "HelpFormatter", "EXIT_BUILD", "EXIT_CHECK", "EXIT_INCONCLUSIVE",
            "EXIT_MODEL", "EXIT_NUMERIC", "EXIT_OK", "EXIT_USAGE", "command_module", "main",
            "parser"]

@@ -1,46 +1,94 @@
 """What the subcommands share: argument groups and types, numbers by name, path checks.
 
 A subcommand module (:mod:`mbgen.cli`) builds its arguments from
-:func:`add_scene_arguments` (``SCENE``, ``-O``, ``--force``, ``--derivation``) and
-:func:`add_number_arguments` (``-p``, ``-x``, ``-r`` by name), then turns them into a
-scene with :func:`scene_from` and :func:`with_numbers`.  Output paths and counts are refused
-before any work (:func:`check_folder`, :func:`check_file`, :func:`check_count`: at most
-:data:`MAX_POINTS` output times); :func:`progress` prints a stage on stderr.  Exit codes are :mod:`mbgen.errors`'s ``EXIT_*``.
+:func:`add_scene_arguments` (``SCENE``, ``-O``, ``--force``, ``--derivation``),
+:func:`add_integrator_argument` (``--integrator``) and :func:`add_number_arguments`
+(``-p``, ``-x``, ``-r`` by name; ``-r NAME=FILE.csv`` a table of the input against time,
+:func:`mbgen.run.named.read_input_csv`), then turns them into a scene with
+:func:`scene_from` and :func:`with_numbers`.  Output paths and counts are refused before
+any work (:func:`check_folder`, :func:`check_output_folder`, :func:`check_file`,
+:func:`check_count`: at most :data:`MAX_POINTS` output times); :func:`progress` prints a
+stage on stderr, :func:`stage_lines` the pipeline's stages when stderr is a terminal.
+Exit codes are :mod:`mbgen.errors`'s ``EXIT_*``.
+
+Conventions every command keeps: ``--derivation`` is the derivation method (Kane,
+Newton--Euler) and ``--integrator`` the integration method; ``--method``, which meant
+either, still works where it did, with a note on stderr naming what it means there
+(:class:`OldSpelling`).  Every option has help text that states its default
+(:class:`mbgen.cli.HelpFormatter`).  A user's mistake in what they asked for (an argument, an
+output path, a file in the way) exits 2; one in what the scene states exits 3.
 """
 
 from __future__ import annotations
 
 import argparse
+import difflib
+import math
 import os
 import sys
 from dataclasses import replace
 from pathlib import Path
 
 from ..derive import Method
-from ..errors import SceneError, UsageError
+from ..errors import OutputPathError, SceneError, UsageError
 from ..model.scene import load_scene, model_names
-from ..run.named import check_names, inputs
+from ..run.named import InputTable, check_names, merge_inputs, read_input_csv, vector
 from ..studies.ensemble import MAX_POINTS
+from ..verify import golden
+
+
+# ------------------------------------------------------------------ help and spellings
+def note(message: str) -> None:
+    """``mbgen: note: message`` on stderr."""
+    print(f"mbgen: note: {message}", file=sys.stderr, flush=True)
+
+
+class OldSpelling(argparse.Action):
+    """An option's old spelling (``--method``): stores into the new option's ``dest`` and
+    says on stderr which option it stands for here."""
+
+    def __init__(self, option_strings, dest, new: str = "", meaning: str = "", **kwargs):
+        self.new, self.meaning = new, meaning
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        note(f"{option_string} is the old spelling of {self.new} here ({self.meaning}); "
+             f"use {self.new}")
+        setattr(namespace, self.dest, values)
 
 
 # ------------------------------------------------------------------ argument groups
 def add_scene_arguments(p: argparse.ArgumentParser, method_flag: bool = False) -> None:
-    """``SCENE``, ``-O KEY=VALUE``, ``--force`` and ``--derivation`` (also ``--method``
-    when ``method_flag``)."""
+    """``SCENE``, ``-O KEY=VALUE``, ``--force`` and ``--derivation`` (also the old spelling
+    ``--method`` when ``method_flag``: generate, check and linearize had it)."""
     p.add_argument("scene", metavar="SCENE",
                    help="built-in scene name (see 'mbgen scenes') or path to a scene .py file")
     p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
                    help="scene option, e.g. -O n=8 (repeatable)")
     p.add_argument("--force", action="store_true",
                    help="build a model past the size guard (more than 200 speeds)")
-    flags = ("--derivation", "--method") if method_flag else ("--derivation",)
-    p.add_argument(*flags, dest="derivation", choices=[m.value for m in Method],
+    choices = [m.value for m in Method]
+    p.add_argument("--derivation", choices=choices,
                    help="derivation method (default: the scene's, else kane)")
+    if method_flag:
+        p.add_argument("--method", dest="derivation", choices=choices, action=OldSpelling,
+                       new="--derivation", meaning="the derivation method",
+                       help="old spelling of --derivation (still accepted, with a note)")
+
+
+def add_integrator_argument(p: argparse.ArgumentParser, help: str) -> None:
+    """``--integrator NAME`` (``help`` says which), and its old spelling ``--method``."""
+    p.add_argument("--integrator", default=None, metavar="NAME", help=help)
+    p.add_argument("--method", dest="integrator", metavar="NAME", action=OldSpelling,
+                   new="--integrator", meaning="the integration method",
+                   help="old spelling of --integrator (still accepted, with a note)")
 
 
 def add_number_arguments(p: argparse.ArgumentParser, parameters: bool = True,
-                         states: bool = True, inputs: bool = True) -> None:
-    """``-p``, ``-x`` and ``-r NAME=VALUE`` (each repeatable), those asked for."""
+                         states: bool = True, inputs: bool = True,
+                         tables: bool = False) -> None:
+    """``-p``, ``-x`` and ``-r NAME=VALUE`` (each repeatable), those asked for; with
+    ``tables``, ``-r NAME=FILE.csv`` too (an input against time)."""
     if parameters:
         p.add_argument("-p", "--parameter", action="append", metavar="NAME=VALUE",
                        help="a parameter's value (repeatable; others: the scene's)")
@@ -48,7 +96,12 @@ def add_number_arguments(p: argparse.ArgumentParser, parameters: bool = True,
         p.add_argument("-x", "--state", action="append", metavar="NAME=VALUE",
                        help="an initial state's value (repeatable; others: the scene's "
                             "initial state, else 0)")
-    if inputs:
+    if inputs and tables:
+        p.add_argument("-r", "--input", action="append", metavar="NAME=VALUE|NAME=FILE.csv",
+                       help="an input's value (repeatable; others 0): a number, held "
+                            "constant, or a CSV table of time and values (header t,NAME; "
+                            "linear between rows, held outside them)")
+    elif inputs:
         p.add_argument("-r", "--input", action="append", metavar="NAME=VALUE",
                        help="a constant input's value (repeatable; others 0)")
 
@@ -146,6 +199,16 @@ def with_numbers(scene, args):
     return scene
 
 
+def end_time(scene, t_end: float | None, flag: str = "--t-end") -> float:
+    """``t_end`` (default: the scene's), refused unless finite and after the scene's start."""
+    t0 = float(scene.t_span[0])
+    t1 = float(scene.t_span[1]) if t_end is None else float(t_end)
+    if not math.isfinite(t1) or not t1 > t0:
+        raise UsageError(f"{flag} {t1!r}: give a finite end time after the scene's start "
+                         f"{t0!r}")
+    return t1
+
+
 def initial_state(scene, model):
     """The scene's initial state for ``model``; ``-x`` names are checked ("did you mean")."""
     check_names(scene.initial_state, model.state_names, "states", scene.name)
@@ -153,8 +216,61 @@ def initial_state(scene, model):
 
 
 def input_values(args, model):
-    """``-r NAME=VALUE`` as the model's input vector (others 0)."""
-    return inputs(model, assignments(getattr(args, "input", None), "-r"))
+    """``-r NAME=VALUE`` as the model's input vector (others 0); with a ``-r NAME=FILE.csv``
+    among them, an :class:`~mbgen.run.named.InputTable` in the model's input order.
+    ``model``: a compiled model, or a kernel's ``Layout`` (generate's example.c)."""
+    return resolve_inputs(input_signals(args), model)
+
+
+def resolve_inputs(given: dict, model, name: str = ""):
+    """:func:`input_signals`' ``given`` for ``model`` (see :func:`input_values`); ``name``
+    names a ``Layout``'s model in messages."""
+    name = name or getattr(model, "name", "")
+    check_names(given, model.input_names, "inputs", name)
+    merged = merge_inputs(given)
+    if isinstance(merged, InputTable):
+        return merged.for_model(model)
+    return vector(merged, model.input_names, "inputs", fill=0.0, model=name)
+
+
+def input_signals(args) -> dict:
+    """``-r`` as ``{name: number}``, or ``{name: (times, values)}`` for ``NAME=FILE.csv``:
+    the file's column NAME, or its only input column."""
+    out = {}
+    for pair in getattr(args, "input", None) or ():
+        name, eq, value = pair.partition("=")
+        name, value = name.strip(), value.strip()
+        if not eq or not name:
+            raise UsageError(f"-r {pair!r} must look like NAME=VALUE or NAME=FILE.csv (e.g. "
+                             f"-r F=0.5, -r F=force.csv)")
+        try:
+            out[name] = float(value)
+            continue
+        except ValueError:
+            pass
+        if not value.lower().endswith(".csv") and not Path(value).is_file():
+            raise UsageError(f"-r {pair!r}: {value!r} is neither a number nor a CSV file (a "
+                             f"table with the header t,{name})")
+        table = read_input_csv(value)
+        columns = table.values
+        if name not in columns and len(columns) != 1:
+            close = difflib.get_close_matches(name, list(columns), 1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise UsageError(f"-r {pair!r}: {value} has the columns {', '.join(columns)}, "
+                             f"none named {name!r}{hint} (name the column {name}, or give a "
+                             f"table with one input column)")
+        out[name] = (table.times, columns.get(name, next(iter(columns.values()))))
+    return out
+
+
+def constant_inputs(args, model):
+    """``-r NAME=VALUE`` as the model's input vector; a table is refused (for commands that
+    work at one operating point: linearize)."""
+    value = input_values(args, model)
+    if isinstance(value, InputTable):
+        raise UsageError("-r takes a number here (the inputs at the operating point), not "
+                         "a table; tables drive 'mbgen simulate' and generate's example.c")
+    return value
 
 
 # ------------------------------------------------------------------ paths, progress
@@ -211,6 +327,37 @@ def check_count(value: int, flag: str, low: int = 1, high: int | None = None,
     return value
 
 
+def check_output_folder(path, flag: str) -> Path:
+    """:func:`check_folder`, and refuse the checked-in golden tree (``generated/`` of the
+    source checkout mbgen runs from), which only ``mbgen golden --update`` writes."""
+    path = check_folder(path, flag)
+    try:
+        tree = golden.default_root().resolve()
+    except UsageError:  # an installed mbgen: no golden tree to protect
+        return path
+    where = path.resolve()
+    if where == tree or tree in where.parents:
+        raise OutputPathError(f"{flag} {str(path)!r} is inside the golden tree {str(tree)!r}, "
+                              f"which 'mbgen golden --update' alone writes (the tests compare "
+                              f"it with the generator); choose another folder (the default "
+                              f"is mbgen-out/SCENE)")
+    return path
+
+
 def progress(msg: str) -> None:
     """A stage of a long command, on stderr: ``  .. msg``."""
     print(f"  .. {msg}", file=sys.stderr, flush=True)
+
+
+#: How :func:`stage_lines` names the pipeline's stages (:func:`mbgen.pipeline.run`).
+STAGES = {"derive": "derive", "bake": "bake the scene's slice", "cse": "CSE",
+          "render": "render", "compile": "compile (C compiler)"}
+
+
+def stage_lines(args):
+    """A ``stage=`` callback for :func:`mbgen.pipeline.run` that prints ``  .. derive``,
+    ``  .. CSE``, ... on stderr; None (quiet) unless stderr is a terminal, or with
+    ``--quiet``: a log or a pipe gets only the results, as git prints progress."""
+    if getattr(args, "quiet", False) or not sys.stderr.isatty():
+        return None
+    return lambda name: progress(STAGES.get(name, name))

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import EXIT_OK
-from ..viz.animate import animate_scene
-from ._common import add_scene_arguments, positive_float, scene_from
+from ..errors import EXIT_OK, UsageError
+from ..viz.animate import FORMATS, animate_scene
+from ._common import (add_scene_arguments, check_count, check_file, end_time, positive_float,
+                      scene_from)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -20,8 +21,14 @@ def configure(p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    if args.output:  # mistakes in the arguments, before any work (exit 2)
+        if not args.output.lower().endswith(tuple(FORMATS)):
+            raise UsageError(f"-o {args.output!r}: name an animation file ending in "
+                             f"{' or '.join(FORMATS)}")
+        check_file(args.output, "-o")
+    check_count(args.frames, "--frames", 2, what="frames")
     scene = scene_from(args)
     path = animate_scene(scene, args.output or f"{scene.name}.html", frames=args.frames,
-                         t_end=args.t_end, fps=args.fps)
+                         t_end=end_time(scene, args.t_end), fps=args.fps)
     print(f"{scene.name}: {args.frames} frames -> {path}")
     return EXIT_OK

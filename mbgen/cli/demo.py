@@ -2,9 +2,10 @@
 render, compile, check against lambdify, simulate, and time the right-hand sides of
 compiled C, generated Python and lambdify side by side.
 
-The generated code and the trajectory go into the folder as one generation, as
-``mbgen generate`` writes (:func:`mbgen.fileio.write_generated`): a file of the user's
-in the way is not replaced without ``--overwrite``."""
+The generated code (with ``example.c``, the C program that runs the generated
+integrator, as ``mbgen generate`` writes it) and the trajectory go into the folder as
+one generation (:func:`mbgen.fileio.write_generated`): a file of the user's in the way
+is not replaced without ``--overwrite``."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import statistics
 import time
 from pathlib import Path
 
+from ..codegen.targets.example import build_command, render_example
 from ..errors import EXIT_CHECK, EXIT_OK
 from ..fileio import write_generated
 from ..model.scene import load_scene
@@ -21,7 +23,7 @@ from ..pipeline import run as run_pipeline
 from ..run.lambdified import LambdifiedModel
 from ..run.simulate import simulate, simulate_in_c
 from ..verify.check import check
-from ._common import check_folder, progress
+from ._common import check_output_folder, progress
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -44,7 +46,7 @@ def _per_call_us(f, t, x, calls: int = 2000, repeats: int = 5) -> float:
 
 
 def run(args) -> int:
-    check_folder(args.output, "-o")
+    check_output_folder(args.output, "-o")
     scene = load_scene("disc_pendulum")
     print(f"mbgen demo: {scene.description}")
     progress("derive, CSE, render, compile")
@@ -58,8 +60,9 @@ def run(args) -> int:
     traj = simulate(model, x0, scene.t_span, method="DOP853", rtol=1e-10, atol=1e-12,
                     progress=False)
     csv_path = folder / "trajectory.csv"
-    done = write_generated(folder, {**result.rendered.files, csv_path.name: traj.to_csv()},
-                           overwrite=args.overwrite)
+    example = render_example(scene, result.kernel)
+    done = write_generated(folder, {**result.rendered.files, "example.c": example,
+                                    csv_path.name: traj.to_csv()}, overwrite=args.overwrite)
     in_c = simulate_in_c(model, x0, scene.t_span, method="dopri5", rtol=1e-10, atol=1e-12)
     gap = float(abs(in_c.x[-1] - traj.x[-1]).max())
     progress("time the right-hand sides side by side")
@@ -89,6 +92,8 @@ def run(args) -> int:
     print("\n".join(f"  {a:<{width}}  {b}" for a, b in rows))
     print("final state: " + ", ".join(f"{n} = {v:.8f}" for n, v in traj.final.items()))
     print(f"generated code: {folder}/ ; trajectory: {csv_path}")
+    print(f"C program: {folder / 'example.c'}; build and run it with: cd {folder} && "
+          f"{build_command(result.rendered.prefix)}")
     for line in done.remarks():
         print(line)
     if not report.ok:

@@ -13,8 +13,8 @@ from ..errors import EXIT_OK
 from ..fileio import write_atomic
 from ..pipeline import compile
 from ..run.linearize import linearize
-from ._common import (add_number_arguments, add_scene_arguments, check_folder, initial_state,
-                      input_values, scene_from, with_numbers)
+from ._common import (add_number_arguments, add_scene_arguments, check_folder,
+                      constant_inputs, initial_state, scene_from, with_numbers)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -38,7 +38,7 @@ def run(args) -> int:
         outputs += [Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN]
     model = compile(scene, outputs + ([Output.INPUT_JACOBIAN] if _has_inputs(scene) else []))
     x = initial_state(scene, model)
-    r = input_values(args, model)
+    r = constant_inputs(args, model)
     if model.dependent_coordinates:
         x = model.consistent(x, r=r)
     lin = linearize(model, x, scene.p(model.layout), r)

@@ -87,6 +87,7 @@ from . import sympy_constraints
 from ..symbolic.equations import Equations
 from ..errors import ModelError
 from ..symbolic.layout import Layout
+from ..model.scene import UNNAMED
 from ..names import model_prefix
 from ..symbolic.graph import walk_unique, xreplace_dag
 from .sympy_constraints import Stated
@@ -120,7 +121,10 @@ def from_sympy(obj: KanesMethod | LagrangesMethod | System, *, name: str | None 
         ``form_lagranges_equations()`` or ``System.form_eoms(...)`` called.
         Constraints and auxiliary speeds are converted (see the module notes).
     name : str, optional
-        Model name, the C prefix of the generated code (default ``"sympy_model"``).
+        Model name, the C prefix of the generated code.  Default
+        ``"sympy_model"`` (:data:`mbgen.model.scene.UNNAMED`), which a scene holding
+        the equations replaces by its own name: ``Scene(name="cart",
+        model=from_sympy(kane))`` generates ``cart.h`` with ``cart_rhs``.
     parameters : sequence of str or Symbol, optional
         Order of the parameter vector ``p``: every remaining symbol of the
         equations, once.  Default: natural order of the names.
@@ -149,7 +153,7 @@ def from_sympy(obj: KanesMethod | LagrangesMethod | System, *, name: str | None 
         dependent speeds, derivatives of inputs or a wrong ``parameters`` or
         ``dependent`` list.
     """
-    name = "sympy_model" if name is None else name
+    name = UNNAMED if name is None else name
     model_prefix(name)  # refuse a name that cannot prefix C symbols before any work
     system_speeds: set[str] = set()
     source, defaults = "sympy {}", {}

@@ -11,6 +11,12 @@ here instead of testing its name:
 ``needs``
     the outputs its generated C calls.
 
+:data:`DEFAULT_RTOL` and :data:`DEFAULT_ATOL` are the one default tolerance of every
+adaptive integration mbgen runs or writes: ``CompiledModel.integrate``, the step API's
+:class:`~mbgen.run.stepper.Stepper`, ``mbgen simulate`` and ``mbgen sweep``, the
+generated ``example.c`` and an FMU's co-simulation (``DefaultExperiment tolerance``;
+``atol = DEFAULT_ATOL / DEFAULT_RTOL * rtol`` for the importer's ``rtol``).
+
 This package holds no code generation (:mod:`mbgen.codegen.integrators` turns a method
 into template context) and imports only :mod:`mbgen.abi`, so the run stage, the
 studies and the code generator can all read it.
@@ -38,6 +44,10 @@ from ..errors import ArgumentError
 from .tableaux import (DEFAULT_MAX_STEPS, RK4, ROSENBROCK, Dopri5, ExplicitRungeKutta, Method,
                        Rodas3, Rodas4, Rosenbrock)
 
+#: The default tolerances (error per step <= atol + rtol |x|) of every adaptive integration:
+#: integrate, Stepper, simulate and sweep on the command line, example.c, an FMU.
+DEFAULT_RTOL, DEFAULT_ATOL = 1e-6, 1e-9
+
 #: Output -> method class of every integrator that can be rendered.
 METHODS: dict = {Output.DOPRI5: Dopri5, Output.RK4: RK4, Output.ROSENBROCK: ROSENBROCK}
 
@@ -58,4 +68,5 @@ def method(name) -> type:
 
 
 __all__ = ["METHODS", "method", "Method", "ExplicitRungeKutta", "Rosenbrock", "Dopri5", "RK4",
-           "Rodas3", "Rodas4", "ROSENBROCK", "DEFAULT_MAX_STEPS"]
+           "Rodas3", "Rodas4", "ROSENBROCK", "DEFAULT_MAX_STEPS", "DEFAULT_RTOL",
+           "DEFAULT_ATOL"]

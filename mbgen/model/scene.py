@@ -23,6 +23,7 @@ type of the option's default, finite and integral where the default is.
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import importlib
 import importlib.util
@@ -43,6 +44,11 @@ from ..names import check_name
 from ..symbolic.equations import Equations
 from .builder import Model
 from .limits import allow_large_models, check_size
+
+
+#: The name of equations imported without one (``from_sympy(obj)``); a scene holding
+#: them names the generated code after itself (its ``prefix`` is the scene's name).
+UNNAMED = "sympy_model"
 
 
 @dataclass(frozen=True)
@@ -83,7 +89,8 @@ class Scene:
     points : tuple of str
         Points whose positions/velocities ``Output.POSITIONS``/``VELOCITIES`` report.
     prefix : str or None
-        C prefix of the generated code (default: the model name); give two
+        C prefix of the generated code (default: the model name; for equations
+        imported without a name, ``from_sympy(obj)``, the scene's name); give two
         slices of one model different prefixes to link them into one program.
     options : mapping
         The options the scene was built with.
@@ -93,6 +100,11 @@ class Scene:
     method : Method or None
         Derivation method (None: Kane's method; ``Method.NEWTON_EULER`` for
         joint reactions and the articulated-body recursion of long chains).
+    targets : Targets or None
+        What to render besides the outputs, as for :func:`mbgen.compile`:
+        ``mbgen.Targets(step=True)`` puts the step API into the generated
+        ``.h``/``.c`` (``mbgen generate`` writes it; ``--step`` asks for it
+        without the scene).  None: the outputs only.
     """
 
     name: str
@@ -111,6 +123,7 @@ class Scene:
     options: Mapping[str, Any] = field(default_factory=dict)
     source: str = ""
     method: Any = None
+    targets: Any = None
 
     def __post_init__(self):
         try:
@@ -133,9 +146,12 @@ class Scene:
         t1 = finite_number(span[1], f"scene {self.name!r}: t_span[1]")
         check_span(t0, t1, f"scene {self.name!r}: t_span")
         _check_symbol_names(self)
+        _check_targets(self)
         if isinstance(self.model, Equations):  # a Model checks its size as it is built
             L = self.model.layout
             check_size(L.n_u + L.n_d, f"scene {self.name!r}")
+            if self.prefix is None and self.model.name == UNNAMED:
+                object.__setattr__(self, "prefix", self.name)
 
     def x0(self, layout) -> np.ndarray:
         """Initial state as an array in ``layout`` order; unknown names are an error."""
@@ -233,6 +249,17 @@ def _check_symbol_names(scn: "Scene") -> None:
                     f"scene {scn.name!r}: {field_name} names {str(name)!r}, which is not "
                     f"{noun} of model {getattr(scn.model, 'name', '?')!r}"
                     f"{_did_you_mean(name, known[kind])} ({kind}: {listed or 'none'})")
+
+
+def _check_targets(scn: "Scene") -> None:
+    """``targets`` is None or a :class:`mbgen.Targets` (a dataclass of switches)."""
+    targets = scn.targets
+    if targets is None:
+        return
+    if not dataclasses.is_dataclass(targets) or isinstance(targets, type) or not all(
+            isinstance(getattr(targets, f.name), bool) for f in dataclasses.fields(targets)):
+        raise SceneError(f"scene {scn.name!r}: targets must be mbgen.Targets(...), e.g. "
+                         f"targets=mbgen.Targets(step=True); got {_shown(targets)}")
 
 
 def source_label(scn: "Scene") -> str:
@@ -379,6 +406,4 @@ def _option_value(key: str, text: str, default, scene: str):
 
 
 def _with(scn: Scene, **changes) -> Scene:
-    from dataclasses import replace
-
-    return replace(scn, **changes)
+    return dataclasses.replace(scn, **changes)

@@ -19,6 +19,7 @@ import numpy as np
 from .. import summary
 from ..abi import INTEGRATORS, Output, status_message
 from ..errors import ArgumentError, ConstraintError, IntegrationError, MbgenError
+from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from ..integrators import method as integrator
 from ..symbolic.layout import Layout
 from . import named
@@ -181,8 +182,8 @@ class CompiledModel(GeneratedModel):
                 f"(mbgen.run.simulate.simulate does this), or pass project=False to integrate "
                 f"from it as given")
 
-    def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = 1e-6,
-                  atol: float = 1e-9, h: float | None = None, h_max: float = 0.0,
+    def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = DEFAULT_RTOL,
+                  atol: float = DEFAULT_ATOL, h: float | None = None, h_max: float = 0.0,
                   max_steps: int = 0, on_failure: str = "raise", project: bool = True):
         """Run a generated C integrator over ``t_eval`` (no Python per step).
 
@@ -204,7 +205,8 @@ class CompiledModel(GeneratedModel):
             batch (1-D ones are shared by every member): ``k`` trajectories in one C
             loop, returned as a :class:`~mbgen.run.batch.BatchIntegration`.
         rtol, atol : float
-            Error tolerances of the adaptive methods (as solve_ivp).
+            Error tolerances of the adaptive methods (as solve_ivp; default
+            :data:`mbgen.integrators.DEFAULT_RTOL`, ``DEFAULT_ATOL``: 1e-6, 1e-9).
         h : float, optional
             The step of ``rk4`` (required); the first step of the adaptive methods.
         h_max : float

@@ -24,19 +24,35 @@ NaN, a real part, or a number parsed from text.
 
 :class:`InputTable` is a piecewise-linear input ``r(t)``: the generated C
 integrators interpolate it at every stage time (no Python in the loop), the
-solve_ivp paths call it.
+solve_ivp paths call it.  :func:`read_input_csv` reads one from a CSV file (the
+command line's ``-r F=table.csv``), :func:`merge_inputs` puts constant inputs and
+tables with different times into one table.
+
+The CSV format of an input table::
+
+    t,F            # a header: the time column (t or time), then one input per column
+    0,0
+    1,2.5          # one row per time, times strictly increasing
+    3,2.5
+
+Values are linear between rows and held at the first and last row outside them.
+Blank lines and lines starting with ``#`` are skipped; a mistake is a
+:class:`~mbgen.errors.UsageError` naming the file, the line and the fix.
 """
 
 from __future__ import annotations
 
+import csv
 import difflib
+import math
 import numbers
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import ArgumentError, ArgumentTypeError, UnknownNameError
+from ..errors import ArgumentError, ArgumentTypeError, UnknownNameError, UsageError
 
 
 def did_you_mean(name: str, names: Sequence[str]) -> str:
@@ -196,9 +212,11 @@ class InputTable:
             object.__setattr__(self, "values", np.ascontiguousarray(v))
 
     def for_model(self, model) -> "InputTable":
-        """This table with ``values`` as a ``(k, n_r)`` array in ``model``'s input order."""
+        """This table with ``values`` as a ``(k, n_r)`` array in ``model``'s input order
+        (``model``: anything with ``input_names``, a model or a ``Layout``)."""
+        name = getattr(model, "name", "")
         if isinstance(self.values, Mapping):
-            check_names(self.values, model.input_names, "inputs", model.name)
+            check_names(self.values, model.input_names, "inputs", name)
             k = self.times.size
             cols = []
             for n in model.input_names:
@@ -208,9 +226,10 @@ class InputTable:
                                      f"({k}); got shape {c.shape}")
                 cols.append(c)
             return InputTable(self.times, np.stack(cols, axis=1).reshape(k, len(cols)))
-        if self.values.shape[1] != model.n_r:
+        if self.values.shape[1] != len(model.input_names):
             raise ValueError(f"InputTable values have {self.values.shape[1]} columns; "
-                             f"{model.name!r} has {model.n_r} inputs {list(model.input_names)}")
+                             f"{name!r} has {len(model.input_names)} inputs "
+                             f"{list(model.input_names)}")
         return self
 
     def __call__(self, t, x=None) -> np.ndarray:
@@ -218,6 +237,88 @@ class InputTable:
             raise TypeError("an InputTable by name must be resolved first: table.for_model(model)")
         t = float(t)
         return np.array([np.interp(t, self.times, col) for col in self.values.T])
+
+
+#: The names the first column of an input table's CSV may have (any case).
+TIME_COLUMNS = ("t", "time")
+
+
+def read_input_csv(path) -> InputTable:
+    """The :class:`InputTable` of a CSV file, by name: its columns after the time (see the
+    module notes for the format).
+
+    Raises
+    ------
+    UsageError
+        The file cannot be read, its header does not start with ``t`` (or ``time``)
+        and name its inputs once each, a row has the wrong number of cells, a cell is not
+        a finite number, the times do not increase, or it has no rows.
+    """
+    path = Path(path)
+    fix = "an input table is a CSV file whose header names the time, then the inputs (t,F)"
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise UsageError(f"input table {str(path)!r} cannot be read ({reason}); {fix}") from None
+    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1)
+             if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise UsageError(f"input table {str(path)!r} is empty; {fix}")
+    rows = csv.reader(line for _, line in lines)
+    header = [cell.strip() for cell in next(rows)]
+    where = f"{path}:{lines[0][0]}"
+    if len(header) < 2 or header[0].lower() not in TIME_COLUMNS or not all(header[1:]):
+        raise UsageError(f"{where}: the header {','.join(header)!r} must name the time first "
+                         f"({' or '.join(TIME_COLUMNS)}), then each input (e.g. t,F)")
+    twice = sorted({n for n in header[1:] if header[1:].count(n) > 1})
+    if twice:
+        raise UsageError(f"{where}: the header names {twice} twice; name each input once")
+    data = []
+    for (n, _), cells in zip(lines[1:], rows):
+        where = f"{path}:{n}"
+        if len(cells) != len(header):
+            raise UsageError(f"{where}: {len(cells)} values where the header names "
+                             f"{len(header)} columns ({','.join(header)})")
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            raise UsageError(f"{where}: {bad.strip()!r} is not a number") from None
+        if not all(math.isfinite(v) for v in values):
+            raise UsageError(f"{where}: every value must be a finite number")
+        if data and not values[0] > data[-1][0]:
+            raise UsageError(f"{where}: the time {values[0]!r} must be after the row before's "
+                             f"{data[-1][0]!r} (times strictly increasing)")
+        data.append(values)
+    if not data:
+        raise UsageError(f"input table {str(path)!r} has a header but no rows; {fix}")
+    a = np.array(data)
+    return InputTable(a[:, 0], {name: a[:, j] for j, name in enumerate(header[1:], 1)})
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def merge_inputs(given: Mapping[str, object]) -> dict[str, float] | InputTable:
+    """Inputs by name, each a number or a ``(times, values)`` pair, as one value for ``r``.
+
+    Numbers only: the mapping itself.  With a pair among them: one :class:`InputTable`
+    by name on the union of the pairs' times, each pair interpolated there (exact: a
+    piecewise-linear signal sampled at every knot of the union is the same signal) and
+    each number held.
+    """
+    tables = {n: v for n, v in given.items() if isinstance(v, tuple)}
+    if not tables:
+        return dict(given)
+    times = np.unique(np.concatenate([np.asarray(t, dtype=float) for t, _ in tables.values()]))
+    return InputTable(times, {n: np.interp(times, *v) if isinstance(v, tuple)
+                              else np.full(times.size, float(v)) for n, v in given.items()})
 
 
 def driven(model, output, p: np.ndarray, r_of) -> Callable:
@@ -237,5 +338,6 @@ def driven(model, output, p: np.ndarray, r_of) -> Callable:
     return f
 
 
-__all__ = ["InputTable", "arrays", "check_names", "did_you_mean", "driven", "inputs", "parameters",
-           "real_values", "states", "vector"]
+__all__ = ["InputTable", "TIME_COLUMNS", "arrays", "check_names", "did_you_mean", "driven",
+           "inputs", "merge_inputs", "parameters", "read_input_csv", "real_values", "states",
+           "vector"]

@@ -30,7 +30,7 @@ from scipy import integrate as ivp
 
 from ..abi import INTEGRATORS, Output
 from ..errors import ArgumentError, IntegrationError, StiffnessWarning, UsageError
-from ..integrators import METHODS
+from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from . import named
 from .base import ModelBase
 from .integration import Trajectory
@@ -44,6 +44,7 @@ _STABILITY = {"RK23": 2.5, "RK45": 3.3, "DOP853": 6.0}
 STIFF_MIN_STEPS = 2000      # below this many steps nothing is called stiffness-bound
 PROGRESS_DELAY = 2.0        # seconds before a progress bar appears
 MAX_STEPS = 1_000_000       # default step limit of the solve_ivp paths (C: the integrator's own)
+RK4_STEPS = 10_000          # default steps of the fixed-step rk4 over the span
 
 
 def holonomic_outputs(scene) -> tuple:
@@ -126,9 +127,10 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
 
 
 def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None = None,
-             rtol: float = 1e-9, atol: float = 1e-12, n_out: int = 201, t_eval=None,
+             rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, n_out: int = 201,
+             t_eval=None,
              progress: bool = True, say: Callable[[str], None] | None = None,
-             rk4_steps: int = 10000, project: bool = True,
+             rk4_steps: int = RK4_STEPS, project: bool = True,
              max_steps: int | None = None) -> Trajectory:
     """Integrate ``model`` from ``x0`` over ``t_span``.
 
@@ -149,7 +151,8 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
         integrator (``dopri5``, ``rosenbrock``, ``rk4`` with the fixed step
         ``(t1 - t0) / rk4_steps``).
     rtol, atol : float
-        Error tolerances.
+        Error tolerances (default :data:`mbgen.integrators.DEFAULT_RTOL`,
+        ``DEFAULT_ATOL``: 1e-6, 1e-9, as every integration mbgen runs).
     n_out : int
         Number of equally spaced output times when ``t_eval`` is not given.
     progress : bool
@@ -199,9 +202,9 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
                       auto, reason, int(max_steps or MAX_STEPS))
 
 
-def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = 1e-9,
-                  atol: float = 1e-12, n_out: int = 201, p=None, r=None,
-                  rk4_steps: int = 10000, progress: bool = False,
+def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = DEFAULT_RTOL,
+                  atol: float = DEFAULT_ATOL, n_out: int = 201, p=None, r=None,
+                  rk4_steps: int = RK4_STEPS, progress: bool = False,
                   project: bool = True) -> Trajectory:
     """Integrate with a generated C integrator (``model.integrate``); see :func:`simulate`."""
     return simulate(model, x0, t_span, method=method, rtol=rtol, atol=atol, n_out=n_out, p=p,

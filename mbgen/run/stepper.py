@@ -10,6 +10,7 @@ import numpy as np
 
 from ..abi import status_name
 from ..errors import IntegrationError, MbgenError
+from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL
 
 
 class Stepper:
@@ -20,8 +21,8 @@ class Stepper:
     ``<prefix>_<method>_memory`` owned by this object.
     """
 
-    def __init__(self, model, method: str, t0: float, x0, *, rtol: float = 1e-6,
-                 atol: float = 1e-9):
+    def __init__(self, model, method: str, t0: float, x0, *, rtol: float = DEFAULT_RTOL,
+                 atol: float = DEFAULT_ATOL):
         rendered = model.rendered
         if method not in rendered.step_methods:
             raise MbgenError(f"{model.name!r} has no {method!r} step function (step methods: "

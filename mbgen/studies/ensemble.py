@@ -50,7 +50,7 @@ from ..abi import Output, Rendered
 from ..build.extension import compiled_path, load
 from ..errors import ArgumentError, ArgumentTypeError, MbgenError, SceneError
 from ..fileio import write_atomic
-from ..integrators import METHODS
+from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from ..pipeline import run
 from ..run import batch
 from .cluster import lost_worker, reach, run_chunks
@@ -374,8 +374,8 @@ def _failed_chunk(lo, hi, n_x, n_t, exc, trajectories, extra=()) -> dict:
 # ------------------------------------------------------------------ driver
 def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = None,
              n: int | None = None, seed: int = 0, method: str | None = None,
-             t_end: float | None = None, t_eval=None, n_out: int = 2, rtol: float = 1e-6,
-             atol: float = 1e-9, h: float | None = None, max_steps: int = 0,
+             t_end: float | None = None, t_eval=None, n_out: int = 2, rtol: float = DEFAULT_RTOL,
+             atol: float = DEFAULT_ATOL, h: float | None = None, max_steps: int = 0,
              trajectories: bool = False, outputs=(), address: str | None = None, n_workers: int = 2,
              client: Any = None, chunk: int | None = None, serial: bool = False,
              progress: bool = True) -> EnsembleResult:

@@ -8,16 +8,19 @@ It is a developer's command: the tree is the one of the source checkout mbgen
 runs from (:func:`repository_root`, found from the package's own location, not
 from the current folder), and without a checkout it refuses.  The update
 removes files in a scene's folder that the generator no longer produces (the
-folders hold generated files only).
+folders hold generated files only).  :func:`compare` lists the differences, a
+:class:`Difference` per file (its unified diff in ``diff``): ``mbgen golden`` prints
+the one-line summary first, then one line per file, and the diffs with ``-v``.
 """
 
 from __future__ import annotations
 
 import difflib
 from pathlib import Path
+from typing import NamedTuple
 
 from ..codegen.targets.example import example_settings, render_example
-from ..errors import SceneError
+from ..errors import UsageError
 from ..fileio import write_files
 from ..model.scene import builtin_names, load_scene
 from ..pipeline import run
@@ -31,7 +34,7 @@ def repository_root() -> Path:
 
     Raises
     ------
-    SceneError
+    UsageError
         mbgen is installed, not run from a checkout: the golden tree is not there.
     """
     root = Path(__file__).resolve().parents[2]
@@ -39,7 +42,7 @@ def repository_root() -> Path:
     if project.is_file() and (root / "generated").is_dir() and \
             'name = "mbgen"' in project.read_text(encoding="utf-8", errors="replace"):
         return root
-    raise SceneError("'mbgen golden' is a developer command for a source checkout of mbgen "
+    raise UsageError("'mbgen golden' is a developer command for a source checkout of mbgen "
                      f"(this mbgen runs from {root}, which has no pyproject.toml and "
                      f"generated/); to write generated code, use 'mbgen generate SCENE -o DIR'")
 
@@ -60,13 +63,14 @@ def scene_files(name: str) -> dict[str, str]:
     return files
 
 
-def example_integration(scene, result):
+def example_integration(scene, result, r=None):
     """The trajectory of ``example.c`` computed through Python (``CompiledModel.integrate``).
 
     ``result`` is the scene's pipeline result, built; the settings are the example's
-    (:func:`mbgen.codegen.targets.example.example_settings`), so the two can be compared.
+    (:func:`mbgen.codegen.targets.example.example_settings`, with the inputs ``r`` it
+    was rendered with), so the two can be compared.
     """
-    method, t, x0, p, r, options = example_settings(scene, result.kernel)
+    method, t, x0, p, r, options = example_settings(scene, result.kernel, r)
     return result.compiled.integrate(method, t, x0, p, r, **options)
 
 
@@ -91,8 +95,22 @@ def update(root: Path, names=None) -> list[Path]:
     return changed
 
 
-def differences(root: Path, names=None) -> list[str]:
-    """Unified diffs (or 'missing'/'unexpected' lines) between ``root`` and the generator."""
+class Difference(NamedTuple):
+    """A file of the golden tree that differs from the generator's."""
+
+    path: Path
+    #: ``"changed"``, ``"missing"`` (generated, not in the tree) or ``"unexpected"``
+    #: (in the tree, no longer generated)
+    kind: str
+    #: the unified diff of a changed file (empty otherwise)
+    diff: str = ""
+
+    def __str__(self) -> str:
+        return self.diff or f"{self.kind}: {self.path}"
+
+
+def compare(root: Path, names=None) -> list[Difference]:
+    """Every file of ``root`` that differs from what the generator writes now."""
     root = Path(root)
     out = []
     for name, files in expected(names).items():
@@ -100,14 +118,19 @@ def differences(root: Path, names=None) -> list[str]:
         for fname, text in sorted(files.items()):
             path = folder / fname
             if not path.exists():
-                out.append(f"missing: {path}")
+                out.append(Difference(path, "missing"))
                 continue
             old = path.read_text(encoding="utf-8")
             if old != text:
-                out.append("".join(difflib.unified_diff(
+                out.append(Difference(path, "changed", "".join(difflib.unified_diff(
                     old.splitlines(True), text.splitlines(True), str(path), f"{path} (generated)",
-                    n=1)))
+                    n=1))))
         if folder.exists():
-            extra = sorted(p.name for p in folder.iterdir() if p.name not in files)
-            out += [f"unexpected: {folder / e}" for e in extra]
+            out += [Difference(folder / e, "unexpected")
+                    for e in sorted(p.name for p in folder.iterdir() if p.name not in files)]
     return out
+
+
+def differences(root: Path, names=None) -> list[str]:
+    """Unified diffs (or 'missing'/'unexpected' lines) between ``root`` and the generator."""
+    return [str(d) for d in compare(root, names)]

@@ -4,6 +4,9 @@
 
 * the states against time, coordinates and speeds in two panels (each curve
   labelled by its state name);
+* when inputs are given (``inputs=``; ``mbgen simulate`` passes the model's, with
+  ``-r``'s values or tables): the inputs against time, each as the run saw it (a
+  table's rows joined by straight lines and held outside them, a number held);
 * when the scene conserves energy (``Scene.conserves_energy``) and the
   equations know ``T`` and ``V``: the relative energy drift
   ``(E(t) - E(0)) / max_t (|T| + |V|)`` with ``E = T + V``;
@@ -96,20 +99,24 @@ def _constrained(model) -> bool:
     return bool(holonomic) or bool(getattr(eq_constraints, "m_h", 0))
 
 
-def diagnostics(scene, t, x, names, parameters: Mapping[str, float] | None = None) -> dict:
+def diagnostics(scene, t, x, names, parameters: Mapping[str, float] | None = None, *,
+                driven: bool = False) -> dict:
     """Energy drift and constraint residual of a trajectory of ``scene`` (what applies).
 
     Returns a dict with ``"energy_drift"`` (shape ``(k,)``, relative to
-    ``max |T| + |V|``) when the scene conserves energy and its equations have
-    energies, and ``"residual"`` (``max_i |f_h,i|``, shape ``(k,)``) when it has
-    configuration constraints; ``"notes"`` says what was left out and why.
+    ``max |T| + |V|``) when the scene conserves energy, its equations have
+    energies and no input is ``driven`` (nonzero inputs do work), and ``"residual"``
+    (``max_i |f_h,i|``, shape ``(k,)``) when it has configuration constraints;
+    ``"notes"`` says what was left out and why.
     """
     out: dict = {"notes": []}
     wanted = []
-    if scene.conserves_energy:
-        wanted.append(Output.ENERGY)
-    else:
+    if not scene.conserves_energy:
         out["notes"].append("no energy drift: the scene does not conserve energy")
+    elif driven:
+        out["notes"].append("no energy drift: the inputs do work")
+    else:
+        wanted.append(Output.ENERGY)
     if _constrained(scene.model):
         wanted.append(Output.HOLONOMIC)
     for output in wanted:
@@ -138,8 +145,8 @@ def _parameters(scene, model, overrides) -> np.ndarray:
 
 
 def plot_simulation(result, path, *, scene=None, names=None,
-                    parameters: Mapping[str, float] | None = None, title: str | None = None
-                    ) -> Path:
+                    parameters: Mapping[str, float] | None = None, title: str | None = None,
+                    inputs: Mapping[str, object] | None = None) -> Path:
     """Write a PNG of a simulation: states against time, energy drift, constraint residual.
 
     Parameters
@@ -160,6 +167,10 @@ def plot_simulation(result, path, *, scene=None, names=None,
         scene's (for the energy and residual).
     title : str, optional
         Figure title (default: the scene's name and the result's method).
+    inputs : mapping, optional
+        The inputs that drove the run, by name: a number (held) or a ``(times,
+        values)`` pair (piecewise linear, held outside ``times``, as an
+        :class:`~mbgen.run.named.InputTable`).  Drawn in a panel of their own.
 
     Returns
     -------
@@ -168,12 +179,15 @@ def plot_simulation(result, path, *, scene=None, names=None,
     """
     require_matplotlib()
     t, x, names = trajectory_arrays(result, names)
-    extra = diagnostics(scene, t, x, names, parameters) if scene is not None else {"notes": []}
+    driven = any(np.any(np.asarray(v[1] if isinstance(v, tuple) else v, dtype=float) != 0)
+                 for v in (inputs or {}).values())
+    extra = (diagnostics(scene, t, x, names, parameters, driven=driven) if scene is not None
+             else {"notes": []})
     n_q = _n_coordinates(scene, names)
     panels = [("coordinates", list(range(n_q)))] if n_q else []
     panels.append(("speeds" if n_q else "states", list(range(n_q, len(names)))))
     panels = [(label, cols) for label, cols in panels if cols]
-    n_rows = len(panels) + ("energy_drift" in extra) + ("residual" in extra)
+    n_rows = len(panels) + bool(inputs) + ("energy_drift" in extra) + ("residual" in extra)
     fig = figure(9.0, 2.6 * n_rows + 0.6)
     axes = fig.subplots(n_rows, 1, sharex=True, squeeze=False)[:, 0]
     row = 0
@@ -185,6 +199,15 @@ def plot_simulation(result, path, *, scene=None, names=None,
         ax.grid(True, alpha=0.35)
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False,
                   ncol=1 if len(cols) <= 12 else 2)
+        row += 1
+    if inputs:
+        ax = axes[row]
+        for name, signal in inputs.items():
+            ax.plot(*input_curve(signal, t[0], t[-1]), label=name, linewidth=1.2)
+        ax.set_ylabel("inputs")
+        ax.grid(True, alpha=0.35)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False,
+                  ncol=1 if len(inputs) <= 12 else 2)
         row += 1
     if "energy_drift" in extra:
         ax = axes[row]
@@ -217,6 +240,18 @@ def plot_simulation(result, path, *, scene=None, names=None,
     if head:
         fig.suptitle(head, fontsize=10)
     return save_png(fig, path)
+
+
+def input_curve(signal, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(times, values)`` to draw of an input over ``[t0, t1]``: a number held, or a
+    ``(times, values)`` table's rows inside the span joined by straight lines, the table
+    interpolated (or held) at both ends of the span."""
+    if not isinstance(signal, tuple):
+        return np.array([t0, t1]), np.full(2, float(signal))
+    times, values = (np.asarray(a, dtype=float) for a in signal)
+    inside = times[(times > t0) & (times < t1)]
+    at = np.concatenate([[t0], inside, [t1]])
+    return at, np.interp(at, times, values)
 
 
 def _n_coordinates(scene, names) -> int:

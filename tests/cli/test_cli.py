@@ -95,8 +95,8 @@ def test_simulate_writes_csv(tmp_path, capsys):
 
 def test_simulate_with_a_c_integrator(tmp_path, capsys):
     csv = tmp_path / "c.csv"
-    assert main(["simulate", "disc_pendulum", "--method", "dopri5", "--csv", str(csv),
-                 "--points", "5"]) == EXIT_OK
+    assert main(["simulate", "disc_pendulum", "--integrator", "dopri5", "--rtol", "1e-9",
+                 "--atol", "1e-12", "--csv", str(csv), "--points", "5"]) == EXIT_OK
     out = capsys.readouterr().out
     final = {k: float(v) for k, v in re.findall(r"(\w+) = ([-\d.e+]+)", out.split("final state:")[1])}
     assert final["q1"] == pytest.approx(26.5621957, abs=1e-6)  # the DOP853 result in the demo
@@ -119,7 +119,8 @@ def test_user_scene_file(tmp_path, capsys):
         "    return Scene('spring_mass', m, parameters={'k': k, 'mass': 1.0},\n"
         "                 initial_state={'x': 1.0}, t_span=(0.0, 3.14159265358979))\n")
     assert main(["check", str(scene), "--samples", "3"]) == EXIT_OK
-    assert main(["simulate", str(scene), "-O", "k=1", "--csv", str(tmp_path / "s.csv")]) == EXIT_OK
+    assert main(["simulate", str(scene), "-O", "k=1", "--rtol", "1e-9", "--atol", "1e-12",
+                 "--csv", str(tmp_path / "s.csv")]) == EXIT_OK
     out = capsys.readouterr().out
     final_x = float(re.search(r"final state: x = (\S+),", out).group(1))
     assert final_x == pytest.approx(-1.0, abs=1e-8)  # half a period of a unit oscillator

@@ -22,7 +22,7 @@ def fails(argv, capsys, *patterns):
 
 
 def test_unknown_method(capsys):
-    fails(["simulate", "disc_pendulum", "--method", "RK99"], capsys,
+    fails(["simulate", "disc_pendulum", "--integrator", "RK99"], capsys,
           "unknown integration method 'RK99'", "DOP853", "rosenbrock")
 
 

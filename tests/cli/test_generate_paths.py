@@ -10,7 +10,7 @@ a source checkout and removes stale files.
 
 import json
 
-from mbgen.cli import EXIT_MODEL, EXIT_OK, main
+from mbgen.cli import EXIT_OK, EXIT_USAGE, main
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.verify import golden
@@ -42,7 +42,7 @@ def test_generate_does_not_overwrite_files_it_did_not_write(tmp_path, capsys):
     out = tmp_path / "out"
     out.mkdir()
     (out / "disc_pendulum.c").write_text("/* my own code */\n")
-    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_MODEL
+    assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_USAGE  # issue 19: was 3
     assert "--overwrite" in capsys.readouterr().err
     assert (out / "disc_pendulum.c").read_text() == "/* my own code */\n"
     assert not (out / "disc_pendulum.h").exists()
@@ -71,7 +71,7 @@ def test_regeneration_refuses_to_overwrite_an_edited_file(tmp_path, capsys):
     header = (out / "disc_pendulum.h").read_text()
     capsys.readouterr()
     assert main(["generate", "disc_pendulum", "-o", str(out), "--outputs", "rhs,jacobian"]) \
-        == EXIT_MODEL
+        == EXIT_USAGE
     err = capsys.readouterr().err
     assert "disc_pendulum.c (changed since mbgen wrote it)" in err and "--overwrite" in err
     assert (out / "disc_pendulum.c").read_text() == "/* tuned by hand */\n"
@@ -86,21 +86,25 @@ def test_demo_does_not_overwrite_a_users_file(tmp_path, capsys):
     out = tmp_path / "demo"
     out.mkdir()
     (out / "trajectory.csv").write_text("my measurements\n")
-    assert main(["demo", "-o", str(out)]) == EXIT_MODEL
+    assert main(["demo", "-o", str(out)]) == EXIT_USAGE
     err = capsys.readouterr().err
     assert "trajectory.csv (mbgen did not write it)" in err and "--overwrite" in err
     assert (out / "trajectory.csv").read_text() == "my measurements\n"
     assert sorted(p.name for p in out.iterdir()) == ["trajectory.csv"]
     assert main(["demo", "-o", str(out), "--overwrite"]) == EXIT_OK
     assert (out / "trajectory.csv").read_text().startswith("t,")
+    # issue 19: the demo writes example.c as generate does, and says how to build it
+    assert (out / "example.c").read_text() == golden.scene_files("disc_pendulum")["example.c"]
+    assert f"C program: {out / 'example.c'}; build and run it with: cd {out} && cc -std=c99" \
+        in capsys.readouterr().out
     assert set(json.loads((out / ".mbgen-manifest.json").read_text())["files"]) == {
-        "disc_pendulum.c", "disc_pendulum.h", "disc_pendulum.py", "trajectory.csv"}
+        "disc_pendulum.c", "disc_pendulum.h", "disc_pendulum.py", "example.c", "trajectory.csv"}
 
 
 def test_generate_into_a_file_is_an_error(tmp_path, capsys):
     target = tmp_path / "file"
     target.write_text("x")
-    assert main(["generate", "disc_pendulum", "-o", str(target)]) == EXIT_MODEL
+    assert main(["generate", "disc_pendulum", "-o", str(target)]) == EXIT_USAGE  # issue 19: was 3
     assert "is a file" in capsys.readouterr().err
 
 
@@ -120,7 +124,7 @@ def test_header_bytes_do_not_depend_on_the_callers_folder(tmp_path, monkeypatch)
 def test_golden_refuses_outside_a_checkout(tmp_path, monkeypatch, capsys):
     fake = tmp_path / "site-packages" / "mbgen" / "golden.py"
     monkeypatch.setattr(golden, "__file__", str(fake))
-    assert main(["golden", "--scenes", "disc_pendulum"]) == EXIT_MODEL
+    assert main(["golden", "--scenes", "disc_pendulum"]) == EXIT_USAGE
     assert "source checkout" in capsys.readouterr().err
     assert not (tmp_path / "site-packages" / "generated").exists()
 

@@ -90,6 +90,23 @@ def test_n_link_pendulum_on_cart(n):
     check_against_sympy(km, eq)
 
 
+def test_a_scene_names_imported_equations_after_itself(tmp_path):
+    """Every imported model generated ``sympy_model.h`` with ``sympy_model_rhs``: two of them
+    could not link into one program, and the files did not say which model they held."""
+    cart = mbgen.Scene("cart", from_sympy(n_link(1)), parameters=dict.fromkeys(
+        ["g", "l0", "m0", "m1"], 1.0))
+    assert cart.prefix == "cart"
+    files = mbgen.pipeline.run(cart, build=False).rendered.files
+    assert sorted(files) == ["cart.c", "cart.h", "cart.py"] and "int cart_rhs(" in files["cart.h"]
+    named = mbgen.Scene("cart", from_sympy(n_link(1), name="my_cart"),
+                        parameters=cart.parameters)
+    assert named.prefix is None                 # a name given to from_sympy is kept
+    assert mbgen.pipeline.run(named, build=False).rendered.prefix == "my_cart"
+    chosen = mbgen.Scene("cart", from_sympy(n_link(1)), parameters=cart.parameters,
+                         prefix="cart_fast")
+    assert mbgen.pipeline.run(chosen, build=False).rendered.prefix == "cart_fast"
+
+
 def test_natural_and_explicit_parameter_order():
     natural = ("g", *(f"l{i}" for i in range(10)), *(f"m{i}" for i in range(11)))
     assert from_sympy(n_link(10)).layout.parameter_names == natural  # m2 < m10

@@ -10,7 +10,7 @@ import pytest
 
 import mbgen
 from mbgen import Output, UsageError
-from mbgen.cli import EXIT_MODEL, main
+from mbgen.cli import EXIT_USAGE, main
 from mbgen.run import simulate as sim
 from mbgen.model.scene import load_scene
 from mbgen.errors import ArgumentError, IntegrationError, StiffnessWarning
@@ -153,6 +153,6 @@ def test_cli_step_limit_is_a_numerical_failure_named(capsys, tmp_path):
 def test_simulate_refuses_an_infinite_or_backward_span(t_end, capsys, tmp_path):
     """Issue 9.9: simulate --t-end inf ran until killed."""
     assert main(["simulate", "disc_pendulum", "--t-end", t_end, "--csv",
-                 str(tmp_path / "x.csv")]) == EXIT_MODEL
+                 str(tmp_path / "x.csv")]) == EXIT_USAGE   # issue 19: an argument, was 3
     assert "--t-end" in capsys.readouterr().err
     assert not (tmp_path / "x.csv").exists()

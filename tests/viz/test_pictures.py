@@ -89,6 +89,36 @@ def test_constraint_residual_panel_sees_projection(tmp_path):
 
 
 # ------------------------------------------------------------------ animate
+def test_simulate_plot_shows_the_inputs(tmp_path, capsys, monkeypatch):
+    """``simulate --plot`` drew the states only: a run driven by ``-r F=table.csv`` did not
+    show what drove it (and called the work of the push an energy drift)."""
+    from mbgen.viz import plots
+
+    figures = []
+    save = plots.save_png
+    monkeypatch.setattr(plots, "save_png",
+                        lambda fig, path: figures.append(fig) or save(fig, path))
+    (tmp_path / "push.csv").write_text("t,F\n0.5,0\n1,2\n3,2\n")
+    png = tmp_path / "cart.png"
+    assert main(["simulate", "n_link_cart", "-O", "n=1", "-r", f"F={tmp_path / 'push.csv'}",
+                 "--t-end", "4", "--csv", str(tmp_path / "c.csv"), "--plot", str(png)]) == 0
+    [fig] = figures
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == ["coordinates", "speeds", "inputs"], labels
+    [line] = fig.axes[2].get_lines()
+    assert line.get_label() == "F"
+    np.testing.assert_array_equal(line.get_xdata(), [0.0, 0.5, 1.0, 3.0, 4.0])
+    np.testing.assert_array_equal(line.get_ydata(), [0.0, 0.0, 2.0, 2.0, 2.0])
+    assert "no energy drift: the inputs do work" in fig._suptitle.get_text()
+    assert png.stat().st_size > 0
+    figures.clear()   # constant inputs: a flat line, and the energy drift when they are 0
+    assert main(["simulate", "n_link_cart", "-O", "n=1", "--t-end", "1", "--csv",
+                 str(tmp_path / "c.csv"), "--plot", str(png)]) == 0
+    [fig] = figures
+    assert [ax.get_ylabel() for ax in fig.axes][2] == "inputs"
+    assert fig.axes[3].get_ylabel().startswith("energy drift")
+
+
 def test_animate_gif_frames_and_html(tmp_path):
     from PIL import Image
 
@@ -134,7 +164,7 @@ def test_body_axes_are_the_frames_direction_cosines(tmp_path):
 
 
 def test_animate_refuses_what_it_cannot_draw(tmp_path, capsys):
-    assert main(["animate", "disc_pendulum", "-o", str(tmp_path / "a.mp4")]) == 3
+    assert main(["animate", "disc_pendulum", "-o", str(tmp_path / "a.mp4")]) == 2  # issue 19: 3
     assert "mbgen: error:" in capsys.readouterr().err and not (tmp_path / "a.mp4").exists()
     from mbgen.viz.animate import animate_scene
 

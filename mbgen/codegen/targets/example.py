@@ -1,7 +1,13 @@
 """The embedding example: ``example.c`` next to a scene's generated C.
 
 It sets the scene's free parameters and initial state, runs the first C
-integrator the scene asks for, and prints the trajectory as CSV.  The options
+integrator the scene asks for, and prints the trajectory as CSV.  The inputs are
+held at 0, or at the values given (``mbgen generate -r F=2``), or follow a table
+(``mbgen generate -r F=force.csv``: the table's rows become two static arrays and
+the integrator's options point at them, so the C interpolates them at every stage
+time as :meth:`~mbgen.run.compiled.CompiledModel.integrate` does with an
+:class:`~mbgen.run.named.InputTable`).  The tolerances are mbgen's defaults
+(:data:`mbgen.integrators.DEFAULT_RTOL`, ``DEFAULT_ATOL``).  The options
 (:func:`example_settings`) are also what
 :func:`mbgen.verify.golden.example_integration` passes to
 :meth:`mbgen.run.compiled.CompiledModel.integrate`, so the two can be compared.
@@ -15,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._version import __version__
-from ...integrators import METHODS
+from ...integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from ...model.scene import Scene
 from ...names import model_prefix
 from ..templating import environment
@@ -23,8 +29,14 @@ from .base import Target
 
 #: Rows of the example's trajectory.
 N_OUT = 21
-#: Tolerances of the adaptive integrators; a fixed-step one takes 1000 steps over the span.
-RTOL, ATOL, RK4_STEPS = 1e-8, 1e-10, 1000
+#: Tolerances of the adaptive integrators (mbgen's defaults); a fixed-step one takes 1000
+#: steps over the span.
+RTOL, ATOL, RK4_STEPS = DEFAULT_RTOL, DEFAULT_ATOL, 1000
+
+
+def build_command(prefix: str) -> str:
+    """The one-line shell command that builds and runs ``example.c`` (its first comment)."""
+    return f"cc -std=c99 -O2 -o example example.c {prefix}.c -lm && ./example"
 
 
 class Example(Target):
@@ -42,8 +54,12 @@ def _c(value: float) -> str:
     return repr(float(value))
 
 
-def example_settings(scene: Scene, kernel):
-    """``(method, t, x0, p, r, options)`` of the example, or None without an integrator."""
+def example_settings(scene: Scene, kernel, r=None):
+    """``(method, t, x0, p, r, options)`` of the example, or None without an integrator.
+
+    ``r``: the inputs, an array ``(n_r,)`` in the kernel's input order or an
+    :class:`~mbgen.run.named.InputTable` already in that order (default zeros).
+    """
     if not kernel.integrators:
         return None
     output = kernel.integrators[0]
@@ -52,15 +68,18 @@ def example_settings(scene: Scene, kernel):
     t = t0 + (t1 - t0) * np.arange(N_OUT) / (N_OUT - 1)  # the example's own formula
     h = None if METHODS[output].adaptive else (scene.t_span[1] - scene.t_span[0]) / RK4_STEPS
     options = dict(rtol=RTOL, atol=ATOL, h=h)
-    return output.value, t, scene.x0(L), scene.p(L), np.zeros(L.n_r), options
+    r = np.zeros(L.n_r) if r is None else r
+    return output.value, t, scene.x0(L), scene.p(L), r, options
 
 
-def render_example(scene: Scene, kernel) -> str | None:
-    """The text of ``example.c`` for ``scene`` and its kernel (None without an integrator)."""
-    settings = example_settings(scene, kernel)
+def render_example(scene: Scene, kernel, r=None) -> str | None:
+    """The text of ``example.c`` for ``scene`` and its kernel (None without an integrator);
+    ``r`` as for :func:`example_settings`."""
+    settings = example_settings(scene, kernel, r)
     if settings is None:
         return None
     method, t, x0, p, r, options = settings
+    table = getattr(r, "times", None)
     L = kernel.layout
     prefix = model_prefix(kernel.equations.name)
     args = ["x0"] + (["p"] if L.n_p else []) + (["r"] if L.n_r else [])
@@ -72,9 +91,12 @@ def render_example(scene: Scene, kernel) -> str | None:
         t0=_c(t[0]), t1=_c(t[-1]), n_out=N_OUT,
         state_names=list(L.state_names), x0=[_c(v) for v in x0],
         parameter_names=list(L.parameter_names), parameters=[_c(v) for v in p],
-        input_names=list(L.input_names), inputs=[_c(v) for v in r],
+        input_names=list(L.input_names),
+        inputs=[_c(v) for v in (np.zeros(L.n_r) if table is not None else r)],
+        table_t=None if table is None else [_c(v) for v in table],
+        table_r=None if table is None else [", ".join(_c(v) for v in row) for row in r.values],
         rtol=_c(options["rtol"]), atol=_c(options["atol"]), h0=_c(options["h"] or 0.0),
-        call_args=args, projects=_projects(kernel))
+        call_args=args, projects=_projects(kernel), build=build_command(prefix))
 
 
 def _projects(kernel) -> bool:
@@ -83,5 +105,5 @@ def _projects(kernel) -> bool:
     return c is not None and c.m_h > 0
 
 
-__all__ = ["EXAMPLE", "Example", "example_settings", "render_example", "N_OUT", "RTOL", "ATOL",
-           "RK4_STEPS"]
+__all__ = ["EXAMPLE", "Example", "build_command", "example_settings", "render_example", "N_OUT",
+           "RTOL", "ATOL", "RK4_STEPS"]

@@ -23,9 +23,12 @@ Variables (all ``Real``; value references in this order)::
 Co-simulation steps with the scene's adaptive method (``rosenbrock`` when it
 asks for it, else ``dopri5``: :func:`~mbgen.codegen.targets.step.adaptive_method`) through
 the step API: ``rtol`` is the
-experiment's tolerance (``fmi2SetupExperiment``; default the scene's
-``DefaultExperiment``, 1e-6), ``atol = 1e-3 rtol``; inputs are held constant
-over a communication step.  Model exchange exposes the RHS to the importer's
+experiment's tolerance (``fmi2SetupExperiment``; default the ``DefaultExperiment``'s,
+:data:`mbgen.integrators.DEFAULT_RTOL`), ``atol = DEFAULT_ATOL * rtol / DEFAULT_RTOL``
+(1e-6 and 1e-9 at the default); inputs are held constant over a communication step.
+The inputs come from the importer (causality input, start 0): a table of inputs is
+the importer's to feed (FMPy: ``simulate_fmu(..., input=...)``), and ``mbgen fmu``
+refuses ``-r`` with that fix.  Model exchange exposes the RHS to the importer's
 integrator (no events, except for configuration constraints, below).
 
 The FMI 2.0 state machine (the standard's section 2.1 and its model-exchange and
@@ -70,6 +73,7 @@ import hashlib
 from ..._version import __version__
 from ...abi import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES, Output
 from ...errors import ModelError
+from ...integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from ..escape import xml_attr
 from ..templating import environment
 from .base import Target
@@ -221,7 +225,7 @@ def fmu_files(scene, kernel, rendered) -> dict[str, str]:
     t0, t1 = (float(v) for v in scene.t_span)
     ctx = dict(version=__version__, prefix=prefix, upper=prefix.upper(), guid="GUID",
                model_name=xml_attr(scene.name), description=xml_attr(scene.description),
-               sources=sources, start_time=_c(t0), stop_time=_c(t1), tolerance="1e-06",
+               sources=sources, start_time=_c(t0), stop_time=_c(t1), tolerance=_c(DEFAULT_RTOL),
                variables=variables, structure=structure)
     description = env.get_template(xml_t).render(ctx)
     guid = _guid(rendered.digest() + description)
@@ -238,7 +242,8 @@ def fmu_files(scene, kernel, rendered) -> dict[str, str]:
     glue = env.get_template(glue_t).render(dict(
         version=__version__, prefix=prefix, upper=prefix.upper(), guid=guid, method=method,
         n_x=n_x, n_p=n_p, n_r=n_r, vr=vr, outputs=outputs, x0=[_c(v) for v in x0],
-        p0=[_c(v) for v in p0], rtol="1e-06", codes=codes, project_tol=_c(PROJECT_TOL),
+        p0=[_c(v) for v in p0], rtol=_c(DEFAULT_RTOL), atol=_c(DEFAULT_ATOL), codes=codes,
+        project_tol=_c(PROJECT_TOL),
         rhs_args="".join(f", c->{a}" for a in infos[Output.RHS].args[2:]),
         step_args="".join(f", m->{a}" for a, n in (("p", n_p), ("r", n_r)) if n),
         project=project, states=FMI2_STATES, allowed=FMI2_ALLOWED,
