@@ -16,7 +16,6 @@ what draws the plot; it never stops with a traceback after the sweep.
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -29,28 +28,13 @@ from ..studies.workprecision import (BACKENDS, C_METHODS, DEFAULT_RTOLS, DEFAULT
                                      REFERENCE_BUDGET_FACTOR, REFERENCE_BUDGET_MIN_S,
                                      SOLVE_IVP_METHODS, work_precision)
 from ..viz.plots import EXTRA, require_matplotlib
-from ._common import (add_number_arguments, check_count, check_folder, nonnegative_float,
-                      options, progress, with_numbers)
+from ._common import (OldSpelling, add_number_arguments, check_count, check_folder,
+                      nonnegative_float, note, options, progress, with_numbers)
 
 #: Most timed repeats per point (``--repeats``): a median of more says nothing new.
 MAX_REPEATS = 1000
 #: Link counts of ``bench scaling`` and ``bench arm`` unless ``--ns``.
 DEFAULT_NS = (2, 4, 8, 16, 32)
-
-_MODES = f"""\
-Benchmarks, one mode per WHAT:
-  mbgen bench SCENE           work-precision report of a scene (name or .py file): error
-                              against run time of every integrator and back end;
-                              work_precision.csv and .png
-  mbgen bench SCENE --stages  every pipeline stage's time and peak memory, each under
-                              --budget
-  mbgen bench scaling         n-link pendulum on a cart, mbgen vs sympy; scaling.csv, .png
-  mbgen bench arm             spatial arm, mbgen vs sympy vs Pinocchio; arm_scaling.csv, .png
-  mbgen bench constraints     Whipple bicycle and four-bar; constraints.txt and .json
-
-The plots need matplotlib: pip install 'mbgen[{EXTRA}]'.  Without it the CSV is
-written, and a note says so before the sweep starts.  The options below are grouped
-by the modes they apply to."""
 
 
 def _numbers(kind: type, what: str) -> Callable[[str], tuple]:
@@ -65,84 +49,86 @@ def _numbers(kind: type, what: str) -> Callable[[str], tuple]:
     return parse
 
 
-class _OldSpelling(argparse.Action):
-    """An option's old spelling: it still works, and says the new one on stderr."""
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        new = "--" + self.dest.replace("_", "-")
-        print(f"mbgen: note: {option_string} is now {new} (the old spelling still works)",
-              file=sys.stderr)
-        setattr(namespace, self.dest, values)
-
-
 def configure(p: argparse.ArgumentParser) -> None:
-    p.formatter_class = argparse.RawDescriptionHelpFormatter
-    p.description = _MODES
+    p.description = ("WHAT chooses the benchmark: a scene, 'scaling', 'arm' or "
+                     "'constraints'; each mode is a group of options below, with what it "
+                     "measures and the files it writes.  The plots need matplotlib (pip "
+                     f"install 'mbgen[{EXTRA}]'); without it the CSV is written, and a note "
+                     "says so before the sweep starts.")
     p.add_argument("what", metavar="WHAT",
                    help="a scene (name or .py file), 'scaling', 'arm' or 'constraints'")
-    every = p.add_argument_group("shared (each says the modes it applies to)")
-    every.add_argument("-o", "--output", metavar="DIR",
-                       help="every mode but --stages: folder of the files written (default "
-                            "bench/WHAT, e.g. bench/disc_pendulum or bench/scaling)")
-    every.add_argument("--repeats", type=int, default=None, metavar="N",
-                       help="every mode but --stages: timed repeats per point, medians "
-                            "reported (default 3; arm and constraints: 7; at most 1000)")
-    every.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
-                       help="SCENE, SCENE --stages: scene option, e.g. -O stiffness=1e6 "
-                            "(repeatable; default: the scene's)")
+    shared = p.add_argument_group("every mode but SCENE --stages")
+    shared.add_argument("-o", "--output", metavar="DIR",
+                        help="folder of the files written (default: bench/WHAT, e.g. "
+                             "bench/disc_pendulum or bench/scaling)")
+    shared.add_argument("--repeats", type=int, default=None, metavar="N",
+                        help="timed repeats per point, medians reported (default: 3; arm "
+                             "and constraints: 7; at most 1000)")
 
-    scene = p.add_argument_group("SCENE (work-precision)")
+    scene = p.add_argument_group(
+        "mbgen bench SCENE", "Work-precision report of a scene: error against run time of "
+                             "every integrator and back end (work_precision.csv and .png).")
+    scene.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
+                       help="scene option, e.g. -O stiffness=1e6 (repeatable; --stages too; "
+                            "default: the scene's)")
     add_number_arguments(scene, inputs=False)
     scene.add_argument("--rtols", type=_numbers(float, "numbers"), default=DEFAULT_RTOLS,
-                       metavar="LIST", help="relative tolerances (default "
+                       metavar="LIST", help="relative tolerances (default: "
                                             f"{','.join(f'{r:g}' for r in DEFAULT_RTOLS)})")
     scene.add_argument("--integrators", metavar="LIST",
                        help=f"integrators, of {','.join(SOLVE_IVP_METHODS + C_METHODS)} "
-                            f"(default all; --methods, the old spelling, still works)")
-    scene.add_argument("--methods", dest="integrators", action=_OldSpelling,
-                       help=argparse.SUPPRESS)
+                            f"(default: all)")
+    scene.add_argument("--methods", dest="integrators", metavar="LIST", action=OldSpelling,
+                       new="--integrators", meaning="the integration methods",
+                       help="old spelling of --integrators (still accepted, with a note)")
     scene.add_argument("--backends", default=",".join(BACKENDS), metavar="LIST",
-                       help=f"RHS back ends for solve_ivp (default {','.join(BACKENDS)})")
+                       help="RHS back ends for solve_ivp")
     scene.add_argument("--time-budget", type=nonnegative_float, default=DEFAULT_TIME_BUDGET_S,
                        metavar="S",
-                       help=f"seconds one solve may take (default {DEFAULT_TIME_BUDGET_S:g}); "
+                       help=f"seconds one solve may take (default: {DEFAULT_TIME_BUDGET_S:g}); "
                             f"a reference solve may take {REFERENCE_BUDGET_FACTOR:g} times "
                             f"it, at least {REFERENCE_BUDGET_MIN_S:g} s")
 
-    staged = p.add_argument_group("SCENE --stages")
+    staged = p.add_argument_group(
+        "mbgen bench SCENE --stages", "Every pipeline stage's time and peak memory, each "
+                                      "under --budget (printed, no files).")
     staged.add_argument("--stages", action="store_true",
                         help="time every pipeline stage of SCENE (derive, bake, CSE per "
-                             "output, render, compile), each under --budget, instead of the "
-                             "work-precision report (default: off)")
+                             "output, render, compile) instead of the work-precision report")
     staged.add_argument("--outputs", metavar="LIST",
                         help="the outputs to generate (default: the scene's)")
 
-    sizes = p.add_argument_group("scaling and arm")
+    sizes = p.add_argument_group(
+        "mbgen bench scaling", "n-link pendulum on a cart, mbgen vs sympy's KanesMethod "
+                               "(scaling.csv and .png); --ns is arm's too.")
     sizes.add_argument("--ns", type=_numbers(int, "whole numbers"), default=DEFAULT_NS,
                        metavar="LIST",
-                       help=f"link counts (default {','.join(map(str, DEFAULT_NS))})")
+                       help=f"link counts (default: {','.join(map(str, DEFAULT_NS))})")
     sizes.add_argument("--sympy-max-n", type=int, default=32, metavar="N",
-                       help="scaling: largest n run through sympy's KanesMethod (default 32)")
+                       help="largest n run through sympy's KanesMethod")
 
-    children = p.add_argument_group("arm, constraints and SCENE --stages (child processes)")
+    arm_only = p.add_argument_group(
+        "mbgen bench arm", "Spatial arm, mbgen vs sympy vs Pinocchio, the RHS timed inside "
+                           "C (arm_scaling.csv and .png).")
+    arm_only.add_argument("--no-pinocchio", action="store_true", help="leave Pinocchio out")
+    arm_only.add_argument("--no-cxx", action="store_true",
+                          help="time Pinocchio from Python only, no C++ loop")
+    arm_only.add_argument("--derivation", default="kane", metavar="METHOD",
+                          help="mbgen's derivation method")
+
+    children = p.add_argument_group(
+        "mbgen bench constraints", "Whipple bicycle and four-bar (constraints.txt and "
+                                   ".json).  Its child processes, arm's and --stages' run "
+                                   "under these limits.")
     children.add_argument("--budget", type=nonnegative_float, default=300.0, metavar="S",
-                          help="seconds mbgen may take for one n (arm; stops larger n), for "
-                               "one side (constraints) or for one stage (--stages) "
-                               "(default 300)")
+                          help="seconds mbgen may take for one side (constraints), one n "
+                               "(arm; stops larger n) or one stage (--stages)")
     children.add_argument("--sympy-budget", type=nonnegative_float, default=120.0,
                           metavar="S",
-                          help="arm, constraints: seconds sympy's KanesMethod may take "
-                               "(default 120; 0: leave sympy out)")
+                          help="constraints, arm: seconds sympy's KanesMethod may take (0: "
+                               "leave sympy out)")
     children.add_argument("--memory-gb", type=nonnegative_float, default=12.0, metavar="GB",
-                          help="address-space cap of each timed child process (default 12)")
-
-    arm_only = p.add_argument_group("arm")
-    arm_only.add_argument("--no-pinocchio", action="store_true",
-                          help="leave Pinocchio out (default: in)")
-    arm_only.add_argument("--no-cxx", action="store_true",
-                          help="time Pinocchio from Python only, no C++ loop (default: both)")
-    arm_only.add_argument("--derivation", default="kane", metavar="METHOD",
-                          help="mbgen's derivation method (default kane)")
+                          help="address-space cap of each timed child process")
 
 
 # ------------------------------------------------------------------ plots
@@ -151,8 +137,8 @@ def _can_plot() -> bool:
     try:
         require_matplotlib()
     except MissingExtraError:
-        print(f"mbgen: note: matplotlib is not installed: the CSV is written, the plot is "
-              f"not (pip install 'mbgen[{EXTRA}]' draws it)", file=sys.stderr, flush=True)
+        note(f"matplotlib is not installed: the CSV is written, the plot is not (pip install "
+             f"'mbgen[{EXTRA}]' draws it)")
         return False
     return True
 
