@@ -222,8 +222,9 @@ def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
     ----------
     budget_s, sympy_budget_s : float
         Wall-time budget of mbgen's and sympy's child process for one ``n``
-        (0 skips that side).  Once a side ran over its budget (or memory), larger
-        ``n`` are not tried for it.
+        (0 skips that side; ``math.inf`` sets none, as the tests do: their verdicts must
+        not depend on the machine's speed).  Once a side ran over its budget (or
+        memory), larger ``n`` are not tried for it.
     memory_gb : float
         Address-space cap of each child process.
     pinocchio, cxx : bool

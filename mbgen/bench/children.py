@@ -9,6 +9,7 @@ what arrived before the end, and :func:`status` says where a stopped or failed s
 from __future__ import annotations
 
 import json
+import math
 import os
 import resource
 import subprocess
@@ -31,7 +32,7 @@ def run_json_child(argv: Sequence[str], *, budget_s: float, memory_gb: float,
     """Run ``python argv...`` with its own compile cache; ``(results, rc, stderr lines)``.
 
     ``results`` merges every JSON line the child printed; ``rc`` is None when the
-    child was killed at ``budget_s`` seconds.
+    child was killed at ``budget_s`` seconds (``math.inf``: never).
     """
     with tempfile.TemporaryDirectory(prefix=prefix) as cache, \
             tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
@@ -43,7 +44,7 @@ def run_json_child(argv: Sequence[str], *, budget_s: float, memory_gb: float,
             proc.stdin.write(stdin)
             proc.stdin.close()
         try:
-            rc = proc.wait(timeout=budget_s)
+            rc = proc.wait(timeout=None if math.isinf(budget_s) else budget_s)
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()

@@ -6,7 +6,11 @@ and the four-bar, :mod:`mbgen.bench.constraints`), ``scaling`` (the n-link pendu
 mbgen vs sympy, :mod:`mbgen.bench.scaling`) -- or else it is a scene, whose
 work-precision report (:mod:`mbgen.studies.workprecision`) is written.  ``--stages``
 times each pipeline stage of WHAT as a scene instead (:mod:`mbgen.bench.stages`),
-where the row allows it.
+where the row allows it.  ``--help`` lists the options by the mode they belong to.
+
+The plots need matplotlib (``pip install 'mbgen[plot]'``).  Without it a mode that
+plots says so before it starts, writes its CSV and names the command that installs
+what draws the plot; it never stops with a traceback after the sweep.
 """
 
 from __future__ import annotations
@@ -17,64 +21,142 @@ from pathlib import Path
 from typing import Callable
 
 from ..bench import arm, constraints, scaling, stages
-from ..errors import EXIT_OK
+from ..errors import EXIT_OK, MissingExtraError
 from ..fileio import write_atomic
 from ..model.scene import load_scene
-from ..studies.workprecision import DEFAULT_RTOLS, work_precision
-from ._common import (add_number_arguments, check_count, check_folder, nonnegative_float,
-                      options, progress, with_numbers)
+from ..studies.workprecision import (BACKENDS, C_METHODS, DEFAULT_RTOLS, DEFAULT_TIME_BUDGET_S,
+                                     REFERENCE_BUDGET_FACTOR, REFERENCE_BUDGET_MIN_S,
+                                     SOLVE_IVP_METHODS, work_precision)
+from ..viz.plots import EXTRA, require_matplotlib
+from ._common import (OldSpelling, add_number_arguments, check_count, check_folder,
+                      nonnegative_float, note, options, progress, with_numbers)
 
 #: Most timed repeats per point (``--repeats``): a median of more says nothing new.
 MAX_REPEATS = 1000
+#: Link counts of ``bench scaling`` and ``bench arm`` unless ``--ns``.
+DEFAULT_NS = (2, 4, 8, 16, 32)
+
+
+def _numbers(kind: type, what: str) -> Callable[[str], tuple]:
+    """argparse type: a comma-separated list of ``kind`` (``1e-3,1e-6``; ``2,4,8``)."""
+    def parse(text: str) -> tuple:
+        try:
+            values = tuple(kind(v) for v in text.split(","))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of "
+                                             f"{what}") from None
+        return values
+    return parse
 
 
 def configure(p: argparse.ArgumentParser) -> None:
-    p.add_argument("what", metavar="SCENE|scaling|arm",
-                   help="a scene (name or .py file) for the work-precision report, 'scaling' "
-                        "or 'arm'")
-    p.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
-                   help="scene option, e.g. -O stiffness=1e6 (repeatable)")
-    p.add_argument("-o", "--output", metavar="DIR",
-                   help="folder for work_precision.csv and .png (default bench/SCENE); "
-                        "scaling: scaling.csv and .png (default bench/scaling)")
-    p.add_argument("--rtols", metavar="LIST", help="relative tolerances (default 1e-3,...,1e-10)")
-    p.add_argument("--methods", metavar="LIST",
-                   help="RK45,DOP853,Radau,BDF,LSODA,dopri5,rosenbrock,rk4 (default all)")
-    p.add_argument("--backends", default="lambdify,python,c", metavar="LIST",
-                   help="RHS back ends for solve_ivp (default lambdify,python,c)")
-    p.add_argument("--time-budget", type=nonnegative_float, default=10.0,
-                   help="seconds one solve may take (default 10)")
-    p.add_argument("--repeats", type=int, default=None,
-                   help="timed repeats per point; medians are reported (default 3; arm: 7)")
-    p.add_argument("--ns", default="2,4,8,16,32", help="scaling: link counts (default 2,4,8,16,32)")
-    p.add_argument("--sympy-max-n", type=int, default=32,
-                   help="scaling: largest n run through sympy's KanesMethod (default 32)")
-    p.add_argument("--stages", action="store_true",
-                   help="time every pipeline stage of SCENE (derive, bake, CSE per output, "
-                        "render, compile), each under --budget, instead of the work-precision "
-                        "report")
-    p.add_argument("--outputs", metavar="LIST", help="--stages: outputs (default: the scene's)")
-    p.add_argument("--budget", type=nonnegative_float, default=300.0,
-                   help="arm: seconds mbgen may take for one n (default 300; stops larger n); "
-                        "--stages: seconds one stage may take")
-    p.add_argument("--sympy-budget", type=nonnegative_float, default=120.0,
-                   help="arm: seconds sympy's KanesMethod may take for one n (default 120; 0: skip)")
-    p.add_argument("--memory-gb", type=nonnegative_float, default=12.0,
-                   help="arm, --stages: address-space cap of each timed child process "
-                        "(default 12)")
-    p.add_argument("--no-pinocchio", action="store_true", help="arm: leave Pinocchio out")
-    p.add_argument("--no-cxx", action="store_true",
-                   help="arm: time Pinocchio from Python only (no C++ loop)")
-    p.add_argument("--derivation", default="kane", metavar="METHOD",
-                   help="arm: mbgen's derivation method (default kane)")
-    add_number_arguments(p, inputs=False)
+    p.description = ("WHAT chooses the benchmark: a scene, 'scaling', 'arm' or "
+                     "'constraints'; each mode is a group of options below, with what it "
+                     "measures and the files it writes.  The plots need matplotlib (pip "
+                     f"install 'mbgen[{EXTRA}]'); without it the CSV is written, and a note "
+                     "says so before the sweep starts.")
+    p.add_argument("what", metavar="WHAT",
+                   help="a scene (name or .py file), 'scaling', 'arm' or 'constraints'")
+    shared = p.add_argument_group("every mode but SCENE --stages")
+    shared.add_argument("-o", "--output", metavar="DIR",
+                        help="folder of the files written (default: bench/WHAT, e.g. "
+                             "bench/disc_pendulum or bench/scaling)")
+    shared.add_argument("--repeats", type=int, default=None, metavar="N",
+                        help="timed repeats per point, medians reported (default: 3; arm "
+                             "and constraints: 7; at most 1000)")
+
+    scene = p.add_argument_group(
+        "mbgen bench SCENE", "Work-precision report of a scene: error against run time of "
+                             "every integrator and back end (work_precision.csv and .png).")
+    scene.add_argument("-O", "--option", action="append", metavar="KEY=VALUE",
+                       help="scene option, e.g. -O stiffness=1e6 (repeatable; --stages too; "
+                            "default: the scene's)")
+    add_number_arguments(scene, inputs=False)
+    scene.add_argument("--rtols", type=_numbers(float, "numbers"), default=DEFAULT_RTOLS,
+                       metavar="LIST", help="relative tolerances (default: "
+                                            f"{','.join(f'{r:g}' for r in DEFAULT_RTOLS)})")
+    scene.add_argument("--integrators", metavar="LIST",
+                       help=f"integrators, of {','.join(SOLVE_IVP_METHODS + C_METHODS)} "
+                            f"(default: all)")
+    scene.add_argument("--methods", dest="integrators", metavar="LIST", action=OldSpelling,
+                       new="--integrators", meaning="the integration methods",
+                       help="old spelling of --integrators (still accepted, with a note)")
+    scene.add_argument("--backends", default=",".join(BACKENDS), metavar="LIST",
+                       help="RHS back ends for solve_ivp")
+    scene.add_argument("--time-budget", type=nonnegative_float, default=DEFAULT_TIME_BUDGET_S,
+                       metavar="S",
+                       help=f"seconds one solve may take (default: {DEFAULT_TIME_BUDGET_S:g}); "
+                            f"a reference solve may take {REFERENCE_BUDGET_FACTOR:g} times "
+                            f"it, at least {REFERENCE_BUDGET_MIN_S:g} s")
+
+    staged = p.add_argument_group(
+        "mbgen bench SCENE --stages", "Every pipeline stage's time and peak memory, each "
+                                      "under --budget (printed, no files).")
+    staged.add_argument("--stages", action="store_true",
+                        help="time every pipeline stage of SCENE (derive, bake, CSE per "
+                             "output, render, compile) instead of the work-precision report")
+    staged.add_argument("--outputs", metavar="LIST",
+                        help="the outputs to generate (default: the scene's)")
+
+    sizes = p.add_argument_group(
+        "mbgen bench scaling", "n-link pendulum on a cart, mbgen vs sympy's KanesMethod "
+                               "(scaling.csv and .png); --ns is arm's too.")
+    sizes.add_argument("--ns", type=_numbers(int, "whole numbers"), default=DEFAULT_NS,
+                       metavar="LIST",
+                       help=f"link counts (default: {','.join(map(str, DEFAULT_NS))})")
+    sizes.add_argument("--sympy-max-n", type=int, default=32, metavar="N",
+                       help="largest n run through sympy's KanesMethod")
+
+    arm_only = p.add_argument_group(
+        "mbgen bench arm", "Spatial arm, mbgen vs sympy vs Pinocchio, the RHS timed inside "
+                           "C (arm_scaling.csv and .png).")
+    arm_only.add_argument("--no-pinocchio", action="store_true", help="leave Pinocchio out")
+    arm_only.add_argument("--no-cxx", action="store_true",
+                          help="time Pinocchio from Python only, no C++ loop")
+    arm_only.add_argument("--derivation", default="kane", metavar="METHOD",
+                          help="mbgen's derivation method")
+
+    children = p.add_argument_group(
+        "mbgen bench constraints", "Whipple bicycle and four-bar (constraints.txt and "
+                                   ".json).  Its child processes, arm's and --stages' run "
+                                   "under these limits.")
+    children.add_argument("--budget", type=nonnegative_float, default=300.0, metavar="S",
+                          help="seconds mbgen may take for one side (constraints), one n "
+                               "(arm; stops larger n) or one stage (--stages)")
+    children.add_argument("--sympy-budget", type=nonnegative_float, default=120.0,
+                          metavar="S",
+                          help="constraints, arm: seconds sympy's KanesMethod may take (0: "
+                               "leave sympy out)")
+    children.add_argument("--memory-gb", type=nonnegative_float, default=12.0, metavar="GB",
+                          help="address-space cap of each timed child process")
 
 
-# ------------------------------------------------------------------ the four modes
+# ------------------------------------------------------------------ plots
+def _can_plot() -> bool:
+    """Whether matplotlib imports; when not, say so now, before any sweep runs."""
+    try:
+        require_matplotlib()
+    except MissingExtraError:
+        note(f"matplotlib is not installed: the CSV is written, the plot is not (pip install "
+             f"'mbgen[{EXTRA}]' draws it)")
+        return False
+    return True
+
+
+def _wrote(csv_path: Path, png_path: Path | None) -> None:
+    """The closing line: the files written, and how to get the plot when it was not drawn."""
+    if png_path is not None:
+        print(f"\nwrote {csv_path} and {png_path}")
+    else:
+        print(f"\nwrote {csv_path}; no plot: matplotlib is not installed "
+              f"(pip install 'mbgen[{EXTRA}]', then run this again)")
+
+
+# ------------------------------------------------------------------ the modes
 def bench_arm(args) -> int:
     """``bench arm``: the spatial arm, mbgen vs sympy vs Pinocchio (``arm_scaling.csv``, .png)."""
-    ns = tuple(int(v) for v in args.ns.split(","))
-    rows = arm.arm_scaling(ns, repeats=args.repeats or 7, budget_s=args.budget,
+    plot = _can_plot()
+    rows = arm.arm_scaling(args.ns, repeats=args.repeats or 7, budget_s=args.budget,
                            sympy_budget_s=args.sympy_budget, memory_gb=args.memory_gb,
                            pinocchio=not args.no_pinocchio, cxx=not args.no_cxx,
                            method=args.derivation, progress=progress)
@@ -82,8 +164,7 @@ def bench_arm(args) -> int:
     folder = Path(args.output or Path("bench") / "arm")
     folder.mkdir(parents=True, exist_ok=True)
     csv_path = arm.write_csv(rows, folder / "arm_scaling.csv")
-    png_path = arm.plot(rows, folder / "arm_scaling.png")
-    print(f"\nwrote {csv_path} and {png_path}")
+    _wrote(csv_path, arm.plot(rows, folder / "arm_scaling.png") if plot else None)
     return EXIT_OK
 
 
@@ -105,14 +186,13 @@ def bench_constraints(args) -> int:
 def bench_scaling(args) -> int:
     """``bench scaling``: the n-link pendulum, mbgen vs sympy (``scaling.csv``, .png)."""
     repeats = 3 if args.repeats is None else args.repeats
-    ns = tuple(int(v) for v in args.ns.split(","))
-    rows = scaling.scaling(ns, sympy_max_n=args.sympy_max_n, repeats=repeats,
+    plot = _can_plot()
+    rows = scaling.scaling(args.ns, sympy_max_n=args.sympy_max_n, repeats=repeats,
                            progress=progress)
     print(scaling.format_scaling(rows))
     folder = Path(args.output or Path("bench") / "scaling")
     csv_path = scaling.write_scaling_csv(rows, folder / "scaling.csv")
-    png_path = scaling.plot_scaling(rows, folder / "scaling.png")
-    print(f"\nwrote {csv_path} and {png_path}")
+    _wrote(csv_path, scaling.plot_scaling(rows, folder / "scaling.png") if plot else None)
     return EXIT_OK
 
 
@@ -122,10 +202,10 @@ def bench_work_precision(args) -> int:
     if args.output:
         check_folder(args.output, "-o")
     scene = with_numbers(load_scene(args.what, **options(args.option)), args)
-    rtols = tuple(float(v) for v in args.rtols.split(",")) if args.rtols else DEFAULT_RTOLS
+    plot = _can_plot()
     report = work_precision(
-        scene, rtols=rtols, repeats=repeats,
-        methods=args.methods.split(",") if args.methods else None,
+        scene, rtols=args.rtols, repeats=repeats,
+        methods=args.integrators.split(",") if args.integrators else None,
         backends=tuple(args.backends.split(",")), time_budget=args.time_budget, progress=True)
     print(report.table())
     print()
@@ -133,8 +213,7 @@ def bench_work_precision(args) -> int:
     folder = Path(args.output or Path("bench") / scene.name)
     folder.mkdir(parents=True, exist_ok=True)
     csv_path = report.write_csv(folder / "work_precision.csv")
-    png_path = report.plot(folder / "work_precision.png")
-    print(f"\nwrote {csv_path} and {png_path}")
+    _wrote(csv_path, report.plot(folder / "work_precision.png") if plot else None)
     return EXIT_OK
 
 

@@ -1,11 +1,14 @@
-"""Per-stage timing with a budget per stage (nothing timed is asserted)."""
+"""Per-stage timing with a budget per stage (nothing timed is asserted, and no stage that
+must finish runs under a wall-clock budget)."""
+
+import math
 
 from mbgen.bench.stages import format_stages, stage_times
 
 
 def test_every_stage_of_a_small_scene_finishes():
     messages = []
-    rows = stage_times("disc_pendulum", outputs=("rhs", "jacobian"), budget_s=120,
+    rows = stage_times("disc_pendulum", outputs=("rhs", "jacobian"), budget_s=math.inf,
                        progress=messages.append)
     assert [r.stage for r in rows] == ["derive", "bake", "cse[rhs]", "cse[jacobian]", "cse[all]",
                                        "render", "compile"]

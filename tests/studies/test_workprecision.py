@@ -1,15 +1,19 @@
 """Work-precision benchmark: errors fall with the tolerance, outputs complete, failures recorded.
 
-No timing assertions: the machine is small and shared.
+No timing assertions: the machine is small and shared.  A run whose points must all
+succeed has no time budget (``time_budget=math.inf``), so a loaded machine cannot stop one.
 """
 
 import csv
 import io
+import math
+import sys
 
 import numpy as np
 import pytest
 
 from mbgen import IntegrationError, load_scene
+from mbgen.errors import MissingExtraError
 from mbgen.run.compiled import CompiledModel
 from mbgen.studies.workprecision import (CSV_COLUMNS, DEFAULT_RTOLS, Config, configurations,
                                          rk4_steps, typical_magnitude, work_precision)
@@ -28,7 +32,8 @@ def messages():
 @pytest.fixture(scope="module")
 def report(messages):
     return work_precision("disc_pendulum", rtols=RTOLS, methods=METHODS,
-                          backends=("python", "c"), repeats=1, progress=messages.append)
+                          backends=("python", "c"), repeats=1, time_budget=math.inf,
+                          progress=messages.append)
 
 
 def test_configurations():
@@ -141,7 +146,7 @@ def test_table_and_summary(report):
 
 def test_closed_form_reference_for_bead_wire():
     report = work_precision("bead_wire", rtols=(1e-4, 1e-7), methods=("RK45", "dopri5"),
-                            backends=("c",), repeats=1)
+                            backends=("c",), repeats=1, time_budget=math.inf)
     scene = load_scene("bead_wire")
     ref = report.reference
     assert ref.source == "closed form" and ref.check == "" and ref.disagreement == 0
@@ -171,7 +176,7 @@ def test_integrator_errors_are_recorded(monkeypatch):
 
     monkeypatch.setattr(CompiledModel, "integrate", failing)
     report = work_precision("bead_wire", rtols=(1e-4, 1e-7), methods=("RK45", "dopri5"),
-                            backends=("c",), repeats=1)
+                            backends=("c",), repeats=1, time_budget=math.inf)
     dopri5 = report.curve(Config("dopri5", "c"))
     assert [p.status for p in dopri5] == ["failed", "failed"]  # a failure skips nothing
     assert dopri5[0].message == "IntegrationError: step size too small"
@@ -181,7 +186,7 @@ def test_integrator_errors_are_recorded(monkeypatch):
 
 
 def test_bad_arguments():
-    with pytest.raises(ValueError, match="unknown method"):
+    with pytest.raises(ValueError, match="unknown integrator"):
         work_precision("bead_wire", methods=("RK23",))
     with pytest.raises(ValueError, match="backends"):
         work_precision("bead_wire", backends=("fortran",))
@@ -199,3 +204,12 @@ def test_full_default_run_on_disc_pendulum(tmp_path):
     assert report.fastest(1e-8) is not None
     report.write_csv(tmp_path / "wp.csv")
     report.plot(tmp_path / "wp.png")
+
+
+def test_plot_without_matplotlib_names_the_extra(report, tmp_path, monkeypatch):
+    """Was ``ModuleNotFoundError: matplotlib.transforms`` (a traceback in ``mbgen bench``)."""
+    for name in [m for m in sys.modules if m.split(".")[0] == "matplotlib"] + ["matplotlib"]:
+        monkeypatch.setitem(sys.modules, name, None)       # as on a core install
+    with pytest.raises(MissingExtraError, match=r"pip install 'mbgen\[plot\]'"):
+        report.plot(tmp_path / "wp.png")
+    assert not (tmp_path / "wp.png").exists()

@@ -1,5 +1,7 @@
 """The numerical stress suite (mbgen.verify.stress) and the two stiff scenes it was built around."""
 
+import csv
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -7,10 +9,12 @@ import pytest
 
 import mbgen
 from mbgen import SingularMassMatrixError
+from mbgen.cli import main
+from mbgen.errors import EXIT_CHECK
 from mbgen.model.scene import load_scene
-from mbgen.verify.stress import (SINGULAR_PATHS, HighPrecision, PointResult, Reference,
-                                 StressReport, check_point, classify_parameters, judge_point,
-                                 make_context, stress)
+from mbgen.verify.stress import (SINGULAR_PATHS, SIZES, Case, HighPrecision, PointResult,
+                                 Reference, StressReport, check_point, classify_parameters,
+                                 judge_point, make_context, stress)
 
 CI_SCENES = ["stiff_chain", "spring_pendulum", "torque_free", "spherical_rod", "bead_wire"]
 EXPECTED_KINDS = {
@@ -20,14 +24,26 @@ EXPECTED_KINDS = {
     "spherical_rod": {"fp", "extreme", "singular", "long_run"},
     "bead_wire": {"fp", "extreme", "singular", "long_run"},
 }
-_REPORTS: dict[str, StressReport] = {}
+_REPORTS: dict[str, tuple[StressReport, list[str]]] = {}
+
+
+def ci_run(name: str) -> tuple[StressReport, list[str]]:
+    """The CI-size report of a built-in scene and its progress lines, computed once per
+    test session."""
+    if name not in _REPORTS:
+        lines = []
+        _REPORTS[name] = stress(name, size="ci", progress=lines.append), lines
+    return _REPORTS[name]
 
 
 def ci_report(name: str) -> StressReport:
-    """The CI-size report of a built-in scene, computed once per test session."""
-    if name not in _REPORTS:
-        _REPORTS[name] = stress(name, size="ci")
-    return _REPORTS[name]
+    return ci_run(name)[0]
+
+
+def counters(lines) -> list[tuple[int, int]]:
+    """The ``[i/n]`` of each progress line that has one (``mbgen stress`` prefixes ``  .. ``)."""
+    return [(int(m[1]), int(m[2])) for m in (re.search(r"\[(\d+)/(\d+)\] ", s) for s in lines)
+            if m]
 
 
 # ----------------------------------------------------------------------------- whole suite
@@ -40,6 +56,19 @@ def test_ci_suite_passes_with_the_expected_case_kinds(name):
     assert text.splitlines()[1].split() == ["case", "figure", "bound", "verdict"]
     assert max(len(line) for line in text.splitlines()) <= 120
     assert text.endswith("PASSED") and len(text.splitlines()) >= len(report.cases) + 4
+    header = report.to_csv().splitlines()[0].split(",")
+    assert len(header) == len(set(header)), header    # was: "seconds" twice
+
+
+@pytest.mark.parametrize("name", CI_SCENES)
+def test_progress_counts_the_cases_of_the_report(name):
+    """Was ``[22/22]`` at the end of a report of 35 cases (it counted the case list's
+    entries, several of which make more than one case)."""
+    report, lines = ci_run(name)
+    n = len(report.cases)
+    assert [i for i, _ in counters(lines)] == list(range(1, n + 1))
+    assert counters(lines)[-1] == (n, n)
+    assert all(total <= n for _, total in counters(lines))
 
 
 def test_singular_paths_are_approached_and_hit():
@@ -77,9 +106,43 @@ def test_stiff_chain_explicit_needs_far_more_steps_than_radau_with_the_jacobian(
 
 def test_explicit_budget_is_a_named_reason_not_a_crash():
     rk45, = ci_report("stiff_chain").find("stiff", "k=1e8 RK45")
-    assert rk45.ok and rk45.data["budget"] == 1.0
+    assert rk45.ok and rk45.stopped == "RK45: 20000 steps" and rk45.verdict == "ok, budget"
     assert rk45.reason.startswith("budget: ") and "reached at t=" in rk45.reason
     assert rk45.data["t_reached"] < 2.5
+
+
+def test_a_run_stopped_at_the_suite_budget_is_a_harness_failure_not_a_model_failure(
+        monkeypatch, tmp_path, capsys):
+    """Issue 19.4: Radau stopped by the suite's 5 s budget on a loaded machine, and
+    ``mbgen stress`` said ``FAILED: 2 model failure(s)`` (the verdict read the reason's
+    text).  The budget now counts evaluations (the same case stops at the same place on
+    any machine) and the case says the failure is the budget's."""
+    monkeypatch.setitem(SIZES, "ci", replace(SIZES["ci"], eval_budget=2000))
+    assert main(["stress", "spherical_rod", "-o", str(tmp_path / "r.csv")]) == EXIT_CHECK
+    captured = capsys.readouterr()
+    verdict = " ".join(captured.out.split("FAILED:")[1].split())
+    assert "model failure(s)" not in verdict
+    assert re.match(r"\d+ harness budget failure\(s\) \(a run stopped at the suite's step "
+                    r"or evaluation budget: not a model failure\): extreme: m x1e-6 sim", verdict)
+    rows = list(csv.DictReader((tmp_path / "r.csv").open()))
+    stopped = [r for r in rows if r["ok"] == "False"]
+    assert stopped and all(r["failure"] == "budget" for r in stopped)
+    assert all(r["stopped"] == "Radau: 2000 evaluations" for r in stopped)
+    # the progress counter ends at the report's case count
+    n = int(re.search(r"\): (\d+) cases", captured.out)[1])
+    assert counters(captured.err.splitlines())[-1] == (n, n) == (len(rows), len(rows))
+    # deterministic: the same cases stop at the same place again
+    again = stress("spherical_rod", size="ci")
+    assert [(c.name, c.figure, c.stopped) for c in again.failures] == \
+        [(r["name"], r["figure"], r["stopped"]) for r in stopped]
+
+
+def test_case_data_cannot_shadow_a_report_column_and_causes_are_named():
+    with pytest.raises(ValueError, match="report columns"):
+        Case("stiff", "x", "fig", "bound", True, "ok", {"seconds": 1.0})
+    with pytest.raises(ValueError, match="cause must be"):
+        Case("stiff", "x", "fig", "bound", False, "why", cause="time")
+    assert Case("stiff", "x", "fig", "bound", True, "ok", cause="budget").failure is None
 
 
 def test_implicit_methods_succeed_at_every_stiffness():
@@ -174,6 +237,7 @@ def test_progress_and_scene_objects():
     report = stress(load_scene("torque_free"), size="ci", progress=lines.append)
     assert report.ok and lines[0].startswith("stress torque_free")
     assert len(lines) >= len({(c.kind, c.name.split(" C ")[0]) for c in report.cases}) // 2
+    assert len(lines) == len(report.cases) + 1
     with pytest.raises(ValueError):
         stress("torque_free", size="huge")
 

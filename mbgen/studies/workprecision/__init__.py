@@ -56,6 +56,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
+from ...errors import UsageError
 from ...model.scene import Scene, load_scene
 from ...run.simulate import consistent_start
 from ..ensemble import MAX_POINTS
@@ -103,6 +104,8 @@ def work_precision(scene: Scene | str, *, rtols: Sequence[float] = DEFAULT_RTOLS
         are skipped.  The pilot and each reference solve may take
         ``REFERENCE_BUDGET_FACTOR`` (5) times as long, and at least
         ``REFERENCE_BUDGET_MIN_S`` (60 s) (:mod:`mbgen.studies.workprecision.reference`).
+        ``math.inf`` stops nothing (what a test whose points must all succeed uses: its
+        verdict then does not depend on the machine's speed).
     progress : bool or callable, optional
         True: a tqdm bar on stderr; a callable gets one line of text per
         point (and per set-up stage).
@@ -160,21 +163,23 @@ def work_precision(scene: Scene | str, *, rtols: Sequence[float] = DEFAULT_RTOLS
 
 
 def _validate(methods, backends, rtols, repeats, t_eval_points, time_budget, atol_scale) -> None:
+    """Refuse a mistaken argument before any work (:class:`~mbgen.errors.UsageError`, a
+    ``ValueError``; ``mbgen bench`` prints it as one line, exit 2)."""
     unknown = set(methods) - set(SOLVE_IVP_METHODS + C_METHODS)
     if unknown:
-        raise ValueError(f"unknown method(s) {sorted(unknown)}; choose from "
+        raise UsageError(f"unknown integrator(s) {sorted(unknown)}; choose from "
                          f"{', '.join(SOLVE_IVP_METHODS + C_METHODS)}")
     if set(backends) - set(BACKENDS) or not backends:
-        raise ValueError(f"backends must be some of {', '.join(BACKENDS)}; got {list(backends)}")
+        raise UsageError(f"backends must be some of {', '.join(BACKENDS)}; got {list(backends)}")
     if not rtols or not all(0 < r < 1 for r in rtols):
-        raise ValueError(f"rtols must be numbers in (0, 1); got {list(rtols)}")
+        raise UsageError(f"rtols must be numbers in (0, 1); got {list(rtols)}")
     if repeats < 1 or t_eval_points < 2 or not time_budget > 0:
-        raise ValueError("need repeats >= 1, t_eval_points >= 2 and time_budget > 0")
+        raise UsageError("need repeats >= 1, t_eval_points >= 2 and time_budget > 0")
     if t_eval_points > MAX_POINTS:
-        raise ValueError(f"t_eval_points={t_eval_points:,} is more than {MAX_POINTS:,}; ask for "
+        raise UsageError(f"t_eval_points={t_eval_points:,} is more than {MAX_POINTS:,}; ask for "
                          f"fewer")
     if atol_scale is not None and not atol_scale > 0:
-        raise ValueError(f"atol_scale must be positive; got {atol_scale!r}")
+        raise UsageError(f"atol_scale must be positive; got {atol_scale!r}")
 
 
 def _reporter(progress) -> Callable[[str], None]:
@@ -188,5 +193,6 @@ def _reporter(progress) -> Callable[[str], None]:
 
 __all__ = ["work_precision", "WorkPrecisionReport", "Point", "Config", "TrueSolution",
            "configurations", "rk4_steps", "typical_magnitude", "DEFAULT_RTOLS",
+           "DEFAULT_TIME_BUDGET_S", "REFERENCE_BUDGET_FACTOR", "REFERENCE_BUDGET_MIN_S",
            "SOLVE_IVP_METHODS", "IMPLICIT_METHODS", "C_METHODS", "BACKENDS", "ATOL_RATIO",
            "ERROR_LEVELS", "CSV_COLUMNS"]

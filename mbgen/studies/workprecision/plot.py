@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ...viz.plots import figure, save_png
+from ...viz.plots import figure, require_matplotlib, save_png
 from .points import C_METHODS, FAILED, IMPLICIT_METHODS, OVER_BUDGET, SKIPPED, SOLVE_IVP_METHODS
 
 #: Panels: (title, methods).
@@ -69,7 +69,13 @@ def plot_report(report, path) -> Path:
     -------
     Path
         ``path``.
+
+    Raises
+    ------
+    MissingExtraError
+        matplotlib is not installed (the message names ``pip install 'mbgen[plot]'``).
     """
+    require_matplotlib()
     from matplotlib.transforms import blended_transform_factory
 
     families = [(title, methods) for title, methods in FAMILIES

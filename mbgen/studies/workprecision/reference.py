@@ -220,10 +220,12 @@ def _numerical_reference(b: Backends, t_eval, x0, atol_scale: float,
 
 def _c_solve(b: Backends, method: str, t_eval, x0, rtol: float, atol: float,
              budget_s: float) -> np.ndarray:
-    """States on ``t_eval`` from a generated C integrator, its step limit set by the budget."""
+    """States on ``t_eval`` from a generated C integrator, its step limit set by the budget
+    (at least one step; ``budget_s = inf``: the integrator's own limit)."""
+    max_steps = 0 if math.isinf(budget_s) else max(1, int(C_STEPS_PER_BUDGET_S * budget_s))
     try:
         run = b.compiled.integrate(method, t_eval, x0, b.p, rtol=rtol, atol=atol,
-                                   max_steps=int(C_STEPS_PER_BUDGET_S * budget_s))
+                                   max_steps=max_steps)
     except IntegrationError as exc:
         status = OVER_BUDGET if exc.status == 4 else FAILED   # 4: MAX_STEPS
         raise Failed(status, str(exc)) from None
@@ -232,7 +234,13 @@ def _c_solve(b: Backends, method: str, t_eval, x0, rtol: float, atol: float,
 
 def make_reference(scene: Scene, b: Backends, t_eval, x0, atol_scale, say, *,
                    stiff: bool = False, budget_s: float = 50.0, bar: bool = False) -> TrueSolution:
-    """The scene's closed form when it has one, else :func:`_numerical_reference`."""
+    """The scene's closed form when it has one, else :func:`_numerical_reference`.
+
+    ``budget_s`` is the seconds each reference solve may take (a C integrator's step
+    limit is :data:`C_STEPS_PER_BUDGET_S` per second); ``math.inf`` sets no limit (the C
+    integrators keep their own step limit) and ``0`` stops every solve at its first call,
+    so neither depends on how fast the machine is.
+    """
     if scene.closed_form is not None:
         x = np.asarray(scene.closed_form(t_eval, x0, b.p), dtype=float)
         return TrueSolution(np.asarray(t_eval), x, "closed form")

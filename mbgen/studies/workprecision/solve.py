@@ -51,7 +51,7 @@ class _Meter:
 
         def wrapped(t, x):
             start = clock()
-            if start > self.deadline:
+            if start >= self.deadline:    # a budget of 0 s stops at the first call
                 raise _OverBudget
             if on_time is not None:
                 on_time(t)

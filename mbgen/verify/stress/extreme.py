@@ -1,15 +1,18 @@
 """Extreme cases: masses, lengths, gravity and speeds scaled far from the nominal point,
 and non-physical masses (:func:`extreme_variations`; which parameters, by name,
 :func:`classify_parameters`).  Each point is checked against the 50-digit reference
-and, when admissible, simulated briefly.
+(:func:`extreme_case`) and then, as its own case, simulated briefly when admissible
+(:func:`admits_simulation`, :func:`short_simulation`) or started in a C integrator
+where ``M`` is not positive definite (:func:`c_not_positive_definite`).
 
 Short simulations
 -----------------
 Over ``min(T, 10 tau)`` (``tau`` the fastest time scale at the start,
 :func:`time_scale`), Radau with the Jacobian must succeed; DOP853 must agree
 within ``1e-5 max(1, |x|)`` or stop at its budget; energy drift ``<= 1e-6`` for
-conservative scenes (both at ``rtol = 1e-8``).  Where ``M`` is not positive
-definite, C dopri5 must stop with status ``NOT_POSITIVE_DEFINITE``.
+conservative scenes (both at ``rtol = 1e-8``).  Radau stopped at its step or evaluation
+budget is a harness budget failure (cause ``budget``), never a model failure.  Where
+``M`` is not positive definite, C dopri5 must stop with status ``NOT_POSITIVE_DEFINITE``.
 """
 
 from __future__ import annotations
@@ -25,8 +28,8 @@ import numpy as np
 from ...abi import Output
 from .context import Context
 from .long_runs import DRIFT_BOUND
-from .precision import check_point, try_call
-from .report import Case, fmt_g, fmt_sci
+from .precision import check_point, numerically_singular, try_call
+from .report import BUDGET, Case, fmt_g, fmt_sci
 from .runs import STATUS_NOT_POSITIVE_DEFINITE, c_run, energy_series, scipy_run
 
 #: Factors the mass-like parameters are also scaled by (non-physical).
@@ -97,7 +100,19 @@ def time_scale(model, t, x, p) -> float:
     return float(min(scales)) if scales else math.inf
 
 
-def _short_simulation(ctx: Context, v: Variation) -> Case:
+def admits_simulation(evaluation: Case) -> bool:
+    """Whether a point whose evaluation is ``evaluation`` is simulated: it met its bound with a
+    finite error and ``M`` is not numerically singular there."""
+    return (evaluation.ok and np.isfinite(evaluation.data["rel_err"])
+            and not numerically_singular(evaluation.data["cond"]))
+
+
+def not_positive_definite(evaluation: Case) -> bool:
+    """Whether the 50-digit ``M`` of an evaluated point is not positive definite."""
+    return evaluation.data.get("positive_definite") == 0.0
+
+
+def short_simulation(ctx: Context, v: Variation) -> Case:
     """Radau+jac (must succeed) and DOP853 (agree or budget) over ten fast time scales."""
     start = time.perf_counter()
     model, sz = ctx.model, ctx.size
@@ -109,9 +124,9 @@ def _short_simulation(ctx: Context, v: Variation) -> Case:
     atol = 1e-12 * max(1.0, float(np.abs(v.x).max()))
     f, jac = model.bind(p), model.bind(p, output=Output.JACOBIAN)
     rad = scipy_run("Radau", f, jac, span, v.x, rtol=SIM_RTOL, atol=atol,
-                    max_steps=10 * sz.step_budget, wall_budget=sz.wall_budget)
+                    max_steps=10 * sz.step_budget, max_evals=sz.eval_budget)
     dop = scipy_run("DOP853", f, None, span, v.x, rtol=SIM_RTOL, atol=atol,
-                    max_steps=sz.step_budget, wall_budget=sz.wall_budget, record=False)
+                    max_steps=sz.step_budget, max_evals=sz.eval_budget, record=False)
     data = {"horizon": horizon, "radau_steps": rad.steps, "dop853_steps": dop.steps}
     fig = f"horizon {fmt_g(horizon)} s: Radau {rad.steps} steps, DOP853 {dop.steps} steps"
     conservative = ctx.scene.conserves_energy and Output.ENERGY in model.outputs
@@ -126,13 +141,18 @@ def _short_simulation(ctx: Context, v: Variation) -> Case:
                     bound + "; or a named singular configuration", True,
                     "reached a singular configuration: SingularConstraintError", data,
                     time.perf_counter() - start)
+    if rad.status == "budget":
+        return Case("extreme", name, fig, bound, False,
+                    f"Radau stopped at its budget ({rad.message}) at t = {fmt_g(rad.t_reached)}",
+                    data, time.perf_counter() - start, stopped=f"Radau: {rad.message}",
+                    cause=BUDGET)
     if rad.status != "done":
         return Case("extreme", name, fig, bound, False, f"Radau {rad.status}: {rad.message}",
                     data, time.perf_counter() - start)
     if not np.all(np.isfinite(rad.x)):
         return Case("extreme", name, fig, bound, False, "non-finite states", data,
                     time.perf_counter() - start)
-    reasons, ok = [], True
+    reasons, ok, stopped = [], True, ""
     scale = max(1.0, float(np.abs(rad.x).max()))
     if dop.status == "done":
         d = float(np.abs(dop.final - rad.final).max()) / scale
@@ -143,6 +163,7 @@ def _short_simulation(ctx: Context, v: Variation) -> Case:
             reasons.append(f"DOP853 differs by {fmt_g(d)}")
     elif dop.status == "budget":
         reasons.append(f"DOP853 budget ({dop.message})")
+        stopped = f"DOP853: {dop.message}"
     else:
         ok = False
         reasons.append(f"DOP853 failed: {dop.message}")
@@ -155,28 +176,23 @@ def _short_simulation(ctx: Context, v: Variation) -> Case:
             ok = False
             reasons.append(f"energy drift {fmt_g(drift)}")
     return Case("extreme", name, fig, bound, ok, "; ".join(reasons) or "within bound", data,
-                time.perf_counter() - start)
+                time.perf_counter() - start, stopped=stopped)
 
 
-def extreme_case(ctx: Context, v: Variation) -> list[Case]:
-    """Evaluate at an extreme point (vs 50 digits), then simulate briefly when admissible."""
-    case = check_point(ctx.model, ctx.hp, ctx.t0, v.x, ctx.p_of(v.values), v.values,
+def extreme_case(ctx: Context, v: Variation) -> Case:
+    """Evaluate at an extreme point (vs 50 digits); what follows is decided from this case
+    (:func:`admits_simulation`, :func:`not_positive_definite`)."""
+    return check_point(ctx.model, ctx.hp, ctx.t0, v.x, ctx.p_of(v.values), v.values,
                        kind="extreme", name=v.name)
-    cases = [case]
-    if case.data.get("positive_definite") == 0.0:
-        cases.append(c_not_positive_definite(ctx, v))
-    if case.ok and np.isfinite(case.data["rel_err"]) and not case.reason.startswith("numerically"):
-        cases.append(_short_simulation(ctx, v))
-    return cases
 
 
-def c_not_positive_definite(ctx: Context, v: Variation) -> Case:
+def c_not_positive_definite(ctx: Context, v: Variation, kind: str = "extreme") -> Case:
     """A C integrator started where M is not positive definite must stop with that status."""
     start = time.perf_counter()
     r = c_run(ctx.model, "dopri5", [ctx.t0, ctx.t0 + 1e-3], v.x, ctx.p_of(v.values),
               rtol=1e-6, atol=1e-9, max_steps=1000)
     ok = r.status == "failed" and r.message.startswith(f"status {STATUS_NOT_POSITIVE_DEFINITE} ")
-    return Case("extreme", f"{v.name} C dopri5",
+    return Case(kind, f"{v.name} C dopri5",
                 r.message or r.status, "stops with status NOT_POSITIVE_DEFINITE", ok,
                 "not positive definite: C status" if ok else f"got {r.status}: {r.message}",
                 {}, time.perf_counter() - start)

@@ -208,6 +208,12 @@ def evaluate_point(model, hp: HighPrecision, t: float, x, p, values: Mapping[str
 POINT_BOUND = "err <= C eps (cond(M)|f| + s) + 30 e_formula"
 
 
+def numerically_singular(cond: float, safety: float = FP_SAFETY) -> bool:
+    """Whether ``C eps cond(M) >= 1``: both a finite result and a singular-matrix error are
+    then accepted (see the module)."""
+    return safety * EPS * cond >= 1.0
+
+
 def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, str, str]:
     """``(ok, figure, bound, reason)`` of a point check (rules in the module docstring)."""
     ref = pr.reference
@@ -222,7 +228,7 @@ def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, 
         if pr.error:
             return False, fig, want, f"reported as {pr.error}, not as a singular mass matrix"
         return False, fig, want, "a result was returned for a singular mass matrix"
-    numerically_singular = safety * EPS * ref.cond >= 1.0
+    singular = numerically_singular(ref.cond, safety)
     if ref.f is None:
         fig = f"reference f {ref.problem}, cond(M) {fmt_g(ref.cond)}"
         want = "reported as an mbgen error"
@@ -231,7 +237,7 @@ def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, 
         return False, fig, want, "a finite result where the reference is not finite"
     if pr.f is None:
         fig = f"cond(M) {fmt_g(ref.cond)}"
-        if numerically_singular and pr.error in ("SingularMassMatrixError",
+        if singular and pr.error in ("SingularMassMatrixError",
                                                  "SingularConstraintError"):
             return True, fig, "finite, or a singular-matrix error when C eps cond(M) >= 1", \
                 f"numerically singular: {pr.error}"
@@ -242,7 +248,7 @@ def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, 
         return False, fig, bound, f"spurious {pr.error} (reference is finite)"
     fig = f"rel err {fmt_g(pr.rel_err)} <= {fmt_g(pr.rel_allowed)}, cond(M) {fmt_g(ref.cond)}"
     if pr.abs_err <= pr.allowed:
-        if numerically_singular:
+        if singular:
             reason = "numerically singular; finite result"
         elif pr.formula_limited:
             reason = (f"formula-limited: formula loses "

@@ -4,16 +4,22 @@ the number formatting the cells share."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
-from ... import errors
-from ...errors import MbgenError
+from ...errors import UsageError
 from ...fileio import write_atomic
 
 #: Width of :meth:`StressReport.format`.
 LINE_WIDTH = 120
+
+
+#: Why a case failed (:attr:`Case.cause`): the model or the generated code missed the
+#: bound; a run stopped at the suite's step or evaluation budget before the bound could
+#: be judged; or the suite itself could not run the case.
+MODEL, BUDGET, HARNESS = "model", "budget", "harness"
 
 
 @dataclass(frozen=True)
@@ -33,12 +39,19 @@ class Case:
     ok : bool
         Whether it met the bound.
     reason : str
-        Why (the named outcome: ``"within bound"``, ``"budget: ..."``,
-        ``"not positive definite: SingularMassMatrixError"``, ...).
+        Why, in words (``"within bound"``, ``"budget: ..."``,
+        ``"not positive definite: SingularMassMatrixError"``, ...); never parsed.
     data : mapping str -> float
-        The measured numbers (steps, errors, condition numbers, ...).
+        The measured numbers (steps, errors, condition numbers, ...); their names are
+        not those of :attr:`StressReport.FIELDS` (the CSV has one column per name).
     seconds : float
-        Wall time of the case.
+        Wall time of the case (reported, never judged).
+    stopped : str
+        The budget a run of the case stopped at, e.g. ``"RK45: 20000 steps"``; empty
+        when every run finished.  An explicit method may stop (the case is then ok).
+    cause : str
+        Who a failure is on: :data:`MODEL` (the default), :data:`BUDGET` or
+        :data:`HARNESS`; set by the case that judged it, read only when not ok.
     """
 
     kind: str
@@ -49,27 +62,29 @@ class Case:
     reason: str
     data: Mapping[str, float] = field(default_factory=dict)
     seconds: float = 0.0
+    stopped: str = ""
+    cause: str = MODEL
+
+    def __post_init__(self):
+        if self.cause not in (MODEL, BUDGET, HARNESS):
+            raise ValueError(f"cause must be {MODEL!r}, {BUDGET!r} or {HARNESS!r}, "
+                             f"got {self.cause!r}")
+        clash = sorted(set(self.data) & set(StressReport.FIELDS))
+        if clash:
+            raise ValueError(f"case {self.name!r}: data names {clash} are report columns")
 
     @property
     def failure(self) -> str | None:
-        """None when ok; else ``"budget"`` (the suite's step or time budget ran out where the
-        bound asks for completion), ``"harness"`` (the case crashed with an exception that is
-        not an mbgen error) or ``"model"`` (the model or generated code did not meet the
-        bound)."""
-        if self.ok:
-            return None
-        if self.reason.startswith("budget") or self.data.get("budget") == 1.0:
-            return "budget"
-        if self.figure == "crashed":
-            name = self.reason.split(":", 1)[0]
-            return "model" if isinstance(getattr(errors, name, None), type) else "harness"
-        return "model"
+        """None when ok; else :attr:`cause`: ``"budget"`` (the suite's step or evaluation
+        budget ran out where the bound asks for completion), ``"harness"`` (the suite
+        could not run the case) or ``"model"`` (the model or generated code did not meet
+        the bound)."""
+        return None if self.ok else self.cause
 
     @property
     def verdict(self) -> str:
         if self.ok:
-            stopped = self.reason.startswith("budget") or self.data.get("budget") == 1.0
-            return "ok, budget" if stopped else "ok"
+            return "ok, budget" if self.stopped else "ok"
         return f"FAIL {self.failure}"
 
 
@@ -118,11 +133,11 @@ class StressReport:
 
         Each case is a row ``case | figure | bound | verdict`` (cells wrapped
         onto more lines where long) and an indented ``reason:`` line.  The
-        verdict says ``ok``, ``ok (stopped at budget)`` (an explicit method
-        that was allowed to stop), ``FAIL model`` or ``FAIL budget`` (the
-        suite's step or time budget ran out where the bound asks for
-        completion: raise the budget or look at the cost, not a wrong result)
-        or ``FAIL harness`` (the suite itself crashed).
+        verdict says ``ok``, ``ok, budget`` (an explicit method that was
+        allowed to stop at its budget), ``FAIL model``, ``FAIL budget`` (the
+        suite's step or evaluation budget ran out where the bound asks for
+        completion: a harness limit, not a wrong result -- raise the budget or
+        look at the cost) or ``FAIL harness`` (the suite itself crashed).
         """
         import textwrap
 
@@ -170,7 +185,9 @@ class StressReport:
             return "PASSED"
         parts = []
         for kind, what in (("model", "model failure(s)"),
-                           ("budget", "harness budget failure(s) (raise the budget)"),
+                           ("budget", "harness budget failure(s) (a run stopped at the "
+                                      "suite's step or evaluation budget: not a model "
+                                      "failure)"),
                            ("harness", "harness crash(es)")):
             cases = [c for c in self.failures if c.failure == kind]
             if cases:
@@ -179,13 +196,15 @@ class StressReport:
         return "FAILED: " + "; ".join(parts)
 
     # ------------------------------------------------------------ files
-    FIELDS = ("kind", "name", "figure", "bound", "ok", "failure", "reason", "seconds")
+    FIELDS = ("kind", "name", "figure", "bound", "ok", "failure", "reason", "seconds",
+              "stopped")
 
     def records(self) -> list[dict]:
         """One dict per case: the :attr:`FIELDS` and the measured ``data``."""
         return [{"kind": c.kind, "name": c.name, "figure": c.figure, "bound": c.bound,
                  "ok": c.ok, "failure": c.failure or "", "reason": c.reason,
-                 "seconds": c.seconds, "data": {k: float(v) for k, v in c.data.items()}}
+                 "seconds": c.seconds, "stopped": c.stopped,
+                 "data": {k: float(v) for k, v in c.data.items()}}
                 for c in self.cases]
 
     def to_json(self) -> str:
@@ -205,7 +224,8 @@ class StressReport:
         return json.dumps(doc, indent=1) + "\n"
 
     def to_csv(self) -> str:
-        """One row per case: :attr:`FIELDS`, then one column per measured quantity."""
+        """One row per case: :attr:`FIELDS`, then one column per measured quantity (each
+        name once: a case's data never reuses a field's name)."""
         import csv
         import io
 
@@ -218,17 +238,22 @@ class StressReport:
                        [repr(r["data"][k]) if k in r["data"] else "" for k in keys])
         return buf.getvalue()
 
-    def write(self, path) -> "Path":
+    def write(self, path) -> Path:
         """Write :meth:`to_csv` (``.csv``) or :meth:`to_json` (``.json``) atomically."""
-        from pathlib import Path
-
-        path = Path(path)
-        suffix = path.suffix.lower()
-        if suffix not in (".csv", ".json"):
-            raise MbgenError(f"stress report {str(path)!r}: use a file name ending in .csv "
-                             f"or .json")
-        write_atomic(path, self.to_csv() if suffix == ".csv" else self.to_json())
+        path = report_path(path)
+        write_atomic(path, self.to_csv() if path.suffix.lower() == ".csv" else self.to_json())
         return path
+
+
+def report_path(path) -> Path:
+    """``path`` as a :class:`~pathlib.Path` when it names a report file :meth:`StressReport.write`
+    can write (``.csv`` or ``.json``); else a :class:`~mbgen.errors.UsageError` naming them,
+    which ``mbgen stress -o`` raises before the suite runs."""
+    path = Path(path)
+    if path.suffix.lower() not in (".csv", ".json"):
+        raise UsageError(f"stress report {str(path)!r}: use a file name ending in .csv or "
+                         f".json")
+    return path
 
 
 def _shares(natural: list[int], least: list[int], room: int) -> list[int]:

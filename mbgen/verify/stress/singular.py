@@ -1,8 +1,10 @@
 """Singular cases: the known singular configurations of the built-in scenes
 (:data:`SINGULAR_PATHS`) approached with offsets ``delta -> 0`` and hit
-(:func:`singular_case`), and a scan of every coordinate over ``x0 +- pi`` for the
-largest ``cond(M)`` (:func:`scan_case`).  Every point is judged by the
-floating-point bound (:mod:`mbgen.verify.stress.precision`).
+(:func:`singular_case`; where ``M`` is not positive definite, a C integrator started
+there follows as its own case), and a scan of every coordinate over ``x0 +- pi`` for the
+largest ``cond(M)`` (:func:`scan_case`, followed by the check of its worst point,
+:func:`scan_worst_case`).  Every point is judged by the floating-point bound
+(:mod:`mbgen.verify.stress.precision`).
 """
 
 from __future__ import annotations
@@ -82,24 +84,34 @@ SINGULAR_PATHS: dict[str, tuple[SingularPath, ...]] = {
 }
 
 
-def singular_case(ctx: Context, path: SingularPath, delta: float) -> list[Case]:
-    """Evaluate at ``delta`` from a singular configuration (vs 50 digits)."""
+def singular_point(ctx: Context, path: SingularPath, delta: float) -> Variation:
+    """The state at ``delta`` from a singular configuration, the nominal parameters."""
     x_named = dict(zip(ctx.model.state_names, ctx.x0.tolist()))
     x_named.update(path.state(x_named, ctx.values, delta))
     x = np.array([x_named[n] for n in ctx.model.state_names])
-    v = Variation(f"{path.name} d={fmt_sci(delta)}", dict(ctx.values), x)
-    case = check_point(ctx.model, ctx.hp, ctx.t0, x, ctx.p0, ctx.values, kind="singular",
+    return Variation(f"{path.name} d={fmt_sci(delta)}", dict(ctx.values), x)
+
+
+def singular_case(ctx: Context, path: SingularPath, delta: float) -> Case:
+    """Evaluate at ``delta`` from a singular configuration (vs 50 digits)."""
+    v = singular_point(ctx, path, delta)
+    case = check_point(ctx.model, ctx.hp, ctx.t0, v.x, ctx.p0, ctx.values, kind="singular",
                        name=v.name)
     if np.isfinite(case.data["fnorm"]):  # how large q', u' grow near the singularity
         case = replace(case, figure=f"|f| {fmt_g(case.data['fnorm'])}; " + case.figure)
-    cases = [case]
-    if case.data.get("positive_definite") == 0.0:
-        cases.append(replace(c_not_positive_definite(ctx, v), kind="singular"))
-    return cases
+    return case
 
 
-def scan_case(ctx: Context, index: int) -> list[Case]:
-    """Scan one coordinate over ``x0 +- pi``: every point finite or a named error; worst cond(M)."""
+def singular_c_case(ctx: Context, path: SingularPath, delta: float) -> Case:
+    """A C integrator started at ``delta`` from a singular configuration where ``M`` is not
+    positive definite must stop with that status."""
+    return c_not_positive_definite(ctx, singular_point(ctx, path, delta), kind="singular")
+
+
+def scan_case(ctx: Context, index: int) -> Case:
+    """Scan one coordinate over ``x0 +- pi``: every point finite or a named error; worst
+    cond(M), whose coordinate value is ``data["worst_at"]`` (absent when no ``M`` was
+    found)."""
     start = time.perf_counter()
     model, p = ctx.model, ctx.p0
     name = model.state_names[index]
@@ -124,10 +136,17 @@ def scan_case(ctx: Context, index: int) -> list[Case]:
     if errors:
         fig += "; errors: " + ", ".join(f"{k} at {n} points" for k, n in errors.items())
     bound = "finite or a named mbgen error"
-    cases = [Case("singular", f"scan {name} ({len(grid)} pts)", fig, bound, not unexpected,
-                  unexpected[0] if unexpected else "no NaN, no unnamed error",
-                  {"max_cond": worst}, time.perf_counter() - start)]
+    data = {"max_cond": worst}
     if worst_x is not None:
-        cases.append(check_point(model, ctx.hp, ctx.t0, worst_x, p, ctx.values, kind="singular",
-                                 name=f"scan {name} worst point"))
-    return cases
+        data["worst_at"] = float(worst_x[index])
+    return Case("singular", f"scan {name} ({len(grid)} pts)", fig, bound, not unexpected,
+                unexpected[0] if unexpected else "no NaN, no unnamed error", data,
+                time.perf_counter() - start)
+
+
+def scan_worst_case(ctx: Context, index: int, worst_at: float) -> Case:
+    """The worst point of a scan (coordinate ``index`` at ``worst_at``) vs 50 digits."""
+    x = ctx.x0.copy()
+    x[index] = worst_at
+    return check_point(ctx.model, ctx.hp, ctx.t0, x, ctx.p0, ctx.values, kind="singular",
+                       name=f"scan {ctx.model.state_names[index]} worst point")

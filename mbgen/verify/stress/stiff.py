@@ -7,7 +7,9 @@ Bounds
 Radau and BDF with the compiled Jacobian (and C rosenbrock) must succeed,
 and every method that finished must agree with Radau on the final state within
 ``1e3 rtol`` (relative to ``max(1, |x|)``); explicit methods must finish or stop at
-the step/time budget (reason ``budget``); the explicit/implicit step ratio at the
+the step or evaluation budget (reason ``budget``); an implicit method stopped at its
+budget, or a comparison left without the Radau run it needs, is a harness budget
+failure (cause ``budget``), never a model failure; the explicit/implicit step ratio at the
 largest stiffness must be at least 10 and not below the ratio at the smallest.
 The compiled right-hand side is also checked against the 50-digit reference at
 the start of each stiff run (:func:`stiff_fp_case`).
@@ -25,7 +27,7 @@ from ...integrators import METHODS
 from ...model.scene import Scene, load_scene
 from .context import Context
 from .precision import check_point
-from .report import Case, fmt_g, fmt_sci
+from .report import BUDGET, MODEL, Case, fmt_g, fmt_sci
 from .runs import Run, c_run, run_figure, scipy_run
 
 #: Tolerances of the stiff runs.
@@ -76,7 +78,7 @@ def _stiff_runs(ctx: Context, k: float) -> dict[str, Run]:
         implicit = method in WITH_JACOBIAN
         runs[method] = scipy_run(method, f, jac, span, x0, rtol=STIFF_RTOL, atol=STIFF_ATOL,
                                  max_steps=10 * sz.step_budget if implicit else sz.step_budget,
-                                 wall_budget=sz.wall_budget, record=False)
+                                 max_evals=sz.eval_budget, record=False)
     for method in C_METHODS:
         runs[f"C {method}"] = c_run(model, method, list(span), x0, p, rtol=STIFF_RTOL,
                                     atol=STIFF_ATOL, max_steps=10 * sz.step_budget)
@@ -84,15 +86,15 @@ def _stiff_runs(ctx: Context, k: float) -> dict[str, Run]:
     return runs
 
 
-def stiff_case(ctx: Context, k: float, method: str) -> list[Case]:
+def stiff_case(ctx: Context, k: float, method: str) -> Case:
     """One integrator at stiffness ``k``: cost, and agreement with Radau."""
     runs = _stiff_runs(ctx, k)
     r, ref = runs[method], runs["Radau"]
     name = f"k={fmt_sci(k)} {method}" + (" +jac" if method in WITH_JACOBIAN else "")
     implicit = method not in IMPLICIT
     tol = 1e3 * STIFF_RTOL
-    data = {"steps": r.steps, "nfev": r.nfev, "njev": r.njev, "nlu": r.nlu, "seconds": r.seconds,
-            "t_reached": r.t_reached, "budget": float(r.status == "budget")}
+    data = {"steps": r.steps, "nfev": r.nfev, "njev": r.njev, "nlu": r.nlu,
+            "t_reached": r.t_reached}
     fig = run_figure(r)
     if not implicit:
         base = runs[IMPLICIT[method]]
@@ -104,14 +106,17 @@ def stiff_case(ctx: Context, k: float, method: str) -> list[Case]:
         bound = f"succeeds; |x_T - x_T(Radau)| <= {tol:g} max(1,|x|)"
     else:
         bound = f"succeeds (agrees to {tol:g}) or stops at budget"
+    stopped, cause = (f"{method}: {r.message}" if r.status == "budget" else ""), MODEL
     if r.status == "failed":
         ok, reason = False, f"failed: {r.message}"
     elif r.status == "budget":
-        ok = not implicit
+        ok, cause = not implicit, BUDGET
         reason = (f"budget: {r.message} reached at t={r.t_reached:.3g} of "
                   f"{ref.t_reached if ref.status == 'done' else float('nan'):.3g}")
     elif ref.status == "budget":
-        ok, reason = False, f"budget: no Radau reference (Radau stopped at its {ref.message} budget)"
+        ok, cause = False, BUDGET
+        stopped = f"Radau: {ref.message}"
+        reason = f"budget: no Radau reference (Radau stopped at its {ref.message} budget)"
     elif ref.status != "done":
         ok, reason = False, "no Radau reference"
     else:
@@ -122,18 +127,19 @@ def stiff_case(ctx: Context, k: float, method: str) -> list[Case]:
         if method == "Radau":
             reason = "succeeded"
     # the runs of one stiffness are shared (cached): a row's time is its own run's
-    return [Case("stiff", name, fig, bound, ok, reason, data, r.seconds)]
+    return Case("stiff", name, fig, bound, ok, reason, data, r.seconds, stopped=stopped,
+                cause=cause)
 
 
-def stiff_fp_case(ctx: Context, k: float) -> list[Case]:
+def stiff_fp_case(ctx: Context, k: float) -> Case:
     """The compiled RHS vs 50 digits at the start of the stiff run at stiffness ``k``."""
     scn = _stiff_scene(ctx, k)
     values = {**ctx.values, **{n: float(v) for n, v in scn.parameters.items()}}
-    return [check_point(ctx.model, ctx.hp, float(scn.t_span[0]), scn.x0(ctx.model.layout),
-                        ctx.p_of(values), values, name=f"k={fmt_sci(k)} start")]
+    return check_point(ctx.model, ctx.hp, float(scn.t_span[0]), scn.x0(ctx.model.layout),
+                       ctx.p_of(values), values, name=f"k={fmt_sci(k)} start")
 
 
-def stiff_scaling_case(ctx: Context, method: str) -> list[Case]:
+def stiff_scaling_case(ctx: Context, method: str) -> Case:
     """Explicit/implicit step ratio across the stiffnesses: it must grow to >= 10."""
     start = time.perf_counter()
     ks = ctx.size.stiffness
@@ -146,6 +152,6 @@ def stiff_scaling_case(ctx: Context, method: str) -> list[Case]:
     ok = ratios[-1] >= RATIO_BOUND and ratios[-1] >= ratios[0]
     reason = "explicit cost grows with stiffness" if ok else \
         f"ratio {ratios[-1]:.3g} at the largest stiffness"
-    return [Case("stiff", f"{method}/{IMPLICIT[method]} steps", fig, bound, ok, reason,
-                 {"ratio_min_k": ratios[0], "ratio_max_k": ratios[-1]},
-                 time.perf_counter() - start)]
+    return Case("stiff", f"{method}/{IMPLICIT[method]} steps", fig, bound, ok, reason,
+                {"ratio_min_k": ratios[0], "ratio_max_k": ratios[-1]},
+                time.perf_counter() - start)
