@@ -38,7 +38,8 @@ parent's code unless it sets its own.
 6 (:data:`EXIT_INCONCLUSIVE`)
     check inconclusive: :class:`CheckInconclusive` (nothing was compared: every
     sample failed in every back end; or the differences lie within the reference's
-    own rounding).
+    own rounding); ``mbgen stress`` when its only failures are the harness's (a run
+    stopped at the suite's budget), which say nothing about the model.
 
 :class:`StiffnessWarning` is a warning, not an error: it never ends a command.
 

@@ -1,5 +1,7 @@
 """``mbgen stress SCENE``: the stability suite -- stiff, extreme, near-singular, long
-runs, floating point against 50-digit mpmath; exit 1 when a case fails.
+runs, floating point against 50-digit mpmath; exit 1 when a case of the model fails, 6
+(inconclusive) when the only failures are the harness's (a run stopped at the suite's
+budget, or the suite itself crashed): nothing was learned about the model there.
 
 The progress lines on stderr count the cases (``[i/n]``, ``n`` growing as cases decide
 follow-ups); the verdict line counts model failures apart from harness budget failures
@@ -10,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..errors import EXIT_CHECK, EXIT_OK
+from ..errors import EXIT_CHECK, EXIT_INCONCLUSIVE, EXIT_OK
 from ..verify.stress import report_path, stress
 from ._common import add_scene_arguments, check_file, progress, scene_from
 
@@ -34,4 +36,7 @@ def run(args) -> int:
     print(report.format())
     if written is not None:
         print(f"wrote {written}")
-    return EXIT_OK if report.ok else EXIT_CHECK
+    if report.ok:
+        return EXIT_OK
+    model = any(c.failure == "model" for c in report.failures)
+    return EXIT_CHECK if model else EXIT_INCONCLUSIVE
