@@ -8,6 +8,16 @@
 ``bake`` is the scene's slice: fixed parameters become numbers and absent
 inputs zero (:mod:`mbgen.codegen.slicing`); ``optimize`` keeps only the requested
 outputs and the parameters they read (:mod:`mbgen.codegen.optimize`).
+
+Which derivation: a method named by ``method=`` or the scene is used; otherwise
+:func:`mbgen.derive.choose_method` decides from the model's joint tree where it
+can (Newton–Euler for long chains of joints, without deriving Kane), and where
+it leaves the choice open :func:`run` derives, bakes and optimises both and
+keeps the one whose generated code has fewer operations (:func:`operations`;
+a tie goes to Kane; the process remembers the outcome, so that regenerating the same
+equations derives only the method kept).  Either way ``Equations.method_reason`` says why, and the
+generated header, ``mbgen generate --explain`` and the notebook summaries show
+it.
 """
 
 from __future__ import annotations
@@ -17,7 +27,7 @@ from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, Mapping, Sequence
 
 from .build.extension import compiled_path, load
-from .derive import Method, derive
+from .derive import NAMED, Method, choose_method, derive, method_of
 from .symbolic.equations import Equations
 from .errors import ModelError
 from .model.builder import Model
@@ -28,6 +38,7 @@ from .codegen.render import render
 from .run.compiled import CompiledModel
 from .model.scene import Scene, source_label
 from .codegen.slicing import bake
+from .codegen.solver import solve_ops
 
 
 @dataclass(frozen=True)
@@ -61,22 +72,103 @@ def equations_of(source: Model | Equations | Scene, method: Method | None = None
     A scene's parameter values become the equations' defaults and its name and
     file the equations' source line.  ``energy``: derive energies too;
     ``points``: names of points whose position and velocity to carry (``None``:
-    the scene's points, else none).
+    the scene's points, else none).  ``method``: the derivation (default: the
+    scene's, else :func:`mbgen.derive.derive`'s default, which compares no
+    operation counts: :func:`run` does).
     """
     if isinstance(source, Scene):
         eq = equations_of(source.model, method or source.method, energy=energy,
                           points=source.points if points is None else points,
                           reactions=reactions)
+        if method is None and source.method is not None and eq.method_reason == NAMED:
+            eq = replace(eq, method_reason=SCENE_NAMED)
         src = source_label(source)  # the file's name, never the path as typed
         return replace(eq, defaults={**eq.defaults, **{k: float(v) for k, v in
                                                           source.parameters.items()}},
                        source=src)
     if isinstance(source, Model):
-        return derive(source, method or Method.KANE, energy=energy, points=tuple(points or ()),
+        return derive(source, method, energy=energy, points=tuple(points or ()),
                       reactions=reactions)
     if isinstance(source, Equations):
         return source
     raise ModelError(f"expected a Model, Equations or Scene, got {type(source).__name__}")
+
+
+#: ``Equations.method_reason`` of a method named by the scene (or ``--derivation``).
+SCENE_NAMED = "named by the scene"
+
+
+def operations(kernel: Kernel) -> int:
+    """Operations of a kernel's generated code: after CSE, plus one L D L^T solve of ``M``
+    where ``u'`` is solved (``optimize`` weighs the recursion against the solve the same
+    way).  The default derivation keeps the method for which this is smaller."""
+    solves = any(f.spec.solve for f in kernel.functions)
+    return kernel.ops_after + (solve_ops(kernel.layout.n_u, kernel.mass_pattern) if solves
+                               else 0)
+
+
+@dataclass(frozen=True)
+class _Trial:
+    """One derivation through the optimiser: equations, their scene slice, the kernel."""
+
+    equations: Equations
+    baked: Equations
+    kernel: Kernel
+
+    def because(self, reason: str) -> "_Trial":
+        """The same, with ``reason`` as every stage's ``Equations.method_reason``."""
+        return _Trial(replace(self.equations, method_reason=reason),
+                      replace(self.baked, method_reason=reason),
+                      replace(self.kernel, equations=replace(self.kernel.equations,
+                                                             method_reason=reason)))
+
+
+#: The comparisons this process made: content of the Newton-Euler equations (baked) and
+#: the optimiser's settings -> (method, reason).  Regenerating a model (a test suite, a
+#: sweep) then derives only the method kept.  At most ``_REMEMBERED`` entries, oldest out.
+_CHOSEN: dict[tuple, tuple[Method, str]] = {}
+_REMEMBERED = 256
+
+
+def _compared(derived, optimized, settings: tuple) -> _Trial:
+    """The cheaper of Kane and Newton-Euler by :func:`operations`; a tie goes to Kane.
+
+    ``derived(method) -> (equations, baked)`` and ``optimized(equations, baked) -> _Trial``
+    are :func:`run`'s stages; ``settings`` the outputs, CSE back end and form.
+    """
+    try:
+        newton_euler = derived(Method.NEWTON_EULER)
+    except ModelError as exc:   # Newton-Euler does not apply; Kane says so if nothing does
+        return optimized(*derived(Method.KANE)).because(
+            f"chosen: Newton-Euler does not apply ({str(exc).splitlines()[0]})")
+    key = (_content(newton_euler[1]), settings)
+    if key in _CHOSEN:
+        method, reason = _CHOSEN[key]
+        kept = newton_euler if method is Method.NEWTON_EULER else derived(Method.KANE)
+        return optimized(*kept).because(reason)
+    kane = optimized(*derived(Method.KANE))
+    ne = optimized(*newton_euler)
+    a, b = operations(kane.kernel), operations(ne.kernel)
+    if b < a:
+        method, reason = Method.NEWTON_EULER, (f"chosen: {b} operations with the L D L^T "
+                                               f"solve, against Kane's {a}")
+    elif a < b:
+        method, reason = Method.KANE, (f"chosen: {a} operations with the L D L^T solve, "
+                                       f"against Newton-Euler's {b}")
+    else:
+        method, reason = Method.KANE, (f"chosen: {a} operations with the L D L^T solve, as "
+                                       f"many as Newton-Euler's; a tie goes to Kane")
+    if len(_CHOSEN) >= _REMEMBERED:
+        del _CHOSEN[next(iter(_CHOSEN))]
+    _CHOSEN[key] = method, reason
+    return (ne if method is Method.NEWTON_EULER else kane).because(reason)
+
+
+def _content(eq: Equations) -> int:
+    """A hash of everything in ``eq`` that the generated code depends on."""
+    return hash((eq.layout, eq.mass_matrix, eq.forcing, eq.kinematics, eq.program.assignments,
+                 eq.accelerations, eq.kinetic_energy, eq.potential_energy, eq.points,
+                 eq.reactions, eq.constraints))
 
 
 def _outputs(source, outputs) -> tuple[Output, ...]:
@@ -119,7 +211,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
     targets : mbgen.codegen.targets.Targets, optional
         What to render besides the outputs (the step API; default: the scene's).
     method : Method, optional
-        Derivation method (default: the scene's, else ``Method.KANE``).
+        Derivation method (default: the scene's, else the cheaper for this model
+        and these outputs: see the module docstring).
     form : Form, optional
         How ``u'`` is computed (default: chosen by operation count; see
         :func:`mbgen.codegen.optimize.optimize`).
@@ -131,33 +224,53 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
     scene = source if isinstance(source, Scene) else None
     timings: dict[str, float] = {}
 
-    def timed(name, fn, *args, **kw):
+    def timed(label, fn, *args, **kw):
         if stage is not None:
-            stage(name)
+            stage(label)
         t0 = time.perf_counter()
         value = fn(*args, **kw)
-        timings[name] = time.perf_counter() - t0
+        timings[label] = timings.get(label, 0.0) + time.perf_counter() - t0
         return value
 
     wants_points = bool({Output.POSITIONS, Output.VELOCITIES} & set(outs))
     points = None if not wants_points or (scene and scene.points) else _all_points(source)
-    equations = timed("derive", equations_of, source, method,
-                      reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
-                      points=points)
-    if parameters:
-        equations = replace(equations, defaults={**equations.defaults,
-                                                 **{k: float(v) for k, v in parameters.items()}})
-    name = name or (scene.prefix if scene and scene.prefix else None)
-    if name:
-        equations = replace(equations, name=name)
     if fixed is None and sliced and scene:
         fixed = scene.fixed
     if inputs is None and sliced and scene:
         inputs = scene.inputs
     if targets is None and scene:
         targets = scene.targets
-    baked = timed("bake", bake, equations, fixed, inputs)
-    kernel = timed("cse", optimize, baked, outs, cse_backend, form)
+    name = name or (scene.prefix if scene and scene.prefix else None)
+
+    def derived(how: Method | None, reason: str = "") -> tuple[Equations, Equations]:
+        """Derive with ``how`` (None: the source's own) for ``reason``, and bake."""
+        equations = timed("derive", equations_of, source, how,
+                          reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
+                          points=points)
+        if reason:
+            equations = replace(equations, method_reason=reason)
+        if parameters:
+            equations = replace(equations, defaults={**equations.defaults,
+                                                     **{k: float(v) for k, v in
+                                                        parameters.items()}})
+        if name:
+            equations = replace(equations, name=name)
+        return equations, timed("bake", bake, equations, fixed, inputs)
+
+    def optimized(equations: Equations, baked: Equations) -> _Trial:
+        return _Trial(equations, baked, timed("cse", optimize, baked, outs, cse_backend, form))
+
+    model = source.model if scene else source
+    named = method_of(method) if method is not None else None
+    if named is not None or not isinstance(model, Model) or scene and scene.method is not None:
+        trial = optimized(*derived(named))
+    else:
+        choice = timed("derive", choose_method, model)
+        if choice.method is not None:
+            trial = optimized(*derived(choice.method, choice.reason))
+        else:
+            trial = _compared(derived, optimized, (outs, CseBackend(cse_backend), form))
+    equations, baked, kernel = trial.equations, trial.baked, trial.kernel
     rendered = timed("render", render, kernel, targets)
     compiled, cached = None, False
     if build:
@@ -192,7 +305,9 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
     name : str, optional
         C prefix, so that two slices of one model can live in one C program.
     method : Method, optional
-        ``Method.KANE`` or ``Method.NEWTON_EULER`` (default: the scene's, else Kane).
+        ``Method.KANE`` or ``Method.NEWTON_EULER`` (default: the scene's, else the
+        one whose generated code has fewer operations, Newton–Euler for long
+        chains of joints without trying Kane; see :mod:`mbgen.pipeline`).
     form : Form, optional
         ``Form.SOLVE`` or ``Form.RECURSIVE`` (default: fewer operations wins).
     targets : mbgen.codegen.targets.Targets, optional

@@ -2,7 +2,8 @@
 
 Model:      bead_wire
 Source:     scene 'bead_wire' (mbgen/scenes/bead_wire.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 4 operations with the L D L^T solve, against Newton-Euler's 25)
+CSE:        symengine
 Operations: 3 after CSE (3 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as bead_wire.h:

@@ -2,7 +2,8 @@
 
 Model:      bead_wire_force
 Source:     scene 'bead_wire_force' (mbgen/scenes/bead_wire_force.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 21 operations with the L D L^T solve, against Newton-Euler's 69)
+CSE:        symengine
 Operations: 20 after CSE (24 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as bead_wire_force.h:

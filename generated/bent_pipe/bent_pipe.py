@@ -2,7 +2,8 @@
 
 Model:      bent_pipe
 Source:     scene 'bent_pipe' (mbgen/scenes/bent_pipe.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 18 operations with the L D L^T solve, against Newton-Euler's 65)
+CSE:        symengine
 Operations: 16 after CSE (23 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as bent_pipe.h:

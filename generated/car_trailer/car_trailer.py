@@ -2,7 +2,8 @@
 
 Model:      car_trailer
 Source:     scene 'car_trailer' (mbgen/scenes/car_trailer.py)
-Derivation: newton_euler; common subexpressions eliminated by symengine
+Derivation: Newton-Euler (named by the scene)
+CSE:        symengine
 Operations: 287 after CSE (558 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as car_trailer.h:

@@ -2,7 +2,8 @@
 
 Model:      disc_pendulum
 Source:     scene 'disc_pendulum' (mbgen/scenes/disc_pendulum.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 31 operations with the L D L^T solve, against Newton-Euler's 52)
+CSE:        symengine
 Operations: 29 after CSE (53 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as disc_pendulum.h:

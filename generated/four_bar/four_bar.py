@@ -2,7 +2,8 @@
 
 Model:      four_bar
 Source:     scene 'four_bar' (mbgen/scenes/four_bar.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 269 operations with the L D L^T solve, against Newton-Euler's 293)
+CSE:        symengine
 Operations: 268 after CSE (678 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as four_bar.h:

@@ -2,7 +2,8 @@
 
 Model:      n_link_cart
 Source:     scene 'n_link_cart' (mbgen/scenes/n_link_cart.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 150 operations with the L D L^T solve, against Newton-Euler's 352)
+CSE:        symengine
 Operations: 90 after CSE (201 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as n_link_cart.h:

@@ -2,7 +2,8 @@
 
 Model:      paraboloid
 Source:     scene 'paraboloid' (mbgen/scenes/paraboloid.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 23 operations with the L D L^T solve, against Newton-Euler's 46)
+CSE:        symengine
 Operations: 21 after CSE (25 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as paraboloid.h:

@@ -2,7 +2,8 @@
 
 Model:      paraboloid_normal
 Source:     scene 'paraboloid_normal' (mbgen/scenes/paraboloid_normal.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 54 operations with the L D L^T solve, against Newton-Euler's 104)
+CSE:        symengine
 Operations: 44 after CSE (48 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as paraboloid_normal.h:

@@ -2,7 +2,8 @@
 
 Model:      rolling_disc
 Source:     scene 'rolling_disc' (mbgen/scenes/rolling_disc.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 364 operations with the L D L^T solve, against Newton-Euler's 629)
+CSE:        symengine
 Operations: 335 after CSE (1079 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as rolling_disc.h:

@@ -2,7 +2,8 @@
 
 Model:      slider_crank
 Source:     scene 'slider_crank' (mbgen/scenes/slider_crank.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 199 operations with the L D L^T solve, against Newton-Euler's 426)
+CSE:        symengine
 Operations: 198 after CSE (303 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as slider_crank.h:

@@ -2,7 +2,8 @@
 
 Model:      spatial_arm
 Source:     scene 'spatial_arm' (mbgen/scenes/spatial_arm.py)
-Derivation: newton_euler; common subexpressions eliminated by symengine
+Derivation: Newton-Euler (named by the scene)
+CSE:        symengine
 Operations: 1168 after CSE (1810 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as spatial_arm.h:

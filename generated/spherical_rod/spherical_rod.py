@@ -2,7 +2,8 @@
 
 Model:      spherical_rod
 Source:     scene 'spherical_rod' (mbgen/scenes/spherical_rod.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 21 operations with the L D L^T solve, against Newton-Euler's 30)
+CSE:        symengine
 Operations: 19 after CSE (32 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as spherical_rod.h:

@@ -2,7 +2,8 @@
 
 Model:      spring_pendulum
 Source:     scene 'spring_pendulum' (mbgen/scenes/spring_pendulum.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 95 operations with the L D L^T solve, against Newton-Euler's 164)
+CSE:        symengine
 Operations: 93 after CSE (185 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as spring_pendulum.h:

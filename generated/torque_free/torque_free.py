@@ -2,7 +2,8 @@
 
 Model:      torque_free
 Source:     scene 'torque_free' (mbgen/scenes/torque_free.py)
-Derivation: kane; common subexpressions eliminated by symengine
+Derivation: Kane's method (chosen: 69 operations with the L D L^T solve, as many as Newton-Euler's; a tie goes to Kane)
+CSE:        symengine
 Operations: 40 after CSE (62 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as torque_free.h:

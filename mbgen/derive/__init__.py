@@ -55,20 +55,47 @@ How to add a derivation
    fields above (shared pieces: :mod:`~mbgen.derive.common`,
    :mod:`~mbgen.derive.reactions`).
 2. Add a member to :class:`Method` and its row to :data:`METHODS` (the CLI's
-   ``--derivation`` choices and a scene's ``method`` follow :class:`Method`).
+   ``--derivation`` choices and a scene's ``method`` follow :class:`Method`),
+   and its name in :data:`mbgen.symbolic.equations.METHOD_TITLES`.
 3. Run ``tests/derive/test_derive.py``: it fails for a member of :class:`Method`
-   without a row, and checks that every method's ``M``, ``F``, ``G`` and
-   energies agree with Kane's on small models.
+   without a row or a title, and checks that every method's ``M``, ``F``, ``G``
+   and energies agree with Kane's on small models.
+4. Decide where :func:`choose_method` should take it, and extend
+   ``tests/derive/test_choice.py``.
+
+The default derivation
+----------------------
+With no method named, :func:`choose_method` looks at the joint tree
+(:mod:`mbgen.derive.choice`, where the measurements behind the rule are):
+
+1. a model whose bodies and joints Newton–Euler cannot infer
+   (:mod:`mbgen.derive.joints`): Kane's method;
+2. a tree of joints that own their speeds (relative joint coordinates) with a
+   chain of at least :data:`~mbgen.derive.choice.CHAIN` bodies, or with more
+   than :data:`~mbgen.derive.choice.COMPARE_SPEEDS` speeds: Newton–Euler, and
+   Kane's method is not derived;
+3. any other model with more than ``COMPARE_SPEEDS`` speeds: Kane's method;
+4. otherwise it leaves the choice open.  The pipeline (:func:`mbgen.pipeline.run`,
+   so ``mbgen.compile`` and ``mbgen generate``) then derives both, optimises
+   each for the scene's outputs and keeps the one whose generated code has
+   fewer operations (after CSE, the L D L^T solve included); a tie goes to
+   Kane.  :func:`derive` alone, which cannot count generated operations, takes
+   Kane's method.
+
+The equations record which method was used and why (``Equations.method`` and
+``Equations.method_reason``; ``Equations.derivation`` says both in words).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Callable
 
 from ..symbolic.equations import Equations
 from ..errors import ModelError
 from ..model.builder import Model
+from .choice import CHAIN, COMPARE_SPEEDS, structure
 from .common import Wants
 from .constraints import constrain
 from .kane import kane
@@ -89,8 +116,59 @@ METHODS: dict[Method, Callable[[Prepared, Wants], Equations]] = {
     Method.NEWTON_EULER: newton_euler,
 }
 
+#: ``Equations.method_reason`` of a method the caller named.
+NAMED = "named: method="
+#: ``Equations.method_reason`` of :func:`derive`'s default when :func:`choose_method` leaves it open.
+UNDECIDED = ("no method named; a small model: derive() takes Kane's, mbgen.compile keeps the "
+             "cheaper of both")
 
-def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
+
+@dataclass(frozen=True)
+class Choice:
+    """The default derivation of a model, as far as its structure decides it.
+
+    ``method`` is None when the structure leaves the choice open: the caller
+    derives both and keeps the one with fewer operations.  ``reason`` says why,
+    in words (``Equations.method_reason``).
+    """
+
+    method: Method | None
+    reason: str
+
+
+def choose_method(model: Model | Prepared) -> Choice:
+    """The derivation mbgen uses when none is named, by the rule of this package's docstring.
+
+    Parameters
+    ----------
+    model : Model or Prepared
+        The model (or its :func:`~mbgen.derive.prepare.prepare` output, to share it).
+
+    Returns
+    -------
+    Choice
+        ``Choice(Method.NEWTON_EULER, ...)`` or ``Choice(Method.KANE, ...)`` where
+        the model's joint tree decides; ``Choice(None, ...)`` where both should
+        be derived and compared.
+    """
+    prep = model if isinstance(model, Prepared) else prepare(_model(model))
+    s = structure(prep)
+    if s.unfit:
+        return Choice(Method.KANE, f"chosen: Newton-Euler cannot infer this model's joints "
+                                   f"({s.unfit})")
+    if s.owned and s.chain >= CHAIN:
+        return Choice(Method.NEWTON_EULER, f"chosen: {s.joint_tree}; Kane's method not derived")
+    if s.speeds > COMPARE_SPEEDS:
+        if s.owned:
+            return Choice(Method.NEWTON_EULER, f"chosen: {s.speeds} speeds on a tree of joints "
+                                               f"that own them; Kane's method not derived")
+        return Choice(Method.KANE, f"chosen: {s.speeds} speeds, too many to derive both, and "
+                                   f"no tree of joints that own them; Newton-Euler not derived")
+    tree = s.joint_tree if s.owned else "no tree of joints that own their speeds"
+    return Choice(None, f"{s.speeds} speeds, {tree}: both are compared")
+
+
+def derive(model: Model, method: Method | None = None, *, energy: bool = True,
            points=(), reactions: bool = False) -> Equations:
     """Derive the equations of motion of ``model``.
 
@@ -98,10 +176,13 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
     ----------
     model : Model
         The multibody model.
-    method : Method
+    method : Method, optional
         ``Method.KANE`` (Kane's method with partial velocities) or
         ``Method.NEWTON_EULER`` (body by body over the joint tree, with the
         articulated-body recursion for ``u'`` where the joints allow it).
+        Default: :func:`choose_method`'s choice, Kane's method where it leaves
+        the choice open (``mbgen.compile`` then compares both; this function
+        cannot count the generated operations).
     energy : bool
         Also derive the kinetic and potential energy (needed for ``Output.ENERGY``).
     points : sequence of str
@@ -113,18 +194,38 @@ def derive(model: Model, method: Method = Method.KANE, *, energy: bool = True,
     Returns
     -------
     Equations
-        ``M(q, t) u' = F(q, u, r, t)``, ``q' = G(q, u, t)`` and the layout.
+        ``M(q, t) u' = F(q, u, r, t)``, ``q' = G(q, u, t)`` and the layout;
+        ``method`` and ``method_reason`` say which derivation and why.
     """
-    if not isinstance(model, Model):
-        raise ModelError(f"derive() needs an mbgen.Model, got {type(model).__name__}")
+    model = _model(model)
+    named = None if method is None else method_of(method)
+    prep = prepare(model)
+    if named is None:
+        choice = choose_method(prep)
+        named, reason = (choice.method, choice.reason) if choice.method else (Method.KANE,
+                                                                               UNDECIDED)
+    else:
+        reason = NAMED
+    eq = METHODS[named](prep, Wants(energy, tuple(points), reactions))
+    return replace(constrain(eq, prep), method_reason=reason)
+
+
+def method_of(method) -> Method:
+    """``method`` (a :class:`Method` or its value) as a :class:`Method` with a row in :data:`METHODS`."""
     try:
-        derivation = METHODS[Method(method)]
+        found = Method(method)
+        METHODS[found]
     except (ValueError, KeyError):
         raise ModelError(f"unknown derivation method {method!r}; choose from "
                          f"{', '.join(m.value for m in METHODS)}") from None
-    prep = prepare(model)
-    eq = derivation(prep, Wants(energy, tuple(points), reactions))
-    return constrain(eq, prep)
+    return found
 
 
-__all__ = ["METHODS", "Method", "Wants", "derive"]
+def _model(model) -> Model:
+    if not isinstance(model, Model):
+        raise ModelError(f"derive() needs an mbgen.Model, got {type(model).__name__}")
+    return model
+
+
+__all__ = ["CHAIN", "COMPARE_SPEEDS", "METHODS", "Choice", "Method", "Wants", "choose_method",
+           "derive", "method_of"]

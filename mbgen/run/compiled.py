@@ -322,10 +322,12 @@ class CompiledModel(GeneratedModel):
 
 
 def compiled_html(model: CompiledModel) -> str:
-    """Summary of a :class:`CompiledModel` (ABI sizes, outputs, operation counts)."""
+    """Summary of a :class:`CompiledModel` (derivation, ABI sizes, outputs, operation counts)."""
     rendered = model.rendered
     ops = re.search(r"Operations: (\d+) after CSE \((\d+) before\)", rendered.header)
-    rows = [("states x", f"{model.n_x}: {summary.names(model.state_names)}"),
+    derivation = re.search(r"Derivation: (.+)", rendered.header)
+    rows = [("derivation", html.escape(derivation.group(1)))] if derivation else []
+    rows += [("states x", f"{model.n_x}: {summary.names(model.state_names)}"),
             ("parameters p", f"{model.n_p}: {summary.names(model.parameter_names)}"),
             ("inputs r", f"{model.n_r}: {summary.names(model.input_names)}"),
             ("outputs", summary.names(o.value for o in model.outputs))]

@@ -24,6 +24,11 @@ from .layout import Layout
 from .program import Program
 
 
+#: How generated headers and summaries name a derivation method (``Equations.method``);
+#: ASCII, as generated C comments are.
+METHOD_TITLES = {"kane": "Kane's method", "newton_euler": "Newton-Euler"}
+
+
 def acceleration_symbols(n: int) -> tuple[sm.Symbol, ...]:
     """Placeholders for the accelerations ``u'`` (expressions that need them, e.g. joint
     reactions, are evaluated after ``M u' = F`` is solved)."""
@@ -141,6 +146,11 @@ class Equations:
         Where the equations came from (shown in generated headers).
     method : str
         Derivation method (``"kane"``, ``"sympy.KanesMethod"``, ...).
+    method_reason : str
+        Why that method: named by the caller or the scene, or chosen by
+        :func:`mbgen.derive.choose_method` and the pipeline (e.g. ``"chosen: 537
+        operations with the L D L^T solve, against Kane's 973"``); empty for
+        equations that came from elsewhere.
     defaults : mapping
         Default numeric values of parameters, by symbol name (may be partial).
     program : Program
@@ -168,6 +178,7 @@ class Equations:
     points: tuple[PointKinematics, ...] = ()
     source: str = ""
     method: str = ""
+    method_reason: str = ""
     defaults: Mapping[str, float] = field(default_factory=dict)
     program: Program = field(default_factory=Program)
     accelerations: sm.ImmutableMatrix | None = None
@@ -216,6 +227,12 @@ class Equations:
                                  f"{sorted(map(str, funcs))}; declare them as coordinates, "
                                  f"speeds or inputs")
 
+    @property
+    def derivation(self) -> str:
+        """The method in words and why it was used: ``Newton-Euler (chosen: ...)``."""
+        title = METHOD_TITLES.get(self.method, self.method or "-")
+        return f"{title} ({self.method_reason})" if self.method_reason else title
+
     def uses(self, exprs) -> set:
         """Layout symbols that ``exprs`` depend on, through the program's definitions."""
         return self.program.closure(exprs) if self.program else free_symbols(exprs)
@@ -252,7 +269,7 @@ def equations_html(eq: Equations) -> str:
     """
     L = eq.layout
     n = L.n_u + L.n_d
-    rows = [("method", html.escape(eq.method or "-")),
+    rows = [("derivation", html.escape(eq.derivation)),
             ("states x", f"{L.n_x}: {names(L.state_names)}"),
             ("parameters p", f"{L.n_p}: {names(L.parameter_names)}"),
             ("inputs r", f"{L.n_r}: {names(L.input_names)}"),

@@ -1,7 +1,9 @@
 """The slicing audit: what a scene's generated code leaves out, and what each cut saves.
 
 ``mbgen generate SCENE --explain`` prints it.  The starting point is the *full*
-code: every output mbgen can emit for the model (right-hand side, mass matrix,
+code, derived by the method the scene's code uses (named, or chosen as
+:mod:`mbgen.pipeline` says; the audit's first line says which and why): every
+output mbgen can emit for the model (right-hand side, mass matrix,
 forcing, energy, Jacobians, positions and velocities of every point) plus the
 scene's integrators, with every parameter free and every input present.  The
 cuts, in pipeline order:
@@ -27,6 +29,7 @@ from dataclasses import dataclass
 
 from ..abi import INTEGRATORS, Output
 from ..codegen.outputs import Form
+from ..derive import Method
 from ..symbolic.availability import applicable
 from ..pipeline import PipelineResult, equations_of, run
 from ..model.scene import Scene
@@ -56,10 +59,11 @@ class Audit:
     sliced_ops: int
     full_lines: int
     sliced_lines: int
+    derivation: str = ""
 
     def format(self) -> str:
         lines = [f"audit of scene {self.scene!r} (C prefix {self.prefix}): what the generated "
-                 f"code leaves out", ""]
+                 f"code leaves out", f"derivation: {self.derivation}", ""]
         width = max(len(c.step) for c in self.cuts)
         for c in self.cuts:
             ops = ("" if c.ops_before is None else
@@ -88,12 +92,13 @@ def audit(scene: Scene) -> Audit:
     integrators = tuple(o for o in outs if o in INTEGRATORS)
     all_points = tuple(p.name for p in getattr(scene.model, "points", ())
                        if p is not getattr(scene.model, "origin", None))
-    full_eq = equations_of(scene, points=all_points, reactions=True)
+    sliced = run(scene, outs, build=False)   # what `mbgen generate` writes
+    how = _method(sliced)   # the other stages derive the same way
+    full_eq = equations_of(scene, how, points=all_points, reactions=True)
     everything = applicable(full_eq) + integrators
     full = run(full_eq, everything, build=False, sliced=False)
-    wanted = run(scene, outs, build=False, sliced=False)
-    baked = run(scene, outs, build=False, fixed=scene.fixed, inputs=None)
-    sliced = run(scene, outs, build=False)
+    wanted = run(scene, outs, build=False, sliced=False, method=how)
+    baked = run(scene, outs, build=False, fixed=scene.fixed, inputs=None, method=how)
 
     cuts = []
     dropped = [o for o in full.kernel.outputs if o not in wanted.kernel.outputs]
@@ -129,7 +134,16 @@ def audit(scene: Scene) -> Audit:
                     "it declares " + _math_reason(sliced) if has_math else
                     "no math function is called"))
     return Audit(scene.name, sliced.rendered.prefix, tuple(cuts), full.kernel.ops_after,
-                 sliced.kernel.ops_after, _c_lines(full), _c_lines(sliced))
+                 sliced.kernel.ops_after, _c_lines(full), _c_lines(sliced),
+                 sliced.equations.derivation)
+
+
+def _method(result: PipelineResult) -> Method | None:
+    """The derivation ``result`` used (None: equations that came from elsewhere)."""
+    try:
+        return Method(result.equations.method)
+    except ValueError:
+        return None
 
 
 def _form_cut(result: PipelineResult) -> Cut:

@@ -184,7 +184,12 @@ def upright(c, speed):
 
 def reduced_eigenvalues(c, x, h=1e-6):
     """Eigenvalues of the linearisation on the constraint manifold, by central differences
-    (dependent coordinates re-solved), without the zero ones of the ignorable coordinates."""
+    (dependent coordinates re-solved), without the zero ones of the ignorable coordinates.
+
+    A state whose column is zero (to rounding: a derivation may leave a wheel angle in the
+    right-hand side that cancels only numerically) in the rows of the others is ignorable:
+    removing its row and column removes exactly one zero eigenvalue.  Finite differences
+    would turn such a zero block into a spurious pair of size sqrt(rounding)."""
     dep = [c.state_names.index(n) for n in c.dependent_coordinates]
     keep = [i for i in range(c.n_x) if i not in dep]
     cols = []
@@ -192,7 +197,11 @@ def reduced_eigenvalues(c, x, h=1e-6):
         e = np.zeros(c.n_x)
         e[i] = h
         cols.append((c.rhs(0, c.consistent(x + e)) - c.rhs(0, c.consistent(x - e)))[keep] / (2 * h))
-    ev = np.linalg.eigvals(np.column_stack(cols))
+    J = np.column_stack(cols)
+    live = list(range(len(keep)))
+    while (dead := [k for k in live if np.abs(J[live, k]).max() < 1e-7]):
+        live = [k for k in live if k not in dead]
+    ev = np.linalg.eigvals(J[np.ix_(live, live)])
     return np.sort_complex(ev[np.abs(ev) > 1e-4])
 
 

@@ -146,7 +146,7 @@ class ModelFiles(Target):
             upper=upper,
             name=eq.name,
             source=eq.source or eq.name,
-            method=str(eq.method),
+            derivation=eq.derivation,
             cse=kernel.cse_backend.value,
             states=list(enumerate(L.state_names)),
             n_q=L.n_q,
