@@ -95,7 +95,7 @@ def equations_of(source: Model | Equations | Scene, method: Method | None = None
 
 
 #: ``Equations.method_reason`` of a method named by the scene (or ``--derivation``).
-SCENE_NAMED = "named by the scene"
+SCENE_NAMED = "named by the scene or --derivation"
 
 
 def operations(kernel: Kernel) -> int:

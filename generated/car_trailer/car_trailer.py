@@ -2,7 +2,7 @@
 
 Model:      car_trailer
 Source:     scene 'car_trailer' (mbgen/scenes/car_trailer.py)
-Derivation: Newton-Euler (named by the scene)
+Derivation: Newton-Euler (named by the scene or --derivation)
 CSE:        symengine
 Operations: 287 after CSE (558 before)
 

@@ -2,7 +2,7 @@
  *
  * Model:      spatial_arm
  * Source:     scene 'spatial_arm' (mbgen/scenes/spatial_arm.py)
- * Derivation: Newton-Euler (named by the scene)
+ * Derivation: Newton-Euler (named by the scene or --derivation)
  * CSE:        symengine
  * Operations: 1168 after CSE (1810 before), excluding the L D L^T solve
  *   spatial_arm_rhs: 477 (767 before CSE)
@@ -95,7 +95,7 @@ extern "C" {
 #define SPATIAL_ARM_P_g 1 /* g */
 
 /* SHA-256 (16 hex digits) of spatial_arm.h, .c and .py with this value blanked. */
-#define SPATIAL_ARM_CONTENT_HASH "cdc85ec559add125"
+#define SPATIAL_ARM_CONTENT_HASH "419ba51578f7a83a"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

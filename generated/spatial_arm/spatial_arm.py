@@ -2,7 +2,7 @@
 
 Model:      spatial_arm
 Source:     scene 'spatial_arm' (mbgen/scenes/spatial_arm.py)
-Derivation: Newton-Euler (named by the scene)
+Derivation: Newton-Euler (named by the scene or --derivation)
 CSE:        symengine
 Operations: 1168 after CSE (1810 before)
 

@@ -69,7 +69,8 @@ def add_scene_arguments(p: argparse.ArgumentParser, method_flag: bool = False) -
                    help="build a model past the size guard (more than 200 speeds)")
     choices = [m.value for m in Method]
     p.add_argument("--derivation", choices=choices,
-                   help="derivation method (default: the scene's, else kane)")
+                   help="derivation method (default: the scene's, else the cheaper of the two "
+                        "for the model: docs/modelling.md, 'Which derivation')")
     if method_flag:
         p.add_argument("--method", dest="derivation", choices=choices, action=OldSpelling,
                        new="--derivation", meaning="the derivation method",

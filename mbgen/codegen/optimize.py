@@ -178,6 +178,8 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
         post = tuple(_reduce(b, reduced_of) for b in s.post)
         vel_roots = [e for b in vel for _, e in b.entries]
         roots = [e for b in pre + post for _, e in b.entries]
+        if s.pivots:   # a zero pivot times a zero right-hand side is still singular
+            roots += sorted(checks, key=order.__getitem__)
         first = set(_closure(vel_roots, rep_expr))
         needed = sorted(_closure(roots, rep_expr) | first, key=order.__getitem__)
         vel_temps = tuple((t, rep_expr[t]) for t in needed if t in first)

@@ -139,6 +139,7 @@ class Spec:
     extra: Program = Program()   # assignments of this output only (derivatives through the program)
     velocity: tuple[Block, ...] = ()   # constrained: CA, CB, evaluated before u_r is solved
     implicit: int = 0   # constrained sensitivities: columns by implicit differentiation
+    pivots: bool = False   # reads the recursion's u': every pivot is checked, used or not
 
     @property
     def out_size(self) -> int:
@@ -223,7 +224,7 @@ def _rhs(eq: Equations, row: OutputDef, form: Form) -> Spec:
     if form is Form.RECURSIVE:
         entries = tuple(enumerate(list(eq.kinematics) + list(eq.accelerations)))
         return Spec(row.output, row.array, (L.n_x,), L.derivative_names,
-                    (Block("out", L.n_x, entries),),
+                    (Block("out", L.n_x, entries),), pivots=True,
                     doc="First-order right-hand side dxdt = [G(q,u,t); u'] with u' from "
                         "the articulated-body recursion.")
     g = Block("out", L.n_x, tuple(enumerate(eq.kinematics)))
@@ -297,7 +298,7 @@ def _reactions(eq: Equations, row: OutputDef, form: Form) -> Spec:
         acc = acceleration_symbols(eq.layout.n_u)
         defs = Program(tuple(zip(acc, eq.accelerations)))
         return Spec(row.output, row.array, (nj, 6), J.labels(),
-                    (Block("out", 6 * nj, entries),), doc=doc, extra=defs)
+                    (Block("out", 6 * nj, entries),), doc=doc, extra=defs, pivots=True)
     return Spec(row.output, row.array, (nj, 6), J.labels(), _mass_blocks(eq),
                 solve=True, post=(Block("out", 6 * nj, entries),), doc=doc)
 
@@ -344,7 +345,7 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
                                variables, tag)
         entries = tuple((i * nv + j, d[i][j]) for i in range(L.n_x) for j in range(nv))
         return Spec(row.output, row.array, shape, labels, (Block("out", L.n_x * nv, entries),),
-                    doc=row.doc, variables=variables, extra=extra)
+                    doc=row.doc, variables=variables, extra=extra, pivots=True)
     if eq.constraints is not None:
         return _implicit_sensitivity(eq, row, variables, shape, labels, tag)
     acc = acceleration_symbols(nu)

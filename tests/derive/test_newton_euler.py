@@ -124,6 +124,25 @@ def test_recursion_checks_its_pivots():
             model.rhs(0.0, x, bad)
 
 
+def test_a_zero_pivot_no_output_reads_is_still_checked():
+    """A massless particle fixed at mass 0 with no force on it: u' = 0/0, not 0.  Baking the
+    mass leaves a pivot of 0 whose reciprocal multiplies a zero right-hand side, so nothing
+    reads it; the recursion's pivots are checked all the same (rhs, reactions, Jacobian)."""
+    m = Model("massless_zero")
+    q, = m.coordinates("q")
+    m.speeds("u")
+    mass, = m.constants("mass")
+    N = m.newtonian()
+    m.particle("b", m.point("P", m.origin, q * N.x), mass)
+    res = mbgen.run(m, ("rhs", "reactions", "jacobian"), method="newton_euler",
+                    form=Form.RECURSIVE, fixed={"mass": 0.0})
+    x = np.array([0.1, 0.2])
+    for model in (res.compiled, mbgen.python_model(res.rendered)):
+        for output in (model.rhs, model.reactions, model.jacobian):
+            with pytest.raises(mbgen.SingularMassMatrixError):
+                output(0.0, x)
+
+
 # ------------------------------------------------------------------ joints
 def test_joints_are_inferred_from_the_frame_and_point_tree():
     eq = derive(scene("n_link_cart").model, Method.NEWTON_EULER, reactions=True)
