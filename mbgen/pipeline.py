@@ -146,8 +146,8 @@ def _compared(derived, optimized, settings: tuple) -> _Trial:
         method, reason = _CHOSEN[key]
         kept = newton_euler if method is Method.NEWTON_EULER else derived(Method.KANE)
         return optimized(*kept).because(reason)
-    kane = optimized(*derived(Method.KANE))
     ne = optimized(*newton_euler)
+    kane = optimized(*derived(Method.KANE))
     a, b = operations(kane.kernel), operations(ne.kernel)
     if b < a:
         method, reason = Method.NEWTON_EULER, (f"chosen: {b} operations with the L D L^T "
@@ -218,15 +218,19 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         :func:`mbgen.codegen.optimize.optimize`).
     stage : callable, optional
         Called with each stage's name (``derive``, ``bake``, ``cse``, ``render``,
-        ``compile``) as it starts: the command line's progress lines.
+        ``compile``) as it starts: the command line's progress lines.  While both
+        derivations are compared, the first three carry the method: ``derive/kane``.
     """
     outs = _outputs(source, outputs)
     scene = source if isinstance(source, Scene) else None
     timings: dict[str, float] = {}
 
-    def timed(label, fn, *args, **kw):
+    comparing = []   # non-empty while both derivations run: stage lines name the method
+
+    def timed(label, fn, *args, of: Equations | Method | None = None, **kw):
         if stage is not None:
-            stage(label)
+            method = of.method if isinstance(of, Equations) else of
+            stage(f"{label}/{Method(method).value}" if comparing and method else label)
         t0 = time.perf_counter()
         value = fn(*args, **kw)
         timings[label] = timings.get(label, 0.0) + time.perf_counter() - t0
@@ -244,7 +248,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
 
     def derived(how: Method | None, reason: str = "") -> tuple[Equations, Equations]:
         """Derive with ``how`` (None: the source's own) for ``reason``, and bake."""
-        equations = timed("derive", equations_of, source, how,
+        equations = timed("derive", equations_of, source, how, of=how,
                           reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
                           points=points)
         if reason:
@@ -255,20 +259,24 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
                                                         parameters.items()}})
         if name:
             equations = replace(equations, name=name)
-        return equations, timed("bake", bake, equations, fixed, inputs)
+        return equations, timed("bake", bake, equations, fixed, inputs, of=equations)
 
     def optimized(equations: Equations, baked: Equations) -> _Trial:
-        return _Trial(equations, baked, timed("cse", optimize, baked, outs, cse_backend, form))
+        return _Trial(equations, baked, timed("cse", optimize, baked, outs, cse_backend, form,
+                                              of=equations))
 
     model = source.model if scene else source
     named = method_of(method) if method is not None else None
     if named is not None or not isinstance(model, Model) or scene and scene.method is not None:
         trial = optimized(*derived(named))
     else:
-        choice = timed("derive", choose_method, model)
+        t0 = time.perf_counter()
+        choice = choose_method(model)
+        timings["derive"] = time.perf_counter() - t0
         if choice.method is not None:
             trial = optimized(*derived(choice.method, choice.reason))
         else:
+            comparing.append(True)
             trial = _compared(derived, optimized, (outs, CseBackend(cse_backend), form))
     equations, baked, kernel = trial.equations, trial.baked, trial.kernel
     rendered = timed("render", render, kernel, targets)

@@ -30,6 +30,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..derive import Method
+from ..symbolic.equations import METHOD_TITLES
 from ..errors import OutputPathError, SceneError, UsageError
 from ..model.scene import load_scene, model_names
 from ..run.named import InputTable, check_names, merge_inputs, read_input_csv, vector
@@ -361,4 +362,8 @@ def stage_lines(args):
     ``--quiet``: a log or a pipe gets only the results, as git prints progress."""
     if getattr(args, "quiet", False) or not sys.stderr.isatty():
         return None
-    return lambda name: progress(STAGES.get(name, name))
+    def line(name: str) -> None:
+        base, _, method = name.partition("/")   # derive/kane: while both are compared
+        title = f" ({METHOD_TITLES.get(method, method)})" if method else ""
+        progress(STAGES.get(base, base) + title)
+    return line

@@ -206,7 +206,13 @@ def test_stage_lines_on_a_terminal_only(tmp_path, capsys, monkeypatch):
     assert ".." not in capsys.readouterr().err     # a pipe or a log: results only
     terminal = _Terminal()
     monkeypatch.setattr("sys.stderr", terminal)
+    monkeypatch.setattr("mbgen.pipeline._CHOSEN", {})   # forget the comparison just made
     assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_OK
+    compared = [f"  .. {stage} ({method})" for method in ("Newton-Euler", "Kane's method")
+                for stage in ("derive", "bake the scene's slice", "CSE")]
+    assert terminal.getvalue().splitlines() == compared + ["  .. render"]  # both derivations
+    terminal.seek(0), terminal.truncate()
+    assert main(["generate", "disc_pendulum", "-o", str(out), "--derivation", "kane"]) == EXIT_OK
     assert terminal.getvalue().splitlines() == [
         "  .. derive", "  .. bake the scene's slice", "  .. CSE", "  .. render"]
     terminal.seek(0), terminal.truncate()
