@@ -13,9 +13,9 @@ Which derivation: a method named by ``method=`` or the scene is used; otherwise
 :func:`mbgen.derive.choose_method` decides from the model's joint tree where it
 can (Newton–Euler for long chains of joints, without deriving Kane), and where
 it leaves the choice open :func:`run` derives, bakes and optimises both and
-keeps the one whose generated code has fewer operations (:func:`operations`;
-a tie goes to Kane; the process remembers the outcome, so that regenerating the same
-equations derives only the method kept).  Either way ``Equations.method_reason`` says why, and the
+keeps the one whose right-hand side has fewer operations (:func:`operations`;
+a tie goes to Kane; the process remembers the outcome for the model's slice, so that
+other outputs of it, or a regeneration, derive only the method kept).  Either way ``Equations.method_reason`` says why, and the
 generated header, ``mbgen generate --explain`` and the notebook summaries show
 it.
 """
@@ -29,6 +29,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 from .build.extension import compiled_path, load
 from .derive import NAMED, Method, choose_method, derive, method_of
 from .symbolic.equations import Equations
+from .symbolic.graph import free_symbols
 from .errors import ModelError
 from .model.builder import Model
 from .codegen.optimize import CseBackend, Form, Kernel, optimize
@@ -123,52 +124,71 @@ class _Trial:
                                                              method_reason=reason)))
 
 
-#: The comparisons this process made: content of the Newton-Euler equations (baked) and
-#: the optimiser's settings -> (method, reason).  Regenerating a model (a test suite, a
-#: sweep) then derives only the method kept.  At most ``_REMEMBERED`` entries, oldest out.
+#: The comparisons this process made: the Newton-Euler equations' content (baked: the
+#: scene's slice) and the optimiser's settings -> (method, reason).  Any other outputs of
+#: the same slice (a test suite, a sweep, ``--explain``) then derive only the method kept.
+#: At most ``_REMEMBERED`` entries, oldest out.
 _CHOSEN: dict[tuple, tuple[Method, str]] = {}
 _REMEMBERED = 256
 
 
-def _compared(derived, optimized, settings: tuple) -> _Trial:
-    """The cheaper of Kane and Newton-Euler by :func:`operations`; a tie goes to Kane.
+def _compared(derived, optimized, settings: tuple, outs: tuple[Output, ...]) -> _Trial:
+    """The derivation whose right-hand side has fewer :func:`operations`; a tie goes to Kane.
 
-    ``derived(method) -> (equations, baked)`` and ``optimized(equations, baked) -> _Trial``
-    are :func:`run`'s stages; ``settings`` the outputs, CSE back end and form.
+    The right-hand side decides for every output: it is what the others are built around
+    (the integrators call it, the Jacobians differentiate it), its kernel is the cheapest
+    to compare, and one choice per model slice can be remembered whatever is asked of it.
+    ``derived(method) -> (equations, baked)`` and ``optimized(equations, baked, outputs)
+    -> _Trial`` are :func:`run`'s stages; ``settings`` the CSE back end and form.
     """
+    rhs = (Output.RHS,)
     try:
         newton_euler = derived(Method.NEWTON_EULER)
     except ModelError as exc:   # Newton-Euler does not apply; Kane says so if nothing does
-        return optimized(*derived(Method.KANE)).because(
+        return optimized(*derived(Method.KANE), outs).because(
             f"chosen: Newton-Euler does not apply ({str(exc).splitlines()[0]})")
     key = (_content(newton_euler[1]), settings)
     if key in _CHOSEN:
         method, reason = _CHOSEN[key]
         kept = newton_euler if method is Method.NEWTON_EULER else derived(Method.KANE)
-        return optimized(*kept).because(reason)
-    ne = optimized(*newton_euler)
-    kane = optimized(*derived(Method.KANE))
+        return optimized(*kept, outs).because(reason)
+    ne = optimized(*newton_euler, rhs)
+    kane = optimized(*derived(Method.KANE), rhs)
     a, b = operations(kane.kernel), operations(ne.kernel)
+    said = "right-hand side of {} operations with the L D L^T solve"
     if b < a:
-        method, reason = Method.NEWTON_EULER, (f"chosen: {b} operations with the L D L^T "
-                                               f"solve, against Kane's {a}")
+        method, reason = Method.NEWTON_EULER, f"chosen: a {said.format(b)}, against Kane's {a}"
     elif a < b:
-        method, reason = Method.KANE, (f"chosen: {a} operations with the L D L^T solve, "
-                                       f"against Newton-Euler's {b}")
+        method, reason = Method.KANE, f"chosen: a {said.format(a)}, against Newton-Euler's {b}"
     else:
-        method, reason = Method.KANE, (f"chosen: {a} operations with the L D L^T solve, as "
-                                       f"many as Newton-Euler's; a tie goes to Kane")
+        method, reason = Method.KANE, (f"chosen: a {said.format(a)}, as many as "
+                                       f"Newton-Euler's; a tie goes to Kane")
     if len(_CHOSEN) >= _REMEMBERED:
         del _CHOSEN[next(iter(_CHOSEN))]
     _CHOSEN[key] = method, reason
-    return (ne if method is Method.NEWTON_EULER else kane).because(reason)
+    kept = ne if method is Method.NEWTON_EULER else kane
+    if tuple(outs) != rhs:
+        kept = optimized(kept.equations, kept.baked, outs)
+    return kept.because(reason)
 
 
 def _content(eq: Equations) -> int:
-    """A hash of everything in ``eq`` that the generated code depends on."""
-    return hash((eq.layout, eq.mass_matrix, eq.forcing, eq.kinematics, eq.program.assignments,
-                 eq.accelerations, eq.kinetic_energy, eq.potential_energy, eq.points,
-                 eq.reactions, eq.constraints))
+    """A hash of what the right-hand side's code depends on in ``eq`` (a slice's identity,
+    whatever else was derived with it: energies, points, reactions)."""
+    roots = list(eq.mass_matrix) + list(eq.forcing) + list(eq.kinematics)
+    roots += list(eq.accelerations or ()) + (eq.constraints.expressions() if eq.constraints
+                                              else [])
+    defs = dict(eq.program.assignments)
+    reached: set = set()
+    stack = list(free_symbols(roots))
+    while stack:   # each program symbol once
+        sym = stack.pop()
+        if sym in defs and sym not in reached:
+            reached.add(sym)
+            stack.extend(free_symbols([defs[sym]]))
+    program = tuple((sym, e) for sym, e in eq.program.assignments if sym in reached)
+    return hash((eq.layout, eq.mass_matrix, eq.forcing, eq.kinematics, program,
+                 eq.accelerations, eq.constraints))
 
 
 def _outputs(source, outputs) -> tuple[Output, ...]:
@@ -261,8 +281,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
             equations = replace(equations, name=name)
         return equations, timed("bake", bake, equations, fixed, inputs, of=equations)
 
-    def optimized(equations: Equations, baked: Equations) -> _Trial:
-        return _Trial(equations, baked, timed("cse", optimize, baked, outs, cse_backend, form,
+    def optimized(equations: Equations, baked: Equations, only=outs) -> _Trial:
+        return _Trial(equations, baked, timed("cse", optimize, baked, only, cse_backend, form,
                                               of=equations))
 
     model = source.model if scene else source
@@ -277,7 +297,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
             trial = optimized(*derived(choice.method, choice.reason))
         else:
             comparing.append(True)
-            trial = _compared(derived, optimized, (outs, CseBackend(cse_backend), form))
+            trial = _compared(derived, optimized, (CseBackend(cse_backend), form), outs)
     equations, baked, kernel = trial.equations, trial.baked, trial.kernel
     rendered = timed("render", render, kernel, targets)
     compiled, cached = None, False

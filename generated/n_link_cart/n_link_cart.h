@@ -2,7 +2,7 @@
  *
  * Model:      n_link_cart
  * Source:     scene 'n_link_cart' (mbgen/scenes/n_link_cart.py)
- * Derivation: Kane's method (chosen: 150 operations with the L D L^T solve, against Newton-Euler's 352)
+ * Derivation: Kane's method (chosen: a right-hand side of 150 operations with the L D L^T solve, against Newton-Euler's 352)
  * CSE:        symengine
  * Operations: 90 after CSE (201 before), excluding the L D L^T solve
  *   n_link_cart_rhs: 90 (201 before CSE)
@@ -84,7 +84,7 @@ extern "C" {
 #define N_LINK_CART_R_F 0 /* F */
 
 /* SHA-256 (16 hex digits) of n_link_cart.h, .c and .py with this value blanked. */
-#define N_LINK_CART_CONTENT_HASH "df5ae5121eaa4198"
+#define N_LINK_CART_CONTENT_HASH "80fd9c300b75b909"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -2,7 +2,7 @@
 
 Model:      n_link_cart
 Source:     scene 'n_link_cart' (mbgen/scenes/n_link_cart.py)
-Derivation: Kane's method (chosen: 150 operations with the L D L^T solve, against Newton-Euler's 352)
+Derivation: Kane's method (chosen: a right-hand side of 150 operations with the L D L^T solve, against Newton-Euler's 352)
 CSE:        symengine
 Operations: 90 after CSE (201 before)
 

@@ -2,7 +2,7 @@
 
 Model:      torque_free
 Source:     scene 'torque_free' (mbgen/scenes/torque_free.py)
-Derivation: Kane's method (chosen: 69 operations with the L D L^T solve, as many as Newton-Euler's; a tie goes to Kane)
+Derivation: Kane's method (chosen: a right-hand side of 69 operations with the L D L^T solve, as many as Newton-Euler's; a tie goes to Kane)
 CSE:        symengine
 Operations: 40 after CSE (62 before)
 

@@ -2,7 +2,7 @@
 
 Model:      whipple
 Source:     scene 'whipple' (mbgen/scenes/whipple.py)
-Derivation: Newton-Euler (chosen: 7172 operations with the L D L^T solve, against Kane's 7215)
+Derivation: Newton-Euler (chosen: a right-hand side of 3170 operations with the L D L^T solve, against Kane's 3178)
 CSE:        symengine
 Operations: 7143 after CSE (94998 before)
 

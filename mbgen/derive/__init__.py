@@ -76,10 +76,9 @@ With no method named, :func:`choose_method` looks at the joint tree
    Kane's method is not derived;
 3. any other model with more than ``COMPARE_SPEEDS`` speeds: Kane's method;
 4. otherwise it leaves the choice open.  The pipeline (:func:`mbgen.pipeline.run`,
-   so ``mbgen.compile`` and ``mbgen generate``) then derives both, optimises
-   each for the scene's outputs and keeps the one whose generated code has
-   fewer operations (after CSE, the L D L^T solve included); a tie goes to
-   Kane.  :func:`derive` alone, which cannot count generated operations, takes
+   so ``mbgen.compile`` and ``mbgen generate``) then derives both and keeps,
+   for every output asked, the one whose right-hand side has fewer operations
+   (after CSE, the L D L^T solve included); a tie goes to Kane.  :func:`derive` alone, which cannot count generated operations, takes
    Kane's method.
 
 The equations record which method was used and why (``Equations.method`` and
