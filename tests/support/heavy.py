@@ -10,6 +10,14 @@ gigabytes; now the code is generated in about 10 s, but its ten every-scene
 cases still take about 6 minutes together (three generations for the golden
 diff, ``gcc -O2`` on a 250 kB Jacobian for the example, unsliced pipelines).
 Its own physics tests (``tests/scenes/test_vehicles.py``) run by default.
+
+``whipple`` (the benchmark bicycle, 7,000 operations in its right-hand side):
+light enough for every every-scene case but the few that generate, compile and
+lambdify *every* output at once (``every_output=True``: the back ends on every
+output, the Jacobians against lambdified symbolic ones, the sliced code against
+the full code), about 70 s together of the default run's 10 minutes.  Its
+golden files, determinism, generated C's warnings, energy, derivation choice,
+constrained back ends (rhs and constraint forces) and sympy oracle stay default.
 """
 
 import pytest
@@ -22,7 +30,15 @@ HEAVY = {
 }
 
 
-def scene_params(names=None) -> list:
-    """``names`` (default: every built-in scene) as pytest params, heavy ones marked slow."""
-    return [pytest.param(n, marks=pytest.mark.slow, id=n) if n in HEAVY else n
+#: scene name -> why it is heavy for the cases that generate every output at once
+HEAVY_EVERY_OUTPUT = {
+    "whipple": "every output generated, compiled and lambdified: about 70 s over three cases",
+}
+
+
+def scene_params(names=None, every_output: bool = False) -> list:
+    """``names`` (default: every built-in scene) as pytest params, heavy ones marked slow
+    (with ``every_output``, those of :data:`HEAVY_EVERY_OUTPUT` too)."""
+    heavy = set(HEAVY) | (set(HEAVY_EVERY_OUTPUT) if every_output else set())
+    return [pytest.param(n, marks=pytest.mark.slow, id=n) if n in heavy else n
             for n in (builtin_names() if names is None else names)]
