@@ -109,6 +109,19 @@ def evaluate(model, info, t, x, p, r):
     return out
 
 
+def options(model, *, rtol, atol, h0, h_max, max_steps, project) -> tuple[dict, bool]:
+    """The fields of ``<prefix>_options`` for one call of a generated integrator, and whether
+    the model projects onto its constraints (then ``no_projection`` is among them and the
+    stats carry ``max_residual``)."""
+    settings = {"rtol": rtol, "atol": atol, "h0": h0, "h_max": h_max,
+                "max_steps": int(max_steps)}
+    projects = "no_projection" in dict(
+        model.ffi.typeof(f"{model.rendered.prefix}_options").fields)
+    if projects:
+        settings["no_projection"] = 0 if project else 1
+    return settings, projects
+
+
 def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
               on_failure: str = "raise", project: bool = True,
               check_start: Callable | None = None):
@@ -129,11 +142,8 @@ def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
                     (ra if rs else ra[0]) if model.n_r else None)
     ffi, prefix = model.ffi, model.rendered.prefix
     buf = ffi.from_buffer
-    settings = {"rtol": rtol, "atol": atol, "h0": h0, "h_max": h_max,
-                "max_steps": int(max_steps)}
-    projects = "no_projection" in dict(ffi.typeof(f"{prefix}_options").fields)
-    if projects:
-        settings["no_projection"] = 0 if project else 1
+    settings, projects = options(model, rtol=rtol, atol=atol, h0=h0, h_max=h_max,
+                                 max_steps=max_steps, project=project)
     opt = ffi.new(f"{prefix}_options *", settings)
     stats = ffi.new(f"{prefix}_stats[]", k)
     status = np.zeros(k, dtype=np.intc)
@@ -201,5 +211,5 @@ class BatchIntegration:
     messages: tuple
 
 
-__all__ = ["is_batch", "scalar_time", "batch_args", "batch_times", "evaluate", "integrate",
+__all__ = ["is_batch", "scalar_time", "batch_args", "batch_times", "evaluate", "integrate", "options",
            "BatchIntegration"]

@@ -25,7 +25,7 @@ from ..symbolic.layout import Layout
 from . import named
 from .arguments import F64, real_number, step_count, times
 from .base import GeneratedModel
-from .batch import evaluate, is_batch
+from .batch import evaluate, is_batch, options
 from .batch import integrate as batch_integrate
 from .integration import SUCCESS, Trajectory
 
@@ -282,11 +282,8 @@ class CompiledModel(GeneratedModel):
             self._check_consistent_start(t[0], xa, p, r)
         ffi, prefix = self.ffi, self.rendered.prefix
         buf = ffi.from_buffer
-        settings = {"rtol": rtol, "atol": atol, "h0": h0, "h_max": h_max,
-                    "max_steps": int(max_steps)}
-        projects = "no_projection" in dict(ffi.typeof(f"{prefix}_options").fields)
-        if projects:
-            settings["no_projection"] = 0 if project else 1
+        settings, projects = options(self, rtol=rtol, atol=atol, h0=h0, h_max=h_max,
+                                     max_steps=max_steps, project=project)
         if table is not None:
             settings.update(n_table=table.times.size, table_t=buf("double[]", table.times),
                             table_r=buf("double[]", table.values))

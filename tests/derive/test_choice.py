@@ -22,7 +22,7 @@ from functools import cache
 import pytest
 
 import mbgen
-from mbgen import Model, Output
+from mbgen import Output
 from mbgen.cli import main
 from mbgen.derive import CHAIN, COMPARE_SPEEDS, METHODS, Method, choose_method, derive
 from mbgen.model.scene import builtin_names, load_scene
@@ -31,6 +31,7 @@ from mbgen.scenes import n_link_cart, spatial_arm, stiff_chain
 from mbgen.symbolic.equations import METHOD_TITLES
 
 from heavy import scene_params
+from models import ambiguous_slider
 
 
 def unnamed(name, **options):
@@ -144,16 +145,7 @@ def test_long_chains_of_joints_and_large_models_are_decided_without_comparing():
 
 
 def test_a_model_newton_euler_cannot_read_gets_kane():
-    m = Model("ambiguous")
-    q1, q2, q3 = m.coordinates("q1 q2 q3")
-    m.speeds("u1 u2 u3")
-    N = m.newtonian()
-    A = m.rotate(N, "A", 3, q1)
-    B = m.rotate(N, "B", 3, q2)
-    P = m.point("P", m.origin, N.x)
-    m.body("a", A, 1, (1, 1, 1), m.point("Ga", P, A.x))
-    m.body("b", B, 1, (1, 1, 1), m.point("Gb", P, B.x))
-    m.particle("c", m.point("C", P, q3 * N.x), 1)    # its parent is ambiguous to Newton-Euler
+    m = ambiguous_slider("ambiguous")    # the slider's parent is ambiguous to Newton-Euler
     choice = choose_method(m)
     assert choice.method is Method.KANE and "cannot infer" in choice.reason
     result = run(m, build=False)

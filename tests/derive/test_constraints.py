@@ -24,6 +24,7 @@ import mbgen
 from mbgen import Model, Output
 from mbgen.derive import Method
 from mbgen.scenes.rolling_disc import build_model as build_rolling_disc
+from models import four_bar_model
 
 DISC = dict(r=1.0, m=1.0, g=1.0)
 
@@ -151,33 +152,12 @@ def test_upright_disc_at_the_critical_speed_has_only_zero_eigenvalues():
 
 
 # ------------------------------------------------------------------ four-bar (holonomic)
-def four_bar_model():
-    m = Model("fourbar_t")
-    q1, q2, q3 = m.coordinates("q1 q2 q3")
-    m.speeds("u1 u2 u3")
-    la, lb, lc, ld, g = m.constants("la lb lc ld g")
-    N = m.newtonian()
-    A = m.rotate(N, "A", 3, q1)
-    B = m.rotate(A, "B", 3, q2)
-    C = m.rotate(N, "C", 3, q3)
-    PA = m.point("PA", m.origin, la * A.x)
-    PB = m.point("PB", PA, lb * B.x)
-    D = m.point("D", m.origin, ld * N.x)
-    PC = m.point("PC", D, lc * C.x)
-    m.body("crank", A, 1.0, (0, 0, 0.1), m.point("GA", m.origin, la / 2 * A.x))
-    m.body("coupler", B, 1.5, (0, 0, 0.4), m.point("GB", PA, lb / 2 * B.x))
-    m.body("rocker", C, 1.2, (0, 0, 0.3), m.point("GC", D, lc / 2 * C.x))
-    m.gravity(-g * N.y)
-    m.coincident(PB, PC, [q2, q3], axes=(1, 2))
-    return m
-
-
 FOUR_BAR = dict(la=1.0, lb=2.0, lc=2.0, ld=2.0, g=9.81)
 
 
 @cache
 def four_bar(method=Method.KANE):
-    scn = mbgen.Scene("fourbar_t", four_bar_model(), parameters=FOUR_BAR,
+    scn = mbgen.Scene("fourbar_t", four_bar_model("fourbar_t"), parameters=FOUR_BAR,
                       points=("GA", "GB", "GC"), method=method)
     return mbgen.run(scn, ("rhs", "jacobian", "energy", "reactions", "constraint_forces",
                            "velocities", "dopri5"), name=f"fourbar_{method.value}")

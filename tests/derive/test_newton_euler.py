@@ -29,7 +29,7 @@ from mbgen.codegen.optimize import Form
 from mbgen.model.scene import builtin_names
 from mbgen.scenes import disc_pendulum
 
-from models import massless_link_scene
+from models import ambiguous_slider, massless_link_scene
 
 HEAVY = {"bicycle", "spatial_arm"}   # their own tests cover them; slow with every output
 
@@ -189,19 +189,10 @@ def test_ambiguous_joint_asks_to_state_it():
     eq = derive(m, Method.NEWTON_EULER, reactions=True)
     assert eq.reactions.parents == (None, None, None)
     # a slider whose rail starts at P, which both a and b (and the ground) hold
-    m2 = Model("ambiguous2")
-    q1, q2, q3 = m2.coordinates("q1 q2 q3")
-    m2.speeds("u1 u2 u3")
-    N = m2.newtonian()
-    A = m2.rotate(N, "A", 3, q1)
-    B = m2.rotate(N, "B", 3, q2)
-    P = m2.point("P", m2.origin, N.x)
-    m2.body("a", A, 1, (1, 1, 1), m2.point("Ga", P, A.x))
-    m2.body("b", B, 1, (1, 1, 1), m2.point("Gb", P, B.x))
-    m2.particle("c", m2.point("C", P, q3 * N.x), 1)
+    m2 = ambiguous_slider("ambiguous2")
     with pytest.raises(ModelError, match="state it with"):
         derive(m2, Method.NEWTON_EULER, reactions=True)
-    m2.joint("c", parent=N)
+    m2.joint("c", parent=m2.N)
     assert derive(m2, Method.NEWTON_EULER, reactions=True).reactions.parents[-1] is None
 
 

@@ -35,6 +35,7 @@ from mbgen.errors import MbgenError
 from mbgen.pipeline import run
 from mbgen.run.python import python_model
 from mbgen.model.scene import load_scene
+from models import four_bar_model
 
 SPECIAL = [np.nan, np.inf, -np.inf, 1e308, -1e308, 5e-324, -5e-324, 0.0, -0.0, 1e154, 1e-154,
            1e200, -1e200]
@@ -45,23 +46,7 @@ INTEGRATORS = ("dopri5", "rk4", "rosenbrock")
 
 def four_bar() -> mbgen.Scene:
     """A four-bar linkage: a loop-closing constraint (a singular Jacobian at dead points)."""
-    m = mbgen.Model("fuzz_fourbar")
-    q1, q2, q3 = m.coordinates("q1 q2 q3")
-    m.speeds("u1 u2 u3")
-    la, lb, lc, ld, g = m.constants("la lb lc ld g")
-    N = m.newtonian()
-    A = m.rotate(N, "A", 3, q1)
-    B = m.rotate(A, "B", 3, q2)
-    C = m.rotate(N, "C", 3, q3)
-    PA = m.point("PA", m.origin, la * A.x)
-    PB = m.point("PB", PA, lb * B.x)
-    D = m.point("D", m.origin, ld * N.x)
-    PC = m.point("PC", D, lc * C.x)
-    m.body("crank", A, 1.0, (0, 0, 0.1), m.point("GA", m.origin, la / 2 * A.x))
-    m.body("coupler", B, 1.5, (0, 0, 0.4), m.point("GB", PA, lb / 2 * B.x))
-    m.body("rocker", C, 1.2, (0, 0, 0.3), m.point("GC", D, lc / 2 * C.x))
-    m.gravity(-g * N.y)
-    m.coincident(PB, PC, [q2, q3], axes=(1, 2))
+    m = four_bar_model("fuzz_fourbar")
     return mbgen.Scene("fuzz_fourbar", m, parameters=dict(la=1.0, lb=2.0, lc=2.0, ld=2.0, g=9.81),
                        points=("GA", "GB", "GC"))
 

@@ -110,3 +110,41 @@ def scene_file(folder: Path, file_name="pend.py", description="a pendulum") -> P
     path = folder / file_name
     path.write_text(f"DESCRIPTION = {description!r}\n" + SCENE_FILE, encoding="utf-8")
     return path
+
+
+def four_bar_model(name: str) -> mbgen.Model:
+    """A four-bar linkage: a loop-closing constraint (a singular Jacobian at dead points)."""
+    m = mbgen.Model(name)
+    q1, q2, q3 = m.coordinates("q1 q2 q3")
+    m.speeds("u1 u2 u3")
+    la, lb, lc, ld, g = m.constants("la lb lc ld g")
+    N = m.newtonian()
+    A = m.rotate(N, "A", 3, q1)
+    B = m.rotate(A, "B", 3, q2)
+    C = m.rotate(N, "C", 3, q3)
+    PA = m.point("PA", m.origin, la * A.x)
+    PB = m.point("PB", PA, lb * B.x)
+    D = m.point("D", m.origin, ld * N.x)
+    PC = m.point("PC", D, lc * C.x)
+    m.body("crank", A, 1.0, (0, 0, 0.1), m.point("GA", m.origin, la / 2 * A.x))
+    m.body("coupler", B, 1.5, (0, 0, 0.4), m.point("GB", PA, lb / 2 * B.x))
+    m.body("rocker", C, 1.2, (0, 0, 0.3), m.point("GC", D, lc / 2 * C.x))
+    m.gravity(-g * N.y)
+    m.coincident(PB, PC, [q2, q3], axes=(1, 2))
+    return m
+
+
+def ambiguous_slider(name: str) -> mbgen.Model:
+    """Two links on the ground at ``P`` and a slider on a rail from ``P``: which of the
+    ground, ``a`` and ``b`` holds the slider is ambiguous to Newton–Euler's joint inference."""
+    m = mbgen.Model(name)
+    q1, q2, q3 = m.coordinates("q1 q2 q3")
+    m.speeds("u1 u2 u3")
+    N = m.newtonian()
+    A = m.rotate(N, "A", 3, q1)
+    B = m.rotate(N, "B", 3, q2)
+    P = m.point("P", m.origin, N.x)
+    m.body("a", A, 1, (1, 1, 1), m.point("Ga", P, A.x))
+    m.body("b", B, 1, (1, 1, 1), m.point("Gb", P, B.x))
+    m.particle("c", m.point("C", P, q3 * N.x), 1)
+    return m
