@@ -9,8 +9,8 @@ the same members), then integrates them in chunks.  Each chunk is one C call
 What travels to a worker: the rendered sources (plain strings, scattered
 once) with their content hash, and the chunk's ``(k, n_x)`` initial states and
 ``(k, n_p)`` parameters.  A worker checks the hash against the sources,
-compiles them into its own cache (``$MBGEN_CACHE_DIR`` or ``~/.cache/mbgen``,
-named by the hash; no shared file system assumed) at most once per process,
+compiles them (portable flags) into its own cache (``$MBGEN_CACHE_DIR`` or
+``~/.cache/mbgen``; no shared file system assumed) at most once per process,
 and returns arrays.  Nothing compiled is pickled.
 
 A failed member (mass matrix not positive definite, step too small, ...)
@@ -21,17 +21,16 @@ chunk is lost (:mod:`mbgen.studies.cluster`: what Dask advises, with bounded
 retries: each chunk runs at most twice).
 
 Counts are checked before any work (``chunk``, ``n``, ``n_workers`` >= 1; at most
-:data:`MAX_POINTS` output times, :data:`MAX_MEMBERS` members, and a table that fits
-in this machine's memory); an automatic chunk's trajectories stay under :data:`CHUNK_BYTES`.
+:data:`MAX_POINTS` output times, :data:`MAX_MEMBERS` members, a table that fits in
+memory); an automatic chunk's trajectories stay under :data:`CHUNK_BYTES`.
 
 The result is one table, a NumPy structured array with one row per member
 (``member``, the varied names, ``status``, ``message``, ``t_reached``,
 ``n_steps``, then ``final_<state>``, ``min_<state>``, ``max_<state>``; with
 ``trajectories=True`` a field ``x`` of shape ``(n_t, n_x)``, and a field per
 model output asked for with ``outputs=``, e.g. ``energy`` of shape ``(n_t, 2)``).  Chosen
-over pandas and xarray: no new dependency, exact float64 bits (the tests
-compare runs bit for bit), a fixed-shape field holds the trajectories, and
-``to_pandas()`` converts when pandas is installed.
+over pandas and xarray: no new dependency, exact float64 bits (the tests compare runs
+bit for bit), a fixed-shape field holds the trajectories; ``to_pandas()`` converts.
 """
 
 from __future__ import annotations
@@ -47,7 +46,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from ..abi import Output, Rendered
-from ..build.extension import compiled_path, load
+from ..build.extension import compiled_path, load, wants_native
 from ..errors import ArgumentError, ArgumentTypeError, MbgenError, SceneError
 from ..fileio import write_atomic
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
@@ -193,23 +192,23 @@ class _Raw:
         self.input_names = [f"r{i}" for i in range(n_r)]
 
 
-def _module(sources: dict):
-    """Load the model, compiling it into this process's cache if it is not there yet.
-
-    Returns ``(module, compiled)``: ``compiled`` is True only for the call that ran the
-    compiler (so the compiles of a worker add up to what it really built).
-    """
+def worker_module(sources: dict, native: bool = False):
+    """Load the model, compiling it into this process's cache if it is not there yet;
+    ``(module, compiled)``, ``compiled`` True only for the call that ran the compiler.
+    Portable flags (a cluster's machines may differ) unless ``native`` (a serial run) or
+    ``MBGEN_NATIVE=1``."""
     src = _Sources(sources)
     if src.digest() != sources["digest"]:
         raise MbgenError("the rendered sources do not match their content hash; refusing to "
                          "compile them")
-    compiled = not compiled_path(src).exists()
-    return load(src), compiled
+    native = wants_native(native)
+    compiled = not compiled_path(src, native).exists()
+    return load(src, native=native), compiled
 
 
 def run_chunk(sources: dict, spec: dict, x0: np.ndarray, p: np.ndarray) -> dict:
     """Integrate one chunk of members; every array in the result has one row per member."""
-    module, compiled = _module(sources)
+    module, compiled = worker_module(sources, spec.get("native", False))
     raw = _Raw(module, sources["prefix"], spec["n_x"], spec["n_p"], spec["n_r"])
     t = np.asarray(spec["t"], dtype=float)
     res = batch.integrate(raw, Output(spec["method"]), t, x0, p if spec["n_p"] else None,
@@ -458,7 +457,7 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     _check_memory(row, k)
     spec = dict(method=method, t=t, rtol=float(rtol), atol=float(atol), outputs=extra,
                 h0=0.0 if h is None else float(h), max_steps=int(max_steps),
-                n_x=L.n_x, n_p=L.n_p, n_r=L.n_r, trajectories=bool(trajectories))
+                n_x=L.n_x, n_p=L.n_p, n_r=L.n_r, trajectories=bool(trajectories), native=serial)
     sources = rendered.sources()
     workers = 1 if serial else n_workers
     size = chunk or max(1, min(MAX_CHUNK, math.ceil(k / (4 * max(workers, 1))),
@@ -497,4 +496,5 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
                           n_workers_used, compiles, len(bounds), startup)
 
 
-__all__ = ["ensemble", "EnsembleResult", "members", "run_chunk", "parse_grid", "parse_samples"]
+__all__ = ["ensemble", "EnsembleResult", "members", "run_chunk", "parse_grid", "parse_samples",
+           "worker_module"]

@@ -1,10 +1,17 @@
-"""Optimisation level by source size, and its override (mbgen.build.extension.cflags)."""
+"""The extension's flags (mbgen.build.extension.cflags): optimisation level by source size and its
+override, built for this machine's CPU (cache key included) with the portable build's results."""
 
 import dataclasses
 
 import pytest
 
-from mbgen.build.extension import LARGE_SOURCE_CHARS, cflags, module_name
+import numpy as np
+
+from mbgen.build import extension
+from mbgen.build.extension import (LARGE_SOURCE_CHARS, NATIVE, cflags, compiled_path, compiler,
+                                   load, module_name, native_target)
+from mbgen.run.compiled import CompiledModel
+from mbgen.studies.ensemble import worker_module
 from mbgen.errors import BuildError
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
@@ -34,3 +41,66 @@ def test_MBGEN_OPT_overrides_and_is_part_of_the_cache_key(rendered, monkeypatch)
     monkeypatch.setenv("MBGEN_OPT", "-O9; rm -rf /")
     with pytest.raises(BuildError, match="MBGEN_OPT"):
         cflags(rendered)
+
+
+# ------------------------------------------------------------------ built for this machine
+def test_a_users_module_is_built_for_this_cpu_where_the_compiler_takes_it(rendered, monkeypatch):
+    monkeypatch.delenv("MBGEN_NATIVE", raising=False)
+    takes = bool(native_target(compiler()))
+    assert (NATIVE[0] in cflags(rendered)) == takes
+    assert NATIVE[0] not in cflags(rendered, native=False)
+    assert "-ffp-contract=off" in cflags(rendered)        # the results stay the portable ones
+    monkeypatch.setenv("MBGEN_NATIVE", "0")
+    assert NATIVE[0] not in cflags(rendered)
+    monkeypatch.setenv("MBGEN_NATIVE", "yes")
+    with pytest.raises(BuildError, match="MBGEN_NATIVE='yes'"):
+        cflags(rendered)
+
+
+def test_a_compiler_that_refuses_march_native_gets_the_portable_flags(rendered, monkeypatch):
+    monkeypatch.delenv("MBGEN_NATIVE", raising=False)
+    monkeypatch.setenv("CC", "false")          # exits 1 for anything
+    assert native_target("false") == ""
+    assert NATIVE[0] not in cflags(rendered)
+
+
+def test_the_cache_key_names_the_cpu(rendered, monkeypatch):
+    """A cache shared by two machines never loads a module built for the other's CPU."""
+    monkeypatch.delenv("MBGEN_NATIVE", raising=False)
+    if not native_target(compiler()):
+        pytest.fail("this machine's compiler refuses -march=native; the test needs gcc or clang")
+    here = module_name(rendered)
+    assert module_name(rendered, native=False) != here
+    monkeypatch.setattr(extension, "native_target", lambda cc: "another-cpu")
+    assert module_name(rendered) != here
+
+
+def test_native_and_portable_modules_give_the_same_bits(tmp_path, monkeypatch):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    res = run(load_scene("spatial_arm", n=4), ("rhs", "jacobian"), build=False)
+    r = res.rendered
+    native, portable = (CompiledModel(r, load(r, native=flag), r.layout, r.defaults, r.outputs)
+                        for flag in (True, False))
+    assert compiled_path(r, True) != compiled_path(r, False)
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        x = rng.uniform(-2, 2, native.n_x)
+        assert np.array_equal(native.rhs(0.0, x), portable.rhs(0.0, x))
+        assert np.array_equal(native.jacobian(0.0, x), portable.jacobian(0.0, x))
+
+
+def test_ensemble_workers_build_portable_modules(tmp_path, monkeypatch):
+    """A Dask worker's machine may differ from the client's: portable flags unless asked."""
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("MBGEN_NATIVE", raising=False)
+    r = run(load_scene("disc_pendulum"), ("rhs",), build=False).rendered
+    native = bool(native_target(compiler()))
+    module, compiled = worker_module(r.sources())
+    assert compiled and compiled_path(r, False).exists()
+    assert not (native and compiled_path(r, True).exists())
+    assert worker_module(r.sources()) == (module, False)      # once per process
+    monkeypatch.setenv("MBGEN_NATIVE", "1")                    # asked for
+    worker_module(r.sources())
+    assert compiled_path(r, True).exists() == native
+    monkeypatch.delenv("MBGEN_NATIVE")
+    assert worker_module(r.sources(), native=True)[0] is load(r)   # a serial run's: this CPU's
