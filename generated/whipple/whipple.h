@@ -2,14 +2,14 @@
  *
  * Model:      whipple
  * Source:     scene 'whipple' (mbgen/scenes/whipple.py)
- * Derivation: Newton-Euler (chosen: a right-hand side of 3170 operations with the L D L^T solve, against Kane's 3178)
+ * Derivation: Kane's method (chosen: a right-hand side of 3153 operations with the L D L^T solve, against Newton-Euler's 3162)
  * CSE:        symengine
- * Operations: 7143 after CSE (94998 before), excluding the L D L^T solve
- *   whipple_rhs: 3143 (44396 before CSE)
- *   whipple_energy: 733 (5650 before CSE)
- *   whipple_constraint_forces: 3143 (44396 before CSE)
- *   whipple_holonomic: 31 (72 before CSE)
- *   whipple_holonomic_jacobian: 93 (484 before CSE)
+ * Operations: 7142 after CSE (122234 before), excluding the L D L^T solve
+ *   whipple_rhs: 3149 (58005 before CSE)
+ *   whipple_energy: 721 (5671 before CSE)
+ *   whipple_constraint_forces: 3149 (58005 before CSE)
+ *   whipple_holonomic: 32 (71 before CSE)
+ *   whipple_holonomic_jacobian: 91 (482 before CSE)
  *
  * Equations:  M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t)
  *
@@ -102,17 +102,17 @@ extern "C" {
 #define WHIPPLE_P_g 0 /* g */
 
 /* SHA-256 (16 hex digits) of whipple.h, .c and .py with this value blanked. */
-#define WHIPPLE_CONTENT_HASH "d80dd46d5265967e"
+#define WHIPPLE_CONTENT_HASH "fa0894bae1cffb01"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
-#define WHIPPLE_STACK_CONSTRAINT_FORCES 6328
+#define WHIPPLE_STACK_CONSTRAINT_FORCES 5184
 #define WHIPPLE_STACK_DEFAULT_PARAMETERS 256
-#define WHIPPLE_STACK_DOPRI5 8464
-#define WHIPPLE_STACK_ENERGY 1476
+#define WHIPPLE_STACK_DOPRI5 7320
+#define WHIPPLE_STACK_ENERGY 1628
 #define WHIPPLE_STACK_HOLONOMIC 1228
-#define WHIPPLE_STACK_HOLONOMIC_JACOBIAN 1524
-#define WHIPPLE_STACK_RHS 6328
+#define WHIPPLE_STACK_HOLONOMIC_JACOBIAN 1516
+#define WHIPPLE_STACK_RHS 5184
 
 int whipple_rhs(double t, const double *x, const double *p, double *dxdt);
 int whipple_energy(double t, const double *x, const double *p, double *energy);

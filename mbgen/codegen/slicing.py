@@ -71,7 +71,7 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
     mapping = dict(sub)
     kept = []
     for sym, e in program.assignments:   # fold: assignments that became numbers or symbols go
-        value = xreplace_dag([e], mapping, memo)[0]
+        value = xreplace_dag([e], mapping, memo, keep_sums=True)[0]
         if sym not in program.checks and (value.is_Number or value.is_Symbol):
             mapping[sym] = value
         else:
@@ -80,7 +80,7 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
         return equations
 
     def bake_all(exprs):
-        return xreplace_dag(exprs, mapping, memo)
+        return xreplace_dag(exprs, mapping, memo, keep_sums=True)
 
     def bake_matrix(m):
         return sm.ImmutableMatrix(m.rows, m.cols, bake_all(list(m)))

@@ -119,7 +119,8 @@ def postorder_unique(exprs: Iterable) -> list:
     return order
 
 
-def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = None) -> list:
+def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = None,
+                 keep_sums: bool = False) -> list:
     """``[e.xreplace(mapping) for e in exprs]``, visiting each distinct node once.
 
     sympy's own ``xreplace`` recurses through the tree, so it costs the
@@ -127,6 +128,11 @@ def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = N
     Nodes are rebuilt (and re-evaluated, as ``xreplace`` does) only where a
     descendant changed.  ``memo`` may be shared between calls with the same
     ``mapping`` so that repeated subexpressions are replaced once.
+
+    ``keep_sums``: a product that becomes a number times one sum stays that
+    (``0.4*(x + y)``, one product) where sympy would distribute the number over
+    the sum (``0.4*x + 0.4*y``, a product per term): baking ``a = 0.4`` into
+    ``a*(x + y)`` must not cost operations (:func:`mbgen.codegen.slicing.bake`).
     """
     exprs = [sm.sympify(e) for e in exprs]
     memo = {} if memo is None else memo
@@ -141,8 +147,19 @@ def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = N
         else:
             args = [memo[a] for a in node.args]
             changed = any(n is not o for n, o in zip(args, node.args))
-            memo[node] = node.func(*args) if changed else node
+            memo[node] = ((_product(args) if keep_sums and node.is_Mul else node.func(*args))
+                          if changed else node)
     return [memo[e] for e in exprs]
+
+
+def _product(args: list) -> sm.Expr:
+    """``Mul(*args)``, but a number times a single sum stays undistributed."""
+    rest = [a for a in args if not a.is_Number]
+    if len(rest) == 1 and rest[0].is_Add:
+        c = sm.Mul(*[a for a in args if a.is_Number])
+        if c.is_Number and c.is_finite and c not in (sm.S.Zero, sm.S.One, sm.S.NegativeOne):
+            return sm.Mul._from_args((c, rest[0]))
+    return sm.Mul(*args)
 
 
 def _se():
