@@ -90,7 +90,7 @@ def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
     :data:`NATIVE` where ``native`` (default :func:`wants_native`) and the compiler takes it.
 
     A module built by ``mbgen.compile`` runs on the machine that built it, so it is built
-    for that CPU: 1.2-1.3x faster from n = 8 links on (:data:`NATIVE`'s figures).
+    for that CPU: 1.1-1.3x faster from n = 8 links on (:data:`NATIVE`'s figures).
     -ffp-contract=off stays, so the results are those of the portable build and of the
     generated Python bit for bit (no fused multiply-add; gcc does not reassociate
     floating point without -ffast-math).  The exported C, ``example.c`` and FMUs keep
