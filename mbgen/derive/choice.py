@@ -7,7 +7,8 @@ length (faster on a spatial chain, whose rotations multiply); Newton–Euler
 passes one velocity, acceleration and wrench per body along the tree and, when
 every speed belongs to exactly one joint, gives ``u'`` by the articulated-body
 recursion at a cost linear in the number of bodies.  Measured as operations
-after CSE (L D L^T solve included) of the right-hand side:
+after CSE (L D L^T solve included) of the right-hand side when the rule was set
+(the optimiser has moved the counts a few per cent since; the ratios stand):
 
 ======================================  =========  ======  ======  ======  ======
 chain (relative joint angles)           method     2       4       6       12
