@@ -53,7 +53,7 @@ def test_every_scene_with_an_integrator_has_an_example():
     assert set(WITH_EXAMPLE) >= {"disc_pendulum", "n_link_cart", "bead_wire", "torque_free"}
 
 
-@pytest.mark.parametrize("name", scene_params(WITH_EXAMPLE))
+@pytest.mark.parametrize("name", scene_params(WITH_EXAMPLE, heavy=True))
 def test_example_matches_the_python_path(name, tmp_path):
     scene = load_scene(name, **golden.GOLDEN_OPTIONS.get(name, {}))
     files = golden.scene_files(name)

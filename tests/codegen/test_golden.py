@@ -19,7 +19,7 @@ def test_every_builtin_scene_has_a_folder():
     assert sorted(p.name for p in ROOT.iterdir() if p.is_dir()) == builtin_names()
 
 
-@pytest.mark.parametrize("name", scene_params())
+@pytest.mark.parametrize("name", scene_params(heavy=True))
 def test_generated_tree_matches_generator(name, tmp_path):
     fresh = tmp_path / "generated"
     golden.update(fresh, [name])

@@ -22,7 +22,7 @@ def values(scene, layout):
     return np.array([merged[n] for n in layout.parameter_names])
 
 
-@pytest.mark.parametrize("name", scene_params(every_output=True))
+@pytest.mark.parametrize("name", scene_params(heavy=True))
 def test_sliced_code_gives_the_numbers_of_the_full_code(name):
     scene = load_scene(name)
     outputs = [o for o in scene.outputs if not Output(o).is_integrator]

@@ -26,7 +26,7 @@ def central_difference(f, x, h=1e-6):
     return np.column_stack(cols)
 
 
-@pytest.fixture(scope="module", params=scene_params(every_output=True))
+@pytest.fixture(scope="module", params=scene_params(heavy=True))
 def result(request):
     return mbgen.run(load_scene(request.param), outputs=SENSITIVITIES)
 

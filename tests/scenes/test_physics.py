@@ -224,7 +224,7 @@ def random_point(scn, layout, rng):
     return rng.uniform(0, 1), x, p, rng.uniform(-1, 1, layout.n_r)
 
 
-@pytest.mark.parametrize("name", scene_params(every_output=True))
+@pytest.mark.parametrize("name", scene_params(heavy=True))
 def test_backends_agree(name):
     res = pipeline(name)
     outputs = applicable(res.baked)

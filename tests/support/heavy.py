@@ -12,12 +12,15 @@ diff, ``gcc -O2`` on a 250 kB Jacobian for the example, unsliced pipelines).
 Its own physics tests (``tests/scenes/test_vehicles.py``) run by default.
 
 ``whipple`` (the benchmark bicycle, 7,000 operations in its right-hand side):
-light enough for every every-scene case but the few that generate, compile and
-lambdify *every* output at once (``every_output=True``: the back ends on every
-output, the Jacobians against lambdified symbolic ones, the sliced code against
-the full code), about 70 s together of the default run's 10 minutes.  Its
-golden files, determinism, generated C's warnings, energy, derivation choice,
-constrained back ends (rhs and constraint forces) and sympy oracle stay default.
+light enough for every every-scene case but the heavy ones (``heavy=True``):
+those that generate, compile and lambdify *every* output at once (the back ends
+on every output, the Jacobians against lambdified symbolic ones, the sliced code
+against the full code), the golden diff (its bytes are compared with
+``generated/whipple`` by ``tests/codegen/test_determinism.py`` twice by default)
+and the example program, about 85 s together of a default run near 9 minutes.
+Its determinism, generated C's warnings (C and C++), energy, derivation choice,
+Newton–Euler against Kane, constrained back ends (rhs and constraint forces) and
+sympy oracle stay default.
 """
 
 import pytest
@@ -30,15 +33,15 @@ HEAVY = {
 }
 
 
-#: scene name -> why it is heavy for the cases that generate every output at once
-HEAVY_EVERY_OUTPUT = {
-    "whipple": "every output generated, compiled and lambdified: about 70 s over three cases",
+#: scene name -> why it is heavy for the heavy every-scene cases (``scene_params(heavy=True)``)
+HEAVY_CASES = {
+    "whipple": "every output at once, the golden diff, the example: about 85 s over five cases",
 }
 
 
-def scene_params(names=None, every_output: bool = False) -> list:
+def scene_params(names=None, heavy: bool = False) -> list:
     """``names`` (default: every built-in scene) as pytest params, heavy ones marked slow
-    (with ``every_output``, those of :data:`HEAVY_EVERY_OUTPUT` too)."""
-    heavy = set(HEAVY) | (set(HEAVY_EVERY_OUTPUT) if every_output else set())
+    (in a heavy case, those of :data:`HEAVY_CASES` too)."""
+    heavy = set(HEAVY) | (set(HEAVY_CASES) if heavy else set())
     return [pytest.param(n, marks=pytest.mark.slow, id=n) if n in heavy else n
             for n in (builtin_names() if names is None else names)]
