@@ -29,7 +29,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 from .build.extension import compiled_path, load
 from .derive import NAMED, Method, choose_method, derive, method_of
 from .symbolic.equations import Equations
-from .symbolic.graph import free_symbols
+from .symbolic.graph import reachable
 from .errors import ModelError
 from .model.builder import Model
 from .codegen.optimize import CseBackend, Form, Kernel, optimize
@@ -178,14 +178,7 @@ def _content(eq: Equations) -> int:
     roots = list(eq.mass_matrix) + list(eq.forcing) + list(eq.kinematics)
     roots += list(eq.accelerations or ()) + (eq.constraints.expressions() if eq.constraints
                                               else [])
-    defs = dict(eq.program.assignments)
-    reached: set = set()
-    stack = list(free_symbols(roots))
-    while stack:   # each program symbol once
-        sym = stack.pop()
-        if sym in defs and sym not in reached:
-            reached.add(sym)
-            stack.extend(free_symbols([defs[sym]]))
+    reached = reachable(roots, dict(eq.program.assignments))
     program = tuple((sym, e) for sym, e in eq.program.assignments if sym in reached)
     return hash((eq.layout, eq.mass_matrix, eq.forcing, eq.kinematics, program,
                  eq.accelerations, eq.constraints))

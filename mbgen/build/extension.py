@@ -147,8 +147,8 @@ def compiled_path(rendered: Rendered, native: bool | None = None) -> Path:
 
 
 def compiler() -> str:
-    cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
-    exe = cc.split()[0]
+    """The C compiler's executable (:func:`_cc`), checked to exist."""
+    exe = _cc()
     if shutil.which(exe) is None:
         raise BuildError(f"no C compiler found (looked for {exe!r}); install one "
                          f"(e.g. 'apt install gcc') or set CC")

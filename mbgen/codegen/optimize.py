@@ -22,7 +22,7 @@ from ..symbolic.layout import Layout
 from ..abi import INTEGRATORS, Output
 from .outputs import Block, Form, Spec, spec, with_dependencies
 from .solver import solve_ops
-from ..symbolic.graph import count_ops_dag, count_ops_tree, free_symbols, xreplace_dag
+from ..symbolic.graph import count_ops_dag, count_ops_tree, free_symbols, reachable, xreplace_dag
 
 __all__ = ["Output", "CseBackend", "Block", "Form", "KernelFunction", "Kernel", "optimize"]
 
@@ -180,8 +180,8 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
         roots = [e for b in pre + post for _, e in b.entries]
         if s.pivots:   # a zero pivot times a zero right-hand side is still singular
             roots += sorted(checks, key=order.__getitem__)
-        first = set(_closure(vel_roots, rep_expr))
-        needed = sorted(_closure(roots, rep_expr) | first, key=order.__getitem__)
+        first = set(reachable(vel_roots, rep_expr))
+        needed = sorted(reachable(roots, rep_expr) | first, key=order.__getitem__)
         vel_temps = tuple((t, rep_expr[t]) for t in needed if t in first)
         temps = tuple((t, rep_expr[t]) for t in needed if t not in after_solve and t not in first)
         post_temps = tuple((t, rep_expr[t]) for t in needed if t in after_solve)
@@ -189,7 +189,7 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
         used_syms, uses = _usage(equations, vel_roots + roots + [e for _, e in every])
         raw = [e for b in s.velocity + s.pre + s.post for _, e in b.entries]
         before = count_ops_tree(raw) + sum(count_ops_tree([program_defs[d]]) for d in
-                                           _closure(raw, program_defs))
+                                           reachable(raw, program_defs))
         after = (count_ops_dag([e for _, e in every])
                  + sum(count_ops_dag([e]) for e in vel_roots + roots))
         functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,
@@ -280,14 +280,4 @@ def _depends_on(reps, roots: set) -> set:
     return tainted - roots
 
 
-def _closure(roots, rep_expr) -> set:
-    """Temporaries reachable from ``roots`` through ``rep_expr``."""
-    needed: set = set()
-    stack = list(free_symbols(roots) & rep_expr.keys())
-    while stack:
-        s = stack.pop()
-        if s in needed:
-            continue
-        needed.add(s)
-        stack.extend(free_symbols([rep_expr[s]]) & rep_expr.keys() - needed)
-    return needed
+

@@ -8,7 +8,7 @@ expression DAG once.
 
 from __future__ import annotations
 
-from typing import Iterable
+from typing import Iterable, Mapping
 
 import sympy as sm
 
@@ -150,6 +150,20 @@ def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = N
             memo[node] = ((_product(args) if keep_sums and node.is_Mul else node.func(*args))
                           if changed else node)
     return [memo[e] for e in exprs]
+
+
+def reachable(roots: Iterable[sm.Basic], defs: Mapping) -> set:
+    """The symbols of ``defs`` (symbol -> definition) that ``roots`` read, directly or through
+    other definitions; each definition is visited once."""
+    needed: set = set()
+    stack = list(free_symbols(roots) & defs.keys())
+    while stack:
+        s = stack.pop()
+        if s in needed:
+            continue
+        needed.add(s)
+        stack.extend(free_symbols([defs[s]]) & defs.keys() - needed)
+    return needed
 
 
 def _product(args: list) -> sm.Expr:
