@@ -2,7 +2,7 @@
  *
  * Model:      bead_wire_force
  * Source:     scene 'bead_wire_force' (mbgen/scenes/bead_wire_force.py)
- * Derivation: Kane's method (chosen: a right-hand side of 11 operations with the L D L^T solve, against Newton-Euler's 35)
+ * Derivation: Kane's method (chosen: a right-hand side of 11 operations with the L D L^T solve, against Newton-Euler's 34)
  * CSE:        symengine
  * Operations: 20 after CSE (24 before), excluding the L D L^T solve
  *   bead_wire_force_rhs: 10 (12 before CSE)
@@ -66,7 +66,7 @@ extern "C" {
 #define BEAD_WIRE_FORCE_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of bead_wire_force.h, .c and .py with this value blanked. */
-#define BEAD_WIRE_FORCE_CONTENT_HASH "9f0bedc930bdfd9c"
+#define BEAD_WIRE_FORCE_CONTENT_HASH "ead588e90b14805e"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -2,7 +2,7 @@
 
 Model:      bead_wire_force
 Source:     scene 'bead_wire_force' (mbgen/scenes/bead_wire_force.py)
-Derivation: Kane's method (chosen: a right-hand side of 11 operations with the L D L^T solve, against Newton-Euler's 35)
+Derivation: Kane's method (chosen: a right-hand side of 11 operations with the L D L^T solve, against Newton-Euler's 34)
 CSE:        symengine
 Operations: 20 after CSE (24 before)
 

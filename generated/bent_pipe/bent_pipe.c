@@ -63,16 +63,16 @@ int bent_pipe_rhs(double t, const double *x, const double *p, double *dxdt)
     double M[4];
     double F[2];
     int i;
-    const double v2 = sin(phi);
-    const double v0 = m*(v2*v2);
-    const double v1 = q2*v0;
+    const double v0 = sin(phi);
+    const double v1 = m*(v0*v0);
+    const double v2 = q2*v1;
     dxdt[0] = u1;
     dxdt[1] = u2;
-    M[0] = J_ + (q2*q2)*v0;
+    M[0] = J_ + (q2*q2)*v1;
     M[2] = 0.0;
     M[3] = m;
-    F[0] = -2.0*u1*u2*v1;
-    F[1] = 9.81*m*cos(phi) + (u1*u1)*v1;
+    F[0] = -2.0*u1*u2*v2;
+    F[1] = 9.81*m*cos(phi) + (u1*u1)*v2;
     i = bent_pipe_ldl(M);
     if (i != BENT_PIPE_OK) {
         return i;

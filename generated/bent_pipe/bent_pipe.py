@@ -105,19 +105,19 @@ def _rhs(math, t, x, p):
     phi = p[0]
     m = p[1]
     J_ = p[2]
-    v2 = math.sin(phi)
-    v0 = m*(v2*v2)
-    v1 = q2*v0
+    v0 = math.sin(phi)
+    v1 = m*(v0*v0)
+    v2 = q2*v1
     dxdt = [0.0] * 4
     dxdt[0] = u1
     dxdt[1] = u2
     M = [0.0] * 4
-    M[0] = J_ + (q2*q2)*v0
+    M[0] = J_ + (q2*q2)*v1
     M[2] = 0
     M[3] = m
     F = [0.0] * 2
-    F[0] = -2*u1*u2*v1
-    F[1] = 9.81*m*math.cos(phi) + (u1*u1)*v1
+    F[0] = -2*u1*u2*v2
+    F[1] = 9.81*m*math.cos(phi) + (u1*u1)*v2
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[2:] = F

@@ -4,7 +4,7 @@ Model:      car_trailer
 Source:     scene 'car_trailer' (mbgen/scenes/car_trailer.py)
 Derivation: Newton-Euler (named by the scene or --derivation)
 CSE:        symengine
-Operations: 279 after CSE (551 before)
+Operations: 277 after CSE (551 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as car_trailer.h:
 state x = ['X', 'Y', 'psi', 'theta', 'u', 'v', 'r', 'w']
@@ -111,7 +111,7 @@ def _ldl_solve(M, b, o=0):
 def rhs(t, x, p, r):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
-    Returns a new array of shape 8; 121 operations (249 before CSE).
+    Returns a new array of shape 8; 120 operations (249 before CSE).
     """
     try:
         return _rhs(math, float(t), x.tolist(), p.tolist(), r.tolist())
@@ -144,73 +144,70 @@ def _rhs(math, t, x, p, r):
     v7 = v0*v4 + v1*v6
     v8 = v0*v6 - v1*v4
     v9 = (v0*v0) + (v1*v1)
-    v10 = (v0*v0) + (v1*v1)
-    v11 = r_ + w
+    v10 = r_ + w
+    v11 = 2.5*(r_*r_) + v7
     v12 = math.sin(theta)
     v13 = math.cos(theta)
-    v14 = 2.5*(r_*r_) + v7
-    v15 = v12*v8 + v13*v14
-    v16 = -v12*v14 + v13*v8
-    v17 = -1.6*m_tr
-    v18 = 2.5600000000000005*m_tr
-    v19 = v18 + 700
-    v20 = math.cos(delta)
-    v21 = math.sin(delta)
-    v22 = 1.2*r_ + v
-    v23 = -u*v21 + v20*v22
-    v24 = (1.0/(u*v20 + v21*v22))
-    v25 = (-1.5*r_ + v)/u
-    v26 = -96000.0*v20*v23*v24 + 135000.0*v25
-    v27 = 80000*v23*v24
-    v28 = F_drive - m_car*v7 + v21*v27
-    v29 = -m_car*v8 - v20*v27 - 90000*v25
-    v30 = -2.5*r_ + v
-    v31 = (-u*v12 - 1.9*v11 + v13*v30)/(u*v13 + v12*v30)
-    v32 = -v16*v17 + 95000.0*v31
-    v33 = -m_tr*v15 + (v11*v11)*v17
-    v34 = -m_tr*v16 - 50000*v31
-    v35 = v12*v33
-    v36 = v13*v34 + v35
-    v37 = v26 + v32 - 2.5*v36
-    v38 = v13*v33
-    v39 = -v12*v34 + v28 + v38
-    v40 = v29 + v36
-    v46 = v12*v17
-    v48 = v13*v17
-    v49 = 6.25*m_tr - 5.0*v48
-    v51 = v19 + v49 + 2500
-    v52 = -v46
-    v53 = m_car + m_tr
-    v54 = 2.5*m_tr
-    v55 = v48 - v54
-    v56 = m_car + m_tr
+    v14 = v11*v13 + v12*v8
+    v15 = -v11*v12 + v13*v8
+    v16 = -1.6*m_tr
+    v17 = 2.5600000000000005*m_tr
+    v18 = v17 + 700
+    v19 = math.cos(delta)
+    v20 = math.sin(delta)
+    v21 = 1.2*r_ + v
+    v22 = -u*v20 + v19*v21
+    v23 = (1.0/(u*v19 + v20*v21))
+    v24 = (-1.5*r_ + v)/u
+    v25 = -96000.0*v19*v22*v23 + 135000.0*v24
+    v26 = 80000*v22*v23
+    v27 = F_drive - m_car*v7 + v20*v26
+    v28 = -m_car*v8 - v19*v26 - 90000*v24
+    v29 = -2.5*r_ + v
+    v30 = (-u*v12 - 1.9*v10 + v13*v29)/(u*v13 + v12*v29)
+    v31 = -v15*v16 + 95000.0*v30
+    v32 = -m_tr*v14 + (v10*v10)*v16
+    v33 = -m_tr*v15 - 50000*v30
+    v34 = v12*v32
+    v35 = v13*v33 + v34
+    v36 = v25 + v31 - 2.5*v35
+    v37 = v13*v32
+    v38 = -v12*v33 + v27 + v37
+    v39 = v28 + v35
+    v45 = v12*v16
+    v47 = v13*v16
+    v48 = 6.25*m_tr - 5.0*v47
+    v50 = v18 + v48 + 2500
+    v51 = -v45
+    v52 = m_car + m_tr
+    v53 = 2.5*m_tr
+    v54 = v47 - v53
+    v56 = v51*v9
+    v57 = v52*v9
+    v58 = v54*v9
     v59 = v52*v9
-    v60 = v53*v9
-    v61 = v10*v55
-    v62 = v10*v56
-    v63 = v19 - 2.5*v48
-    v64 = -v46
+    v60 = v18 - 2.5*v47
     dxdt = [0.0] * 8
     dxdt[0] = v5
     dxdt[1] = v2 + v3
     dxdt[2] = r_
     dxdt[3] = w
     M = [0.0] * 16
-    M[0] = v60*v9
+    M[0] = v57*v9
     M[4] = 0
-    M[5] = v10*v62
-    M[8] = v59
-    M[9] = v61
-    M[10] = v51
-    M[12] = v64*v9
-    M[13] = v10*v48
-    M[14] = v63
-    M[15] = v19
+    M[5] = v59*v9
+    M[8] = v56
+    M[9] = v58
+    M[10] = v50
+    M[12] = v51*v9
+    M[13] = v47*v9
+    M[14] = v60
+    M[15] = v18
     F = [0.0] * 4
-    F[0] = v39*v9
-    F[1] = v10*v40
-    F[2] = v37
-    F[3] = v32
+    F[0] = v38*v9
+    F[1] = v39*v9
+    F[2] = v36
+    F[3] = v31
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[4:] = F
@@ -223,7 +220,7 @@ def _rhs(math, t, x, p, r):
 def reactions(t, x, p, r):
     """Joint reactions, row-major 2 x 6: for each joint, the force and the moment (about the joint point) that the parent exerts on the child, in the joint's frame: Fx, Fy, Fz, Mx, My, Mz.
 
-    Returns a new array of shape 2 x 6; 158 operations (302 before CSE).
+    Returns a new array of shape 2 x 6; 157 operations (302 before CSE).
     """
     try:
         return _reactions(math, float(t), x.tolist(), p.tolist(), r.tolist())
@@ -256,101 +253,98 @@ def _reactions(math, t, x, p, r):
     v7 = v0*v4 + v1*v6
     v8 = v0*v6 - v1*v4
     v9 = (v0*v0) + (v1*v1)
-    v10 = (v0*v0) + (v1*v1)
-    v11 = r_ + w
+    v10 = r_ + w
+    v11 = 2.5*(r_*r_) + v7
     v12 = math.sin(theta)
     v13 = math.cos(theta)
-    v14 = 2.5*(r_*r_) + v7
-    v15 = v12*v8 + v13*v14
-    v16 = -v12*v14 + v13*v8
-    v17 = -1.6*m_tr
-    v18 = 2.5600000000000005*m_tr
-    v19 = v18 + 700
-    v20 = math.cos(delta)
-    v21 = math.sin(delta)
-    v22 = 1.2*r_ + v
-    v23 = -u*v21 + v20*v22
-    v24 = (1.0/(u*v20 + v21*v22))
-    v25 = (-1.5*r_ + v)/u
-    v26 = -96000.0*v20*v23*v24 + 135000.0*v25
-    v27 = 80000*v23*v24
-    v28 = F_drive - m_car*v7 + v21*v27
-    v29 = -m_car*v8 - v20*v27 - 90000*v25
-    v30 = -2.5*r_ + v
-    v31 = (-u*v12 - 1.9*v11 + v13*v30)/(u*v13 + v12*v30)
-    v32 = -v16*v17 + 95000.0*v31
-    v33 = -m_tr*v15 + (v11*v11)*v17
-    v34 = -m_tr*v16 - 50000*v31
-    v35 = v12*v33
-    v36 = v13*v34 + v35
-    v37 = v26 + v32 - 2.5*v36
-    v38 = v13*v33
-    v39 = -v12*v34 + v28 + v38
-    v40 = v29 + v36
-    v46 = v12*v17
-    v48 = v13*v17
-    v49 = 6.25*m_tr - 5.0*v48
-    v51 = v19 + v49 + 2500
-    v52 = -v46
-    v53 = m_car + m_tr
-    v54 = 2.5*m_tr
-    v55 = v48 - v54
-    v56 = m_car + m_tr
+    v14 = v11*v13 + v12*v8
+    v15 = -v11*v12 + v13*v8
+    v16 = -1.6*m_tr
+    v17 = 2.5600000000000005*m_tr
+    v18 = v17 + 700
+    v19 = math.cos(delta)
+    v20 = math.sin(delta)
+    v21 = 1.2*r_ + v
+    v22 = -u*v20 + v19*v21
+    v23 = (1.0/(u*v19 + v20*v21))
+    v24 = (-1.5*r_ + v)/u
+    v25 = -96000.0*v19*v22*v23 + 135000.0*v24
+    v26 = 80000*v22*v23
+    v27 = F_drive - m_car*v7 + v20*v26
+    v28 = -m_car*v8 - v19*v26 - 90000*v24
+    v29 = -2.5*r_ + v
+    v30 = (-u*v12 - 1.9*v10 + v13*v29)/(u*v13 + v12*v29)
+    v31 = -v15*v16 + 95000.0*v30
+    v32 = -m_tr*v14 + (v10*v10)*v16
+    v33 = -m_tr*v15 - 50000*v30
+    v34 = v12*v32
+    v35 = v13*v33 + v34
+    v36 = v25 + v31 - 2.5*v35
+    v37 = v13*v32
+    v38 = -v12*v33 + v27 + v37
+    v39 = v28 + v35
+    v45 = v12*v16
+    v47 = v13*v16
+    v48 = 6.25*m_tr - 5.0*v47
+    v50 = v18 + v48 + 2500
+    v51 = -v45
+    v52 = m_car + m_tr
+    v53 = 2.5*m_tr
+    v54 = v47 - v53
+    v56 = v51*v9
+    v57 = v52*v9
+    v58 = v54*v9
     v59 = v52*v9
-    v60 = v53*v9
-    v61 = v10*v55
-    v62 = v10*v56
-    v63 = v19 - 2.5*v48
-    v64 = -v46
-    v68 = -v34
-    v88 = -v26
-    v90 = -v28
-    v92 = -v29
+    v60 = v18 - 2.5*v47
+    v64 = -v33
+    v79 = -v25
+    v81 = -v27
+    v83 = -v28
     M = [0.0] * 16
-    M[0] = v60*v9
+    M[0] = v57*v9
     M[4] = 0
-    M[5] = v10*v62
-    M[8] = v59
-    M[9] = v61
-    M[10] = v51
-    M[12] = v64*v9
-    M[13] = v10*v48
-    M[14] = v63
-    M[15] = v19
+    M[5] = v59*v9
+    M[8] = v56
+    M[9] = v58
+    M[10] = v50
+    M[12] = v51*v9
+    M[13] = v47*v9
+    M[14] = v60
+    M[15] = v18
     F = [0.0] * 4
-    F[0] = v39*v9
-    F[1] = v10*v40
-    F[2] = v37
-    F[3] = v32
+    F[0] = v38*v9
+    F[1] = v39*v9
+    F[2] = v36
+    F[3] = v31
     _ldl(M)
     _ldl_solve(M, F)
-    v142 = F[0]*v9
-    v143 = F[1]*v10
-    v144 = F[2] + F[3]
-    v145 = -2.5*F[2] + v143
-    v146 = v12*v145 + v13*v142
-    v147 = -v12*v142 + v13*v145
-    v148 = v144*v19 + v147*v17 - v32
-    v149 = m_tr*v146 - v33
-    v150 = m_tr*v147 + v144*v17 + v68
-    v151 = v12*v149 + v13*v150
-    v152 = 2500*F[2] + v148 - 2.5*v151 + v88
-    v153 = -v12*v150 + v13*v149
-    v154 = m_car*v142 + v153 + v90
-    v155 = m_car*v143 + v151 + v92
+    v133 = F[0]*v9
+    v134 = F[1]*v9
+    v135 = F[2] + F[3]
+    v136 = -2.5*F[2] + v134
+    v137 = v12*v136 + v13*v133
+    v138 = -v12*v133 + v13*v136
+    v139 = v135*v18 + v138*v16 - v31
+    v140 = m_tr*v137 - v32
+    v141 = m_tr*v138 + v135*v16 + v64
+    v142 = v12*v140 + v13*v141
+    v143 = 2500*F[2] + v139 - 2.5*v142 + v79
+    v144 = -v12*v141 + v13*v140
+    v145 = m_car*v133 + v144 + v81
+    v146 = m_car*v134 + v142 + v83
     reactions = [0.0] * 12
-    reactions[0] = v154
-    reactions[1] = v155
+    reactions[0] = v145
+    reactions[1] = v146
     reactions[2] = 0
     reactions[3] = 0
     reactions[4] = 0
-    reactions[5] = v152
-    reactions[6] = v153
-    reactions[7] = v151
+    reactions[5] = v143
+    reactions[6] = v144
+    reactions[7] = v142
     reactions[8] = 0
     reactions[9] = 0
     reactions[10] = 0
-    reactions[11] = v148
+    reactions[11] = v139
     result = np.array(reactions, dtype=np.float64).reshape(2, 6)
     if not np.isfinite(result).all():
         raise NonFinite("reactions: non-finite output %r" % (result,))

@@ -316,13 +316,13 @@ int slider_crank_rhs(double t, const double *x, const double *p, const double *r
     const double v13 = v1*v12;
     const double v14 = v12*v3;
     const double v15 = -q3;
-    const double v23 = lh + v15;
-    const double v16 = sqrt((v23*v23));
-    const double v17 = l0 + v16;
-    const double v18 = -(l0*l0) + (lh*lh) - 2.0*lh*q3 + (q3*q3);
-    const double v19 = (u1*u1);
-    const double v20 = v0*v19;
-    const double v21 = v19*v2;
+    const double v16 = lh + v15;
+    const double v17 = sqrt((v16*v16));
+    const double v18 = l0 + v17;
+    const double v19 = -(l0*l0) + (lh*lh) - 2.0*lh*q3 + (q3*q3);
+    const double v20 = (u1*u1);
+    const double v21 = v0*v20;
+    const double v22 = v2*v20;
     dxdt[0] = u1;
     dxdt[1] = UR[1];
     dxdt[2] = UR[0];
@@ -333,10 +333,10 @@ int slider_crank_rhs(double t, const double *x, const double *p, const double *r
     M[7] = 0.0;
     M[8] = (1.0/3.0)*v11;
     F[0] = T - c*u1 - mb*(-v13*v9 + v14*v7);
-    F[1] = -k_*v18*(-lh + q3)/(v16*v17);
-    F[2] = -mb*((1.0/2.0)*v1*v21 - 1.0/2.0*v20*v3);
-    BETA[0] = -v14 - v21;
-    BETA[1] = -v13 - v20;
+    F[1] = -k_*v19*(-lh + q3)/(v17*v18);
+    F[2] = -mb*((1.0/2.0)*v1*v22 - 1.0/2.0*v21*v3);
+    BETA[0] = -v14 - v22;
+    BETA[1] = -v13 - v21;
     i = slider_crank_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != SLIDER_CRANK_OK) {
         return i;
@@ -400,14 +400,14 @@ int slider_crank_energy(double t, const double *x, const double *p, const double
     const double v11 = (lb*lb)*mb;
     const double v12 = (UR[1]*UR[1]);
     const double v15 = -q3;
-    const double v23 = lh + v15;
-    const double v16 = sqrt((v23*v23));
-    const double v17 = l0 + v16;
-    const double v18 = -(l0*l0) + (lh*lh) - 2.0*lh*q3 + (q3*q3);
-    const double v19 = (u1*u1);
-    const double v22 = u1*UR[1];
-    energy[0] = mb*(v10*v22 + v22*v8) + (1.0/2.0)*ms*(UR[0]*UR[0]) + (1.0/6.0)*v11*v12 + (1.0/6.0)*v19*v5 + (1.0/2.0)*v19*v6;
-    energy[1] = (1.0/2.0)*k_*(v18*v18)/(v17*v17);
+    const double v16 = lh + v15;
+    const double v17 = sqrt((v16*v16));
+    const double v18 = l0 + v17;
+    const double v19 = -(l0*l0) + (lh*lh) - 2.0*lh*q3 + (q3*q3);
+    const double v20 = (u1*u1);
+    const double v23 = u1*UR[1];
+    energy[0] = mb*(v10*v23 + v23*v8) + (1.0/2.0)*ms*(UR[0]*UR[0]) + (1.0/6.0)*v11*v12 + (1.0/6.0)*v20*v5 + (1.0/2.0)*v20*v6;
+    energy[1] = (1.0/2.0)*k_*(v19*v19)/(v18*v18);
     return slider_crank_all_finite(energy, 2) ? SLIDER_CRANK_OK : SLIDER_CRANK_NONFINITE;
 }
 
@@ -467,13 +467,13 @@ int slider_crank_constraint_forces(double t, const double *x, const double *p, c
     const double v13 = v1*v12;
     const double v14 = v12*v3;
     const double v15 = -q3;
-    const double v23 = lh + v15;
-    const double v16 = sqrt((v23*v23));
-    const double v17 = l0 + v16;
-    const double v18 = -(l0*l0) + (lh*lh) - 2.0*lh*q3 + (q3*q3);
-    const double v19 = (u1*u1);
-    const double v20 = v0*v19;
-    const double v21 = v19*v2;
+    const double v16 = lh + v15;
+    const double v17 = sqrt((v16*v16));
+    const double v18 = l0 + v17;
+    const double v19 = -(l0*l0) + (lh*lh) - 2.0*lh*q3 + (q3*q3);
+    const double v20 = (u1*u1);
+    const double v21 = v0*v20;
+    const double v22 = v2*v20;
     M[0] = (1.0/3.0)*v5 + v6;
     M[3] = 0.0;
     M[4] = ms;
@@ -481,10 +481,10 @@ int slider_crank_constraint_forces(double t, const double *x, const double *p, c
     M[7] = 0.0;
     M[8] = (1.0/3.0)*v11;
     F[0] = T - c*u1 - mb*(-v13*v9 + v14*v7);
-    F[1] = -k_*v18*(-lh + q3)/(v16*v17);
-    F[2] = -mb*((1.0/2.0)*v1*v21 - 1.0/2.0*v20*v3);
-    BETA[0] = -v14 - v21;
-    BETA[1] = -v13 - v20;
+    F[1] = -k_*v19*(-lh + q3)/(v17*v18);
+    F[2] = -mb*((1.0/2.0)*v1*v22 - 1.0/2.0*v21*v3);
+    BETA[0] = -v14 - v22;
+    BETA[1] = -v13 - v21;
     i = slider_crank_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != SLIDER_CRANK_OK) {
         return i;

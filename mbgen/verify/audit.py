@@ -156,6 +156,10 @@ def _form_cut(result: PipelineResult) -> Cut:
                if result.baked.accelerations is None else "the form was chosen by the caller")
         return Cut("6 accelerations", "nothing: u' solves M u' = F", why)
     solve, rec = costs[Form.SOLVE], costs[Form.RECURSIVE]
+    if k.form is Form.RECURSIVE and k.solve_bounded:
+        return Cut("6 accelerations", f"the mass matrix and its L D L^T solve (at least {solve} "
+                   f"ops: the solve alone)", f"the articulated-body recursion gives u' in {rec} "
+                   f"ops (right-hand side alone, after CSE)", solve, rec)
     if k.form is Form.RECURSIVE:
         return Cut("6 accelerations", f"the mass matrix and its L D L^T solve ({solve} ops)",
                    f"the articulated-body recursion gives u' in {rec} ops (right-hand side "
