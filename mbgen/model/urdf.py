@@ -276,4 +276,18 @@ def _add_body(m: Model, names: _Names, group: _Group) -> None:
 
 
 def _floating_root(m: Model, names: _Names, link: str) -> _Group:
-    raise NotImplementedError
+    """The free-flyer: the root link's frame at the quaternion, its origin at ``(x, y, z)``."""
+    x, y, z, qx, qy, qz, qw = m.coordinates(" ".join(FLOATING_Q))
+    vx, vy, vz, wx, wy, wz = m.speeds(" ".join(FLOATING_U))
+    N = m.N
+    R = quaternion_matrix(qx, qy, qz, qw)
+    frame = m.orient(N, names.internal(f"{link}_frame"), R, (wx, wy, wz))
+    point = m.point(names.internal(f"{link}_origin"), m.origin, x * N.x + y * N.y + z * N.z)
+    rate = R * sm.Matrix([vx, vy, vz])
+    half = sm.Rational(1, 2)
+    m.kinematics({x: rate[0], y: rate[1], z: rate[2],
+                  qx: half * (qw * wx + qy * wz - qz * wy),
+                  qy: half * (qw * wy + qz * wx - qx * wz),
+                  qz: half * (qw * wz + qx * wy - qy * wx),
+                  qw: -half * (qx * wx + qy * wy + qz * wz)})
+    return _Group(link, frame, point)
