@@ -314,14 +314,15 @@ def urdf_scene(path, *, floating: bool = False) -> Scene:
 
     The model is :func:`mbgen.from_urdf`'s; ``g = 9.81``; it starts at rest with
     every joint at zero (and the identity quaternion for a floating base) and runs
-    for a second.  Its outputs are the right-hand side.
+    for a second.  Its outputs are the right-hand side and the C ``dopri5`` integrator
+    (``mbgen simulate robot.urdf --integrator dopri5`` needs no Jacobian).
     """
     robot = read_urdf(path)
     model = build_model(robot, floating=floating)
     joints = len(model.coordinates_) - (7 if floating else 0)
     return Scene(name=model.name, model=model, parameters={"g": 9.81},
                  initial_state={"root_qw": 1.0} if floating else {}, t_span=(0.0, 1.0),
-                 outputs=(Output.RHS,), source=str(Path(path).resolve()),
+                 outputs=(Output.RHS, Output.DOPRI5), source=str(Path(path).resolve()),
                  description=f"URDF robot {robot.name!r}: {joints} joints"
                              f"{', floating base' if floating else ''}, gravity")
 
