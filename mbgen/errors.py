@@ -97,7 +97,8 @@ class UrdfSyntaxError(UrdfError):
 
 class UrdfInertiaError(UrdfError):
     """A link's ``<inertial>`` is not physical: a missing or negative mass, or an inertia
-    that is not positive semidefinite or breaks the triangle inequality."""
+    that is not positive semidefinite or breaks the triangle inequality; or a moving joint
+    with no mass or inertia anywhere below it."""
 
 
 class UrdfStructureError(UrdfError):

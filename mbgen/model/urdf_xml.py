@@ -155,7 +155,24 @@ def parse_urdf(data: bytes | str, source: str = "<string>") -> Robot:
                 f"{other.name!r} and {joint.name!r}; closed chains are not supported: remove "
                 f"one joint (and close the loop with a constraint in a Model if you need it)")
         joints[joint.child] = joint
-    return Robot(name, source, links, joints, _root(source, links, joints))
+    robot = Robot(name, source, links, joints, _root(source, links, joints))
+    _check_moving_mass(robot)
+    return robot
+
+
+def _check_moving_mass(robot: Robot) -> None:
+    """Every moving joint carries some mass or inertia (else its row of M is zero)."""
+    massive: dict[str, bool] = {}
+    for j in reversed(robot.ordered_joints()):
+        inertial = robot.links[j.child].inertial
+        own = inertial is not None and (inertial.mass > 0 or any(any(r) for r in inertial.inertia))
+        massive[j.child] = own or any(massive[c.child] for c in robot.children(j.child))
+        if j.type != "fixed" and not massive[j.child]:
+            raise UrdfInertiaError(
+                f"URDF file {robot.source!r}, joint {j.name!r}: it moves link {j.child!r}, but "
+                f"neither that link nor any below it has mass or inertia, so nothing resists "
+                f"the joint (a zero row of the mass matrix): give link {j.child!r} an "
+                f"<inertial> with a positive mass, or make the joint fixed")
 
 
 def _refuse_doctype(data: bytes, source: str) -> None:

@@ -231,6 +231,8 @@ BAD = {
     "not a number": (UrdfSyntaxError, "finite number", replaced('xyz="0 0 0.3"', 'xyz="0 0 nan"')),
     "missing mass": (UrdfInertiaError, "link 'upper'.*no <mass", replaced(
         '<mass value="2.0"/>', "")),
+    "massless moving link": (UrdfInertiaError, "joint 'e'.*link 'empty'", urdf(
+        ARM_PARTS + [link("empty"), joint("e", "revolute", "tool", "empty", axis="1 0 0")])),
     "negative mass": (UrdfInertiaError, "link 'upper'.*negative", replaced(
         '<mass value="2.0"/>', '<mass value="-2.0"/>')),
     "indefinite inertia": (UrdfInertiaError, "link 'upper'.*positive semidefinite", replaced(
@@ -255,7 +257,7 @@ BAD = {
     "missing link": (UrdfStructureError, "'nowhere' is not a <link>", urdf(
         ARM_PARTS + [joint("x", "fixed", "tool", "nowhere")])),
     "names collide": (UrdfStructureError, "both become the name 'q_a_b'", urdf(
-        ARM_PARTS + [link("p"), link("r"), joint("a-b", "revolute", "tool", "p", axis="1 0 0"),
+        ARM_PARTS + [link("p", inertial(1)), link("r", inertial(1)), joint("a-b", "revolute", "tool", "p", axis="1 0 0"),
                      joint("a.b", "revolute", "tool", "r", axis="1 0 0")])),
 }
 
