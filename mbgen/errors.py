@@ -27,8 +27,9 @@ parent's code unless it sets its own.
     error) a file or folder that cannot be written or read (``OSError``).
 3 (:data:`EXIT_MODEL`)
     bad model or scene -- what the scene or model file states: :class:`ModelError` and
-    its subclasses, :class:`SceneError` (an unknown scene name, a scene file that does
-    not exist or fails, a bad ``-O`` option).
+    its subclasses (the URDF errors among them: :class:`UrdfError`), :class:`SceneError`
+    (an unknown scene name, a scene file that does not exist or fails, a bad ``-O``
+    option).
 4 (:data:`EXIT_BUILD`)
     the C compiler failed: :class:`BuildError`.
 5 (:data:`EXIT_NUMERIC`)
@@ -81,6 +82,33 @@ class NonFiniteConstantError(ModelError):
     Raised by the C and Python printers (:mod:`mbgen.codegen.printing`) instead of
     printing a bare ``inf`` (which does not compile) or a NaN.
     """
+
+
+class UrdfError(ModelError):
+    """A URDF file cannot become a model (:func:`mbgen.from_urdf`); the message names the
+    file, the link or joint, and the fix.  Nothing is built: every check runs first."""
+
+
+class UrdfSyntaxError(UrdfError):
+    """A URDF file that is not safe, well-formed URDF XML: too large, a DOCTYPE or entity
+    declaration (refused, never expanded), malformed XML, a missing attribute or a value
+    that is not a finite number."""
+
+
+class UrdfInertiaError(UrdfError):
+    """A link's ``<inertial>`` is not physical: a missing or negative mass, or an inertia
+    that is not positive semidefinite or breaks the triangle inequality; or a moving joint
+    with no mass or inertia anywhere below it."""
+
+
+class UrdfStructureError(UrdfError):
+    """The links and joints do not form one tree: a link with two parents, a cycle, no root
+    or several, a joint naming a link that does not exist, or names that collide."""
+
+
+class UrdfUnsupportedError(UrdfError):
+    """A URDF feature mbgen does not model: a mimic joint, or a joint type other than
+    revolute, continuous, prismatic and fixed (floating, planar, unknown types)."""
 
 
 class SceneError(MbgenError, ValueError):

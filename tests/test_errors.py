@@ -163,6 +163,8 @@ EXIT_CODES = {
     "MissingExtraError": (2, "error"), "BenchmarkError": (2, "error"),
     "OutputPathError": (2, "error"), "OutputConflictError": (2, "error"),
     "OutputBusyError": (2, "error"),
+    "UrdfError": (3, "error"), "UrdfSyntaxError": (3, "error"), "UrdfInertiaError": (3, "error"),
+    "UrdfStructureError": (3, "error"), "UrdfUnsupportedError": (3, "error"),
 }
 
 

@@ -100,6 +100,10 @@ def prepare(model: Model) -> Prepared:
     for frame, fd in model.frames.items():
         if fd.parent is None:
             nodes[frame] = tree.add_root(frame.name)
+        elif fd.dcm is not None:
+            nodes[frame] = tree.add_dcm(frame.name, nodes[fd.parent], tuple(
+                tuple(plain(fd.dcm[i, j], f"the rotation of frame {frame.name}")
+                      for j in range(3)) for i in range(3)))
         else:
             angle = plain(fd.angle, f"the rotation angle of frame {frame.name}")
             nodes[frame] = tree.add_rotation(frame.name, nodes[fd.parent], fd.axis, angle)

@@ -194,6 +194,15 @@ class KinematicTree:
         self.frames[name] = node
         return node
 
+    def add_dcm(self, name: str, parent: FrameNode, R_parent: tuple) -> FrameNode:
+        """A frame at the rotation ``R_parent`` (``R_PF``, rows, functions of q and t) from
+        ``parent``; its angular velocity must be set (:meth:`set_omega`: body rates)."""
+        if self.free(*(x for row in R_parent for x in row)) & self._uset:
+            raise ModelError(f"the rotation of frame {name} depends on a speed")
+        node = FrameNode(name, parent, None, None, None, parent.depth + 1, R_parent)
+        self.frames[name] = node
+        return node
+
     def set_omega(self, node: FrameNode, omega: Vec3) -> None:
         """Override the angular velocity of ``node`` in N (components in ``node``)."""
         node.omega_override = tuple(sm.sympify(w) for w in omega)

@@ -12,7 +12,9 @@
 * :mod:`~mbgen.model.kinematics` -- the SOPHIA-named vector helpers;
 * :mod:`~mbgen.model.scene` -- :class:`Scene` (a model plus its numbers and
   outputs) and :func:`load_scene` for built-in scenes and scene files;
-* :mod:`~mbgen.model.summary` -- a model's notebook summary.
+* :mod:`~mbgen.model.summary` -- a model's notebook summary;
+* :mod:`~mbgen.model.urdf` -- :func:`~mbgen.model.urdf.from_urdf`, a robot's URDF file as a
+  ``Model`` (Pinocchio's conventions), read and checked by :mod:`~mbgen.model.urdf_xml`.
 
 Nothing here derives, generates or runs anything: this package imports only
 the layers below it (``symbolic``, ``names``, ``abi``, ``summary``, ``errors``).

@@ -43,13 +43,12 @@ from __future__ import annotations
 from typing import Iterable, Mapping, Sequence
 
 import sympy as sm
-from sympy.matrices.exceptions import ShapeError
 from sympy.physics import vector as spv
 
 from ..errors import ModelError
 from ..names import check_name, model_prefix
 from .elements import (Constraint, Force, FrameDef, Gravity, Joint, LineElement, Particle, PointDef,
-                       RigidBody, Torque, axis_index)
+                       RigidBody, Torque, axis_index, inertia_matrix)
 from .expressions import expression
 from .limits import MAX_BODIES, MAX_SPEEDS, check_count, guard_range
 from .summary import model_html
@@ -252,6 +251,23 @@ class Model:
             out.append(frame)
         return tuple(out)
 
+    def orient(self, parent: spv.ReferenceFrame, name: str, dcm, rates) -> spv.ReferenceFrame:
+        """Frame ``name`` turned from ``parent`` by the matrix ``dcm`` (``R_PF``: its columns
+        are the new basis in ``parent`` components, functions of the coordinates), with
+        angular velocity in N of components ``rates`` in the new frame (body rates, e.g.
+        three speeds); the kinematic equations that relate them are the caller's
+        (:meth:`kinematics`).  A floating base's quaternion is one use (``from_urdf``)."""
+        self._check_frame(parent)
+        R = sm.ImmutableMatrix(3, 3, [self._scalar(v, f"rotation of frame {name!r}")
+                                      for v in sm.Matrix(dcm)])
+        w = [self._scalar(v, f"angular velocity of frame {name!r}") for v in rates]
+        self._claim([name], "frame")
+        frame = parent.orientnew(name, "DCM", R)
+        omega = w[0] * frame.x + w[1] * frame.y + w[2] * frame.z
+        self.frames[frame] = FrameDef(frame, parent, None, None, omega, R)
+        frame.set_ang_vel(self.N, omega)
+        return frame
+
     def frame(self, name: str) -> spv.ReferenceFrame:
         """Return the model's frame called ``name``."""
         for f in self.frames:
@@ -317,41 +333,14 @@ class Model:
         self._check_frame(frame)
         self._check_point(center)
         mass = self._scalar(mass, f"mass of body {name!r}")
-        matrix = self._inertia_matrix(name, frame, inertia)
+        matrix = inertia_matrix(name, frame, inertia,
+                                lambda v: self._scalar(v, f"inertia of body {name!r}"))
         check_count(self.name, len(self.particles) + len(self.bodies) + 1, "particles and bodies",
                     MAX_BODIES, self.force_size)
         self._claim([name], "body")
         b = RigidBody(name, frame, center, mass, matrix)
         self.bodies.append(b)
         return b
-
-    def _inertia_matrix(self, name, frame, inertia) -> sm.ImmutableMatrix:
-        if inertia is None:
-            raise ModelError(f"rigid body {name!r} has no inertia; give inertia=(Ixx, Iyy, Izz) "
-                             f"in the body frame, a Dyadic, or use particle() for a point mass")
-        if isinstance(inertia, spv.Dyadic):
-            mat = inertia.to_matrix(frame)
-        elif isinstance(inertia, (tuple, list)) and len(inertia) in (3, 6) and not any(
-                isinstance(v, (tuple, list)) for v in inertia):
-            ixx, iyy, izz, *rest = (self._scalar(v, f"inertia of body {name!r}")
-                                    for v in inertia)
-            ixy, iyz, izx = rest if rest else (0, 0, 0)
-            mat = sm.Matrix([[ixx, ixy, izx], [ixy, iyy, iyz], [izx, iyz, izz]])
-        else:
-            try:
-                rows = inertia.tolist() if hasattr(inertia, "tolist") else list(inertia)
-                mat = sm.Matrix([[self._scalar(v, f"inertia of body {name!r}") for v in row]
-                                 for row in rows])
-            except ModelError:  # an entry that is not a value: its own message
-                raise
-            except (TypeError, ValueError, sm.SympifyError, ShapeError):
-                mat = None
-            if mat is None or mat.shape != (3, 3):
-                raise ModelError(f"inertia of body {name!r} must be a Dyadic, a 3x3 matrix or "
-                                 f"(Ixx, Iyy, Izz[, Ixy, Iyz, Izx]); got {inertia!r}")
-        if (mat - mat.T).applyfunc(sm.expand) != sm.zeros(3, 3):
-            raise ModelError(f"inertia matrix of body {name!r} is not symmetric: {mat.tolist()}")
-        return sm.ImmutableMatrix(mat)
 
     # ------------------------------------------------------------------- loads
     def force(self, point: spv.Point, vector: spv.Vector, reaction: spv.Point | None = None) -> Force:

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import sympy as sm
+from sympy.matrices.exceptions import ShapeError
 from sympy.physics import vector as spv
 
 from ..errors import ModelError
@@ -32,7 +33,8 @@ def axis_index(axis) -> int:
 
 @dataclass(frozen=True)
 class FrameDef:
-    """How a frame was built: a simple rotation of ``parent`` by ``angle`` about ``axis``.
+    """How a frame was built: a simple rotation of ``parent`` by ``angle`` about ``axis``
+    (or, from :meth:`~mbgen.model.builder.Model.orient`, the matrix ``dcm``).
 
     ``angle`` may depend on coordinates and time (a prescribed motion).  When
     ``angular_velocity`` is set it overrides the rotation's own ``angle' * axis``
@@ -44,6 +46,7 @@ class FrameDef:
     axis: int | None
     angle: sm.Expr | None
     angular_velocity: spv.Vector | None = None
+    dcm: sm.ImmutableMatrix | None = None   # ``R_PF`` of a frame made by Model.orient
 
 
 @dataclass(frozen=True)
@@ -163,5 +166,35 @@ class Constraint:
     body: object = None
 
 
-__all__ = ["AXES", "axis_index", "FrameDef", "PointDef", "Particle", "RigidBody", "Force",
+def inertia_matrix(name: str, frame, inertia, scalar) -> sm.ImmutableMatrix:
+    """Body ``name``'s inertia (a ``Dyadic``, a 3x3 matrix or ``(Ixx, Iyy, Izz[, Ixy, Iyz,
+    Izx])``) as a symmetric 3x3 matrix in ``frame`` components; ``scalar`` reads a value."""
+    if inertia is None:
+        raise ModelError(f"rigid body {name!r} has no inertia; give inertia=(Ixx, Iyy, Izz) "
+                         f"in the body frame, a Dyadic, or use particle() for a point mass")
+    if isinstance(inertia, spv.Dyadic):
+        mat = inertia.to_matrix(frame)
+    elif isinstance(inertia, (tuple, list)) and len(inertia) in (3, 6) and not any(
+            isinstance(v, (tuple, list)) for v in inertia):
+        ixx, iyy, izz, *rest = (scalar(v) for v in inertia)
+        ixy, iyz, izx = rest if rest else (0, 0, 0)
+        mat = sm.Matrix([[ixx, ixy, izx], [ixy, iyy, iyz], [izx, iyz, izz]])
+    else:
+        try:
+            rows = inertia.tolist() if hasattr(inertia, "tolist") else list(inertia)
+            mat = sm.Matrix([[scalar(v) for v in row] for row in rows])
+        except ModelError:  # an entry that is not a value: its own message
+            raise
+        except (TypeError, ValueError, sm.SympifyError, ShapeError):
+            mat = None
+        if mat is None or mat.shape != (3, 3):
+            raise ModelError(f"inertia of body {name!r} must be a Dyadic, a 3x3 matrix or "
+                             f"(Ixx, Iyy, Izz[, Ixy, Iyz, Izx]); got {inertia!r}")
+    if (mat - mat.T).applyfunc(sm.expand) != sm.zeros(3, 3):
+        raise ModelError(f"inertia matrix of body {name!r} is not symmetric: {mat.tolist()}")
+    return sm.ImmutableMatrix(mat)
+
+
+__all__ = ["AXES", "axis_index", "FrameDef", "inertia_matrix",
+           "PointDef", "Particle", "RigidBody", "Force",
            "Torque", "Gravity", "LineElement", "Joint", "Constraint"]

@@ -2,7 +2,8 @@
 
 A scene file is a Python file with a function ``scene(**options) -> Scene``.
 Built-in scenes live in :mod:`mbgen.scenes`; a user's own file works the same
-way (``mbgen check path/to/my_scene.py``)::
+way (``mbgen check path/to/my_scene.py``), and so does a robot's URDF file
+(``mbgen check robot.urdf``, :func:`urdf_scene`; option ``-O floating=true``)::
 
     from mbgen import Model, Scene
 
@@ -33,6 +34,7 @@ import numbers
 import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -44,6 +46,7 @@ from ..names import check_name
 from ..symbolic.equations import Equations
 from .builder import Model
 from .limits import allow_large_models, check_size
+from .urdf import build_model, read_urdf
 
 
 #: The name of equations imported without one (``from_sympy(obj)``); a scene holding
@@ -294,8 +297,34 @@ def _module_for(name_or_path: str):
             raise SceneError(f"scene file {str(path)!r} failed to import: "
                              f"{type(exc).__name__}: {exc}") from exc
         return module, str(path.resolve())
+    if path.suffix.lower() == ".urdf":
+        if not path.is_file():
+            raise SceneError(f"URDF file {str(path)!r} does not exist")
+
+        def scene(floating: bool = False) -> Scene:
+            return urdf_scene(path, floating=floating)
+        return SimpleNamespace(scene=scene), str(path.resolve())
     raise SceneError(f"no scene {name_or_path!r}: built-in scenes are "
-                     f"{', '.join(builtin_names())}; or give the path of a .py scene file")
+                     f"{', '.join(builtin_names())}; or give the path of a .py scene file "
+                     f"or a .urdf robot")
+
+
+def urdf_scene(path, *, floating: bool = False) -> Scene:
+    """The scene of a URDF robot (``mbgen check robot.urdf``; option ``floating``).
+
+    The model is :func:`mbgen.from_urdf`'s; ``g = 9.81``; it starts at rest with
+    every joint at zero (and the identity quaternion for a floating base) and runs
+    for a second.  Its outputs are the right-hand side and the C ``dopri5`` integrator
+    (``mbgen simulate robot.urdf --integrator dopri5`` needs no Jacobian).
+    """
+    robot = read_urdf(path)
+    model = build_model(robot, floating=floating)
+    joints = len(model.coordinates_) - (7 if floating else 0)
+    return Scene(name=model.name, model=model, parameters={"g": 9.81},
+                 initial_state={"root_qw": 1.0} if floating else {}, t_span=(0.0, 1.0),
+                 outputs=(Output.RHS, Output.DOPRI5), source=str(Path(path).resolve()),
+                 description=f"URDF robot {robot.name!r}: {joints} joints"
+                             f"{', floating base' if floating else ''}, gravity")
 
 
 def scene_options(name_or_path: str) -> dict[str, Any]:

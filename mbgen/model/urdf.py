@@ -1,0 +1,293 @@
+r"""A URDF robot as a :class:`~mbgen.model.builder.Model`: :func:`from_urdf`.
+
+What is read (:mod:`mbgen.model.urdf_xml` checks it all before anything is built):
+links with their ``<inertial>`` (mass, ``<origin xyz rpy>``, full inertia tensor)
+and joints of type revolute, continuous, prismatic and fixed, with ``<origin xyz
+rpy>`` and any ``<axis>`` (normalised).  Limits, dynamics (damping, friction),
+visuals, collisions, meshes and transmissions are not read.
+
+Conventions (Pinocchio's, so its results compare one to one):
+
+* one coordinate ``q_<joint>``, speed ``u_<joint>`` (``u = q'``) and input
+  ``tau_<joint>`` (a torque about the axis, a force along it for a prismatic
+  joint) per moving joint, in the order of
+  ``pinocchio.buildModelFromUrdf(path).names``: depth first from the root link,
+  the joints below a link sorted by name.  Joint and link names are sanitised
+  to identifiers (characters other than letters, digits and ``_`` become
+  ``_``); two that become the same name are an error.  A continuous joint has
+  one angle (Pinocchio stores its cosine and sine).
+* fixed joints are merged: the child's mass, centre and inertia join its
+  parent's (Pinocchio does the same), so a fixed link costs nothing.
+* ``floating=True`` puts a free-flyer on the root link: coordinates
+  ``root_x, root_y, root_z`` (the root frame's origin in the world) and the unit
+  quaternion ``root_qx, root_qy, root_qz, root_qw``; speeds ``root_vx, root_vy,
+  root_vz`` (velocity of that origin) and ``root_wx, root_wy, root_wz`` (angular
+  velocity), both in root-frame components.  ``q'`` follows from ``u`` by the
+  quaternion kinematics, :math:`\dot p = R v`, :math:`\dot q = \tfrac12 q \otimes
+  (0, \omega)`.  The quaternion is normalised where it is read: the rotation
+  matrix is the homogeneous form divided by :math:`|q|^2`, so any nonzero
+  quaternion gives a proper rotation; :math:`\dot q` keeps :math:`|q|` constant
+  exactly, and an integrator's drift of the norm changes nothing physical
+  (renormalise between steps when you like).
+* gravity is ``-g`` along the world's z axis, ``g`` the model's one constant
+  (9.81 in the scene of a ``.urdf`` file, :func:`mbgen.model.scene.urdf_scene`).  Every inertial number of the file is
+  baked into the model as a number, as a robot's code is usually wanted.
+
+Angles of ``rpy`` within 1e-12 rad of a multiple of pi/2 are taken as that
+multiple (a cosine of ``1.5707963267948966`` is 6e-17, not 0), which keeps
+axis-aligned frames free of such terms and changes no result by more than 1e-12.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import numpy as np
+import sympy as sm
+
+from ..errors import UrdfStructureError
+from ..names import C_KEYWORDS, MAX_NAME_LENGTH
+from .builder import Model
+from .urdf_xml import Robot, read_urdf
+
+#: Free-flyer coordinate and speed names, in Pinocchio's order.
+FLOATING_Q = ("root_x", "root_y", "root_z", "root_qx", "root_qy", "root_qz", "root_qw")
+FLOATING_U = ("root_vx", "root_vy", "root_vz", "root_wx", "root_wy", "root_wz")
+
+_SNAP = 1e-12
+
+
+def from_urdf(path, *, floating: bool = False) -> Model:
+    """The robot of the URDF file at ``path`` as a :class:`Model` (see the module docstring).
+
+    Raises
+    ------
+    UrdfError
+        Naming the file, the link or joint and the fix: unsafe or malformed XML,
+        a file over 100 MiB, a missing or negative mass, an impossible inertia, an
+        unknown joint type, a mimic joint, a link with two parents, a cycle, no
+        root, names that collide.  Nothing is built when one is raised.
+    """
+    return build_model(read_urdf(path), floating=floating)
+
+
+# ------------------------------------------------------------------------------ rotations
+def _cos_sin(angle: float) -> tuple[float, float]:
+    quarter = round(angle / (math.pi / 2))
+    if abs(angle - quarter * math.pi / 2) < _SNAP:
+        return ((1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0))[quarter % 4]
+    return math.cos(angle), math.sin(angle)
+
+
+def simple(axis: int, angle: float) -> np.ndarray:
+    """Rotation matrix about axis 1, 2 or 3 (columns: the new basis in the old)."""
+    c, s = _cos_sin(angle)
+    i, j = {1: (1, 2), 2: (2, 0), 3: (0, 1)}[axis]
+    R = np.eye(3)
+    R[i, i], R[i, j], R[j, i], R[j, j] = c, -s, s, c
+    return R
+
+
+def rpy_matrix(rpy) -> np.ndarray:
+    """URDF's ``rpy``: roll about x, then pitch about y, then yaw about z (fixed axes)."""
+    r, p, y = rpy
+    return simple(3, y) @ simple(2, p) @ simple(1, r)
+
+
+def axis_rotation(a: np.ndarray) -> tuple[list, int, int]:
+    """``(steps, k, s)``: constant simple rotations ``C`` (``[(axis, angle)]``) with
+    ``C e_k = s a``, as few as the axis allows (none for a coordinate axis)."""
+    small = [abs(x) < _SNAP for x in a]
+    if sum(small) == 2:
+        k = small.index(False)
+        return [], k + 1, 1 if a[k] > 0 else -1
+    if small[0]:
+        return [(1, math.atan2(a[2], a[1]))], 2, 1
+    if small[1]:
+        return [(2, math.atan2(a[0], a[2]))], 3, 1
+    if small[2]:
+        return [(3, math.atan2(a[1], a[0]))], 1, 1
+    return [(3, math.atan2(a[1], a[0])), (2, math.atan2(math.hypot(a[0], a[1]), a[2]))], 3, 1
+
+
+def quaternion_matrix(x, y, z, w):
+    """Rotation of the unit quaternion ``w + x i + y j + z k``, normalised where read."""
+    n = x * x + y * y + z * z + w * w
+    return sm.Matrix([
+        [w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z]]) / n
+
+
+# ------------------------------------------------------------------------------ names
+def identifier(name: str) -> str:
+    """A URDF name as an identifier: other characters than ``[A-Za-z0-9_]`` become ``_``."""
+    return re.sub(r"[^A-Za-z0-9_]", "_", name.encode("ascii", "replace").decode())
+
+
+class _Names:
+    """Every name the model will hold, chosen before anything is built."""
+
+    def __init__(self, robot: Robot):
+        self.robot = robot
+        self.taken: dict[str, str] = {}
+
+    def visible(self, name: str, what: str) -> str:
+        if len(name) > MAX_NAME_LENGTH:
+            raise UrdfStructureError(
+                f"URDF file {self.robot.source!r}: {what} gives the name {name[:40]!r}... of "
+                f"{len(name)} characters, over mbgen's {MAX_NAME_LENGTH}; shorten it")
+        if name in self.taken:
+            raise UrdfStructureError(
+                f"URDF file {self.robot.source!r}: {what} and {self.taken[name]} both become "
+                f"the name {name!r} (names are sanitised to letters, digits and '_'); rename "
+                f"one of them in the file")
+        self.taken[name] = what
+        return name
+
+    def internal(self, base: str) -> str:
+        name, k = base[:MAX_NAME_LENGTH - 4], 2
+        while name in self.taken:
+            name, k = f"{base[:MAX_NAME_LENGTH - 4]}_{k}", k + 1
+        self.taken[name] = "internal"
+        return name
+
+
+def model_name(robot: Robot) -> str:
+    name = identifier(robot.name)[:48] or "robot"
+    if not name[0].isalpha():
+        name = "robot_" + name
+    return name + "_robot" if name in C_KEYWORDS or name.startswith("__") else name
+
+
+# ------------------------------------------------------------------------------ building
+class _Group:
+    """A rigid body: a moving link and the links fixed to it, in frame ``frame`` from ``point``."""
+
+    def __init__(self, name, frame, point):
+        self.name, self.frame, self.point = name, frame, point
+        self.parts: list[tuple[float, np.ndarray, np.ndarray]] = []  # mass, centre, inertia
+
+    def add(self, inertial, A: np.ndarray, d: np.ndarray) -> None:
+        if inertial is None:
+            return
+        R = A @ rpy_matrix(inertial.rpy)
+        self.parts.append((inertial.mass, d + A @ np.array(inertial.xyz),
+                           R @ np.array(inertial.inertia) @ R.T))
+
+    def combined(self):
+        """``(mass, centre, inertia about the centre)`` of the parts, or None if massless."""
+        mass = sum(m for m, _, _ in self.parts)
+        if mass == 0 and not any(np.any(I) for _, _, I in self.parts):
+            return None
+        centre = sum((m * c for m, c, _ in self.parts), np.zeros(3)) / mass if mass else \
+            np.zeros(3)
+        inertia = np.zeros((3, 3))
+        for m, c, I in self.parts:
+            r = c - centre
+            inertia += I + m * (r @ r * np.eye(3) - np.outer(r, r))
+        return mass, centre, (inertia + inertia.T) / 2
+
+
+def _vector(frame, comps) -> object:
+    terms = [float(c) * e for c, e in zip(comps, (frame.x, frame.y, frame.z)) if c != 0]
+    return sum(terms[1:], terms[0]) if terms else 0
+
+
+def build_model(robot: Robot, *, floating: bool = False) -> Model:
+    """The :class:`Model` of a checked :class:`~mbgen.model.urdf_xml.Robot`."""
+    joints = [j for j in robot.ordered_joints() if j.type != "fixed"]
+    names = _Names(robot)
+    names.visible("g", "the gravity constant")
+    for j in joints:
+        base = identifier(j.name)
+        for prefix, what in (("q", "coordinate"), ("u", "speed"), ("tau", "input")):
+            names.visible(f"{prefix}_{base}", f"joint {j.name!r}")
+    if floating:
+        for n in FLOATING_Q + FLOATING_U:
+            names.visible(n, "the floating base")
+    moving = [robot.root] if floating else []
+    moving += [j.child for j in joints]
+    body_names = {link: names.visible(identifier(link) if identifier(link)[:1].isalpha()
+                                      else "link_" + identifier(link), f"link {link!r}")
+                  for link in moving}
+    m = Model(model_name(robot))
+    N = m.newtonian(names.internal("N"), names.internal("O"))
+    g, = m.constants("g")
+    if floating:
+        root = _floating_root(m, names, body_names[robot.root])
+    else:
+        root = _Group(None, N, m.origin)
+    groups = {robot.root: root}
+    place = {robot.root: (np.eye(3), np.zeros(3))}   # link -> (A, d) in its group
+    for j in robot.ordered_joints():
+        parent = groups[j.parent]
+        A, d = place[j.parent]
+        J = A @ rpy_matrix(j.rpy)
+        offset = d + A @ np.array(j.xyz)
+        if j.type == "fixed":
+            groups[j.child], place[j.child] = parent, (J, offset)
+            continue
+        base = identifier(j.name)
+        q, = m.coordinates(f"q_{base}")
+        m.speeds(f"u_{base}")
+        tau, = m.inputs(f"tau_{base}")
+        a = J @ np.array(j.axis)
+        link = body_names[j.child]
+        if j.type == "prismatic":
+            anchor = parent.point if not offset.any() else \
+                m.point(names.internal(f"{link}_anchor"), parent.point, _vector(parent.frame, offset))
+            point = m.point(names.internal(f"{link}_J"), anchor,
+                            _vector(parent.frame, a) * q)
+            child = _Group(link, parent.frame, point)
+            m.force(point, tau * _vector(parent.frame, a), reaction=anchor)
+            place[j.child] = (J, np.zeros(3))
+        else:
+            point = parent.point if not offset.any() else \
+                m.point(names.internal(f"{link}_J"), parent.point, _vector(parent.frame, offset))
+            steps, k, s = axis_rotation(a)
+            frame, C = parent.frame, np.eye(3)
+            for n, (axis, angle) in enumerate(steps):
+                frame = m.rotate(frame, names.internal(f"{link}_axis{n}"), axis, angle)
+                C = C @ simple(axis, angle)
+            frame = m.rotate(frame, names.internal(f"{link}_frame"), k, s * q)
+            child = _Group(link, frame, point)
+            m.torque(frame, s * tau * (frame.x, frame.y, frame.z)[k - 1], reaction=parent.frame)
+            place[j.child] = (C.T @ J, np.zeros(3))
+        groups[j.child] = child
+    for link, (A, d) in place.items():
+        groups[link].add(robot.links[link].inertial, A, d)
+    for group in dict.fromkeys(groups.values()):
+        if group.name is not None:
+            _add_body(m, names, group)
+    m.gravity(-g * N.z)
+    return m
+
+
+def _add_body(m: Model, names: _Names, group: _Group) -> None:
+    made = group.combined()
+    if made is None:
+        return
+    mass, centre, inertia = made
+    point = group.point if not centre.any() else \
+        m.point(names.internal(f"{group.name}_G"), group.point, _vector(group.frame, centre))
+    m.body(group.name, group.frame, float(mass), [[float(v) for v in row] for row in inertia],
+           point)
+
+
+def _floating_root(m: Model, names: _Names, link: str) -> _Group:
+    """The free-flyer: the root link's frame at the quaternion, its origin at ``(x, y, z)``."""
+    x, y, z, qx, qy, qz, qw = m.coordinates(" ".join(FLOATING_Q))
+    vx, vy, vz, wx, wy, wz = m.speeds(" ".join(FLOATING_U))
+    N = m.N
+    R = quaternion_matrix(qx, qy, qz, qw)
+    frame = m.orient(N, names.internal(f"{link}_frame"), R, (wx, wy, wz))
+    point = m.point(names.internal(f"{link}_origin"), m.origin, x * N.x + y * N.y + z * N.z)
+    rate = R * sm.Matrix([vx, vy, vz])
+    half = sm.Rational(1, 2)
+    m.kinematics({x: rate[0], y: rate[1], z: rate[2],
+                  qx: half * (qw * wx + qy * wz - qz * wy),
+                  qy: half * (qw * wy + qz * wx - qx * wz),
+                  qz: half * (qw * wz + qx * wy - qy * wx),
+                  qw: -half * (qx * wx + qy * wy + qz * wz)})
+    return _Group(link, frame, point)

@@ -1,0 +1,322 @@
+"""Reading a URDF file safely into plain records, every check before anything is built.
+
+:func:`read_urdf` (a path) and :func:`parse_urdf` (the text) return a
+:class:`Robot`: its links (with their ``<inertial>``), its joints (type,
+parent, child, ``<origin xyz rpy>``, normalised ``<axis>``) and its root link,
+with the joints in Pinocchio's order (:meth:`Robot.ordered_joints`).  Only
+``<robot>``, ``<link>``, ``<inertial>`` and ``<joint>`` are read; visuals,
+collisions, meshes, transmissions, ``package://`` names, Gazebo tags and limits
+are never read or resolved.
+
+Safety: a file over :data:`MAX_URDF_BYTES` is refused before it is read; any
+``<!DOCTYPE`` (and so any entity declaration: internal, external or a billion
+laughs) is refused by a first pass of expat that stops at the declaration, so
+nothing is ever expanded or fetched (the standard library parser, no new
+dependency).  Every refusal is a :class:`~mbgen.errors.UrdfError` subclass that
+names the file, the link or joint, and the fix.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from xml.parsers import expat
+
+import numpy as np
+
+from ..errors import (UrdfInertiaError, UrdfStructureError, UrdfSyntaxError,
+                      UrdfUnsupportedError)
+
+#: Largest URDF file read (bytes); a larger one is refused before it is opened for reading.
+MAX_URDF_BYTES = 100 * 1024 * 1024
+
+#: Joint types mbgen models.
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
+
+#: Relative tolerance of the inertia checks (eigenvalues, triangle inequality): URDF files
+#: print their moments rounded, so a principal moment may miss by a rounding error.
+INERTIA_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class Inertial:
+    """A link's ``<inertial>``: mass, centre ``xyz`` and orientation ``rpy`` of the inertia
+    frame in the link frame, and the inertia (3x3, about the centre, in that frame)."""
+
+    mass: float
+    xyz: tuple
+    rpy: tuple
+    inertia: tuple  # three rows
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    inertial: Inertial | None
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """A ``<joint>``: its frame is ``xyz``/``rpy`` in the parent link's frame; ``axis`` is a
+    unit vector in the joint frame (``(1, 0, 0)`` when the file gives none)."""
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    xyz: tuple
+    rpy: tuple
+    axis: tuple
+
+
+@dataclass(frozen=True)
+class Robot:
+    name: str
+    source: str
+    links: dict        # name -> Link, file order
+    joints: dict       # child link name -> JointSpec
+    root: str
+
+    def children(self, link: str) -> list[JointSpec]:
+        """Joints whose parent is ``link``, sorted by joint name (as urdfdom stores them)."""
+        return sorted((j for j in self.joints.values() if j.parent == link),
+                      key=lambda j: j.name.encode("utf-8"))
+
+    def ordered_joints(self) -> list[JointSpec]:
+        """Every joint, depth first from the root, children by name: Pinocchio's order."""
+        out, stack = [], list(reversed(self.children(self.root)))
+        while stack:
+            j = stack.pop()
+            out.append(j)
+            stack.extend(reversed(self.children(j.child)))
+        return out
+
+
+def read_urdf(path) -> Robot:
+    """Read and check the URDF file at ``path`` (see the module docstring)."""
+    path = Path(path)
+    try:
+        size = os.stat(path).st_size
+    except OSError as exc:
+        raise UrdfSyntaxError(f"URDF file {str(path)!r} cannot be read: {exc.strerror}; "
+                              f"give the path of a .urdf file") from None
+    if size > MAX_URDF_BYTES:
+        raise UrdfSyntaxError(f"URDF file {str(path)!r} is {size / 2**20:.0f} MiB, over the "
+                              f"{MAX_URDF_BYTES // 2**20} MiB limit; a robot's URDF is a few "
+                              f"hundred kB (meshes stay in their own files)")
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise UrdfSyntaxError(f"URDF file {str(path)!r} cannot be read: {exc.strerror}") from None
+    return parse_urdf(data, str(path))
+
+
+def parse_urdf(data: bytes | str, source: str = "<string>") -> Robot:
+    """Check and read URDF text (``source`` names it in messages)."""
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    if len(data) > MAX_URDF_BYTES:
+        raise UrdfSyntaxError(f"URDF {source!r} is over the {MAX_URDF_BYTES // 2**20} MiB limit")
+    _refuse_doctype(data, source)
+    try:
+        root = ET.fromstring(data)
+    except ET.ParseError as exc:
+        raise UrdfSyntaxError(f"URDF file {source!r} is not well-formed XML ({exc}); fix the "
+                              f"file at that line") from None
+    if root.tag != "robot":
+        raise UrdfSyntaxError(f"URDF file {source!r}: the top element is <{root.tag}>, not "
+                              f"<robot>; is this a URDF file (xacro files must be expanded first)?")
+    reader = _Reader(source)
+    name = root.get("name") or Path(source).stem
+    links: dict[str, Link] = {}
+    for el in root.findall("link"):
+        link = reader.link(el)
+        if link.name in links:
+            raise UrdfStructureError(f"URDF file {source!r}: two links are named "
+                                     f"{link.name!r}; rename one")
+        links[link.name] = link
+    if not links:
+        raise UrdfStructureError(f"URDF file {source!r} has no <link>; a robot needs at least one")
+    joints: dict[str, JointSpec] = {}
+    names: set[str] = set()
+    for el in root.findall("joint"):
+        joint = reader.joint(el, links)
+        if joint.name in names:
+            raise UrdfStructureError(f"URDF file {source!r}: two joints are named "
+                                     f"{joint.name!r}; rename one")
+        names.add(joint.name)
+        if joint.child in joints:
+            other = joints[joint.child]
+            raise UrdfStructureError(
+                f"URDF file {source!r}: link {joint.child!r} has two parents, through joints "
+                f"{other.name!r} and {joint.name!r}; closed chains are not supported: remove "
+                f"one joint (and close the loop with a constraint in a Model if you need it)")
+        joints[joint.child] = joint
+    robot = Robot(name, source, links, joints, _root(source, links, joints))
+    _check_moving_mass(robot)
+    return robot
+
+
+def _check_moving_mass(robot: Robot) -> None:
+    """Every moving joint carries some mass or inertia (else its row of M is zero)."""
+    massive: dict[str, bool] = {}
+    for j in reversed(robot.ordered_joints()):
+        inertial = robot.links[j.child].inertial
+        own = inertial is not None and (inertial.mass > 0 or any(any(r) for r in inertial.inertia))
+        massive[j.child] = own or any(massive[c.child] for c in robot.children(j.child))
+        if j.type != "fixed" and not massive[j.child]:
+            raise UrdfInertiaError(
+                f"URDF file {robot.source!r}, joint {j.name!r}: it moves link {j.child!r}, but "
+                f"neither that link nor any below it has mass or inertia, so nothing resists "
+                f"the joint (a zero row of the mass matrix): give link {j.child!r} an "
+                f"<inertial> with a positive mass, or make the joint fixed")
+
+
+def _refuse_doctype(data: bytes, source: str) -> None:
+    """Stop at any DOCTYPE (where entities are declared) before the real parse."""
+    def refuse(*_args):
+        raise UrdfSyntaxError(f"URDF file {source!r} has a <!DOCTYPE> or <!ENTITY> "
+                              f"declaration; mbgen refuses them (entity expansion can be "
+                              f"used to attack a parser), and URDF needs none: delete it")
+
+    parser = expat.ParserCreate()
+    parser.StartDoctypeDeclHandler = refuse
+    parser.EntityDeclHandler = refuse
+    try:
+        parser.Parse(data, True)
+    except expat.ExpatError as exc:
+        raise UrdfSyntaxError(f"URDF file {source!r} is not well-formed XML ({exc}); fix the "
+                              f"file at that line") from None
+
+
+def _root(source: str, links: dict, joints: dict) -> str:
+    roots = [n for n in links if n not in joints]
+    if len(roots) > 1:
+        raise UrdfStructureError(
+            f"URDF file {source!r} has {len(roots)} root links ({', '.join(roots[:6])}): links "
+            f"that are no joint's child; connect every link to one tree with joints")
+    reached, stack = set(roots), list(roots)
+    while stack:
+        parent = stack.pop()
+        for j in joints.values():
+            if j.parent == parent and j.child not in reached:
+                reached.add(j.child)
+                stack.append(j.child)
+    cycle = [n for n in links if n not in reached]
+    if cycle:
+        what = "has no root link (every link is some joint's child)" if not roots else \
+            "has a cycle of joints"
+        raise UrdfStructureError(
+            f"URDF file {source!r} {what}: links {', '.join(cycle[:8])} form a closed chain; "
+            f"closed chains are not supported: remove one joint of the loop")
+    return roots[0]
+
+
+class _Reader:
+    """Element readers that name the file and the element in every message."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, where: str, message: str, cls=UrdfSyntaxError):
+        raise cls(f"URDF file {self.source!r}, {where}: {message}")
+
+    def numbers(self, el, attr: str, where: str, default: str | None, count: int = 3) -> tuple:
+        text = el.get(attr, default) if el is not None else default
+        if text is None:
+            self.fail(where, f"<{el.tag}> has no {attr}=\"...\"; add it")
+        try:
+            values = tuple(float(v) for v in text.split())
+        except ValueError:
+            values = ()
+        if len(values) != count or not all(math.isfinite(v) for v in values):
+            self.fail(where, f"{attr}=\"{text}\" must be {count} finite number(s)")
+        return values
+
+    def origin(self, el, where: str) -> tuple[tuple, tuple]:
+        o = el.find("origin")
+        return (self.numbers(o, "xyz", where, "0 0 0"), self.numbers(o, "rpy", where, "0 0 0"))
+
+    def link(self, el) -> Link:
+        name = el.get("name")
+        if not name:
+            self.fail("a <link>", "the link has no name=\"...\"; name it")
+        inertial = el.find("inertial")
+        return Link(name, None if inertial is None else self.inertial(inertial, name))
+
+    def inertial(self, el, link: str) -> Inertial:
+        where = f"link {link!r}"
+        mass_el = el.find("mass")
+        if mass_el is None or mass_el.get("value") is None:
+            self.fail(where, "<inertial> has no <mass value=\"...\"/>; give the link's mass in kg "
+                      "(or delete <inertial> for a massless link)", UrdfInertiaError)
+        mass, = self.numbers(mass_el, "value", where, None, 1)
+        if mass < 0:
+            self.fail(where, f"the mass {mass} is negative; give the link's mass in kg",
+                      UrdfInertiaError)
+        xyz, rpy = self.origin(el, where)
+        inertia_el = el.find("inertia")
+        if inertia_el is None:
+            self.fail(where, "<inertial> has no <inertia ixx=... iyy=... izz=... ixy=... ixz=... "
+                      "iyz=.../>; add it", UrdfInertiaError)
+        keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+        v = {k: self.numbers(inertia_el, k, where, "0" if k[1] != k[2] else None, 1)[0]
+             for k in keys}
+        rows = ((v["ixx"], v["ixy"], v["ixz"]), (v["ixy"], v["iyy"], v["iyz"]),
+                (v["ixz"], v["iyz"], v["izz"]))
+        self.check_inertia(rows, where)
+        return Inertial(mass, xyz, rpy, rows)
+
+    def check_inertia(self, rows, where: str) -> None:
+        moments = np.linalg.eigvalsh(np.array(rows, dtype=float))
+        scale = max(abs(moments).max(), 1e-300)
+        tol = INERTIA_TOL * scale
+        if moments.min() < -tol:
+            self.fail(where, f"the inertia is not positive semidefinite (principal moments "
+                      f"{', '.join(f'{m:.6g}' for m in moments)}); check the signs of ixy, ixz, iyz "
+                      f"(URDF gives the products of inertia as they appear in the matrix, "
+                      f"ixy = -integral of x y dm)", UrdfInertiaError)
+        a, b, c = moments
+        if a + b < c - tol:
+            self.fail(where, f"the principal moments {a:.6g}, {b:.6g}, {c:.6g} break the "
+                      f"triangle inequality ({a:.6g} + {b:.6g} < {c:.6g}): no rigid body has "
+                      f"them; check the file's ixx, iyy, izz", UrdfInertiaError)
+
+    def joint(self, el, links: dict) -> JointSpec:
+        name = el.get("name")
+        if not name:
+            self.fail("a <joint>", "the joint has no name=\"...\"; name it")
+        where = f"joint {name!r}"
+        kind = el.get("type")
+        if kind not in JOINT_TYPES:
+            hint = ("a floating base is from_urdf(path, floating=True) on the root link; "
+                    if kind == "floating" else "")
+            self.fail(where, f"joint type {kind!r} is not supported ({hint}supported: "
+                      f"{', '.join(JOINT_TYPES)})", UrdfUnsupportedError)
+        if el.find("mimic") is not None:
+            self.fail(where, f"it mimics joint {el.find('mimic').get('joint')!r}; mimic joints "
+                      f"are not supported: delete the <mimic> element to make it an "
+                      f"independent joint (what pinocchio.buildModelFromUrdf does by default), "
+                      f"or make it fixed", UrdfUnsupportedError)
+        ends = []
+        for tag in ("parent", "child"):
+            e = el.find(tag)
+            link = e.get("link") if e is not None else None
+            if link is None:
+                self.fail(where, f"no <{tag} link=\"...\"/>; add it")
+            if link not in links:
+                self.fail(where, f"its {tag} link {link!r} is not a <link> of the file",
+                          UrdfStructureError)
+            ends.append(link)
+        if ends[0] == ends[1]:
+            self.fail(where, f"it joins link {ends[0]!r} to itself", UrdfStructureError)
+        xyz, rpy = self.origin(el, where)
+        axis = self.numbers(el.find("axis"), "xyz", where, "1 0 0")
+        norm = math.sqrt(sum(a * a for a in axis))
+        if kind != "fixed" and norm < 1e-12:
+            self.fail(where, "its <axis xyz> is zero; give the joint's axis")
+        axis = tuple(a / norm for a in axis) if norm >= 1e-12 else (1.0, 0.0, 0.0)
+        return JointSpec(name, kind, ends[0], ends[1], xyz, rpy, axis)
