@@ -52,7 +52,7 @@ CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
 NATIVE = ("-march=native",)
 
 #: Sources longer than this (characters) compile at -O1 (see :func:`cflags`).
-LARGE_SOURCE_CHARS = 200_000
+LARGE_SOURCE_CHARS = 100_000
 #: ``$MBGEN_OPT`` forces an optimisation level for every build (e.g. ``-O2``).
 OPT_LEVELS = ("-O0", "-O1", "-O2", "-O3", "-Os")
 

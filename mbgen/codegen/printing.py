@@ -122,7 +122,7 @@ class CPrinter(_PowerMixin, C99CodePrinter):
     _sqrt = "sqrt"
 
     def __init__(self, names: Mapping[sm.Symbol, str]):
-        super().__init__({"precision": 17, "math_macros": {}})
+        super().__init__({"precision": 17, "math_macros": {}, "order": "none"})
         self._names = names
 
     def _print_general_pow(self, expr):
@@ -140,7 +140,8 @@ class PyPrinter(_PowerMixin, PythonCodePrinter):
     _sqrt = "math.sqrt"
 
     def __init__(self, names: Mapping[sm.Symbol, str]):
-        super().__init__({"fully_qualified_modules": True, "standard": "python3"})
+        super().__init__({"fully_qualified_modules": True, "standard": "python3",
+                          "order": "none"})
         self._names = names
 
     def _print_general_pow(self, expr):

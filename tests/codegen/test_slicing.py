@@ -40,8 +40,8 @@ def test_sliced_code_gives_the_numbers_of_the_full_code(name):
             a = getattr(full.compiled, Output(output).value)(0.1 * k, x, p_full, r_full)
             b = getattr(sliced.compiled, Output(output).value)(0.1 * k, x, p_sliced, r_sliced)
             # entries that vanish by cancellation (a ball hitch's yaw moment) carry rounding
-            # noise of the output's own size
-            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-14 * max(1.0, np.abs(a).max()))
+            # noise of the size of the summed terms (up to ~10 eps times the output's largest)
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-13 * max(1.0, np.abs(a).max()))
 
 
 def free_fall():
