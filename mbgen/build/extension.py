@@ -17,6 +17,11 @@ processes -- and interrupted ones never leave a half-written module behind: a re
 sees the old file or the new one, and a module whose record does not match is rebuilt.
 
 No ``os.chdir``, no ``sys.path`` edits: the module is loaded from its file.
+
+Besides the model (and its batch loops), every module holds the Python crossing
+(``crossing.c`` beside this file, :mod:`mbgen.run.crossing`): a CPython entry per
+generated function that takes the common call from Python to C without cffi's per-call
+work.  It is compiled into the extension only, never into the exported C.
 """
 
 from __future__ import annotations

@@ -226,3 +226,12 @@ def test_threads_get_the_answers_of_one_thread(cart, release):
     for t in threads:
         t.join()
     assert not bad
+
+
+def test_a_model_named_like_the_crossing_compiles():
+    """The crossing's C names (``mbgen_*``, ``MBGEN_*``) live beside the model's header."""
+    for name in ("mbgen", "mbgen_entry"):
+        model = mbgen.compile(pendulum(name), ("rhs", "mass_matrix"))
+        assert type(model._rhs).__name__ == "mbgen_entry"
+        assert model.rhs(0.0, np.array([0.5, 0.0]), np.array([1.0, 9.81, 1.0]))[1] == \
+            pytest.approx(-9.81 * np.sin(0.5))
