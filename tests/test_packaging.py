@@ -22,3 +22,4 @@ def test_wheel_contains_templates_and_scenes(tmp_path):
     assert "mbgen/scenes/disc_pendulum.py" in names
     assert "mbgen/derive/kane.py" in names
     assert "mbgen/py.typed" in names  # PEP 561 marker (package-data)
+    assert "mbgen/build/crossing.c" in names  # compiled into every model's extension

@@ -6,7 +6,9 @@ Pinocchio side in :mod:`~mbgen.bench.arm_pinocchio`), :mod:`~mbgen.bench.constra
 (the Whipple bicycle and the four-bar), :mod:`~mbgen.bench.scaling` (the n-link
 pendulum, mbgen vs sympy), :mod:`~mbgen.bench.stages` (every pipeline stage of a scene
 under a budget) and :mod:`~mbgen.bench.targets` (batch RHS, ensembles, FMU round trip:
-``python -m mbgen.bench.targets``).  :mod:`~mbgen.bench.timing` times calls from Python
+``python -m mbgen.bench.targets``) and :mod:`~mbgen.bench.crossing` (a call of the arm's
+RHS from Python, through the C entry and through cffi, against ``pin.aba``: ``python -m
+mbgen.bench.crossing``).  :mod:`~mbgen.bench.timing` times calls from Python
 and in a C loop; :mod:`~mbgen.bench.children` runs a side in a child process under a
 time budget and a memory cap.
 

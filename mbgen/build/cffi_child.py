@@ -42,7 +42,8 @@ def _result(**fields) -> None:
 
 def main() -> int:
     """Build the extension that stdin describes: ``name``, ``cdef``, ``source`` (the
-    C preamble), ``sources``, ``include_dirs``, ``extra_compile_args``, ``libraries``."""
+    C preamble), ``sources``, ``include_dirs``, ``define_macros`` (``[name, value]``
+    pairs, optional), ``extra_compile_args``, ``libraries``."""
     spec = json.load(sys.stdin)
     ffi = cffi.FFI()
     try:
@@ -52,6 +53,7 @@ def main() -> int:
         return 3
     ffi.set_source(spec["name"], spec["source"], sources=spec["sources"],
                    include_dirs=spec["include_dirs"],
+                   define_macros=[tuple(m) for m in spec.get("define_macros", ())],
                    extra_compile_args=spec["extra_compile_args"], libraries=spec["libraries"])
     try:
         module = ffi.compile(tmpdir=".", verbose=False)

@@ -17,6 +17,11 @@ processes -- and interrupted ones never leave a half-written module behind: a re
 sees the old file or the new one, and a module whose record does not match is rebuilt.
 
 No ``os.chdir``, no ``sys.path`` edits: the module is loaded from its file.
+
+Besides the model (and its batch loops), every module holds the Python crossing
+(``crossing.c`` beside this file, :mod:`mbgen.run.crossing`): a CPython entry per
+generated function that takes the common call from Python to C without cffi's per-call
+work.  It is compiled into the extension only, never into the exported C.
 """
 
 from __future__ import annotations
@@ -124,11 +129,29 @@ _lock = threading.RLock()  # re-entered by load's rebuild of a module that does 
 _building: dict[str, threading.Lock] = {}
 
 
+#: The Python crossing compiled into every model's extension (:mod:`mbgen.run.crossing`).
+CROSSING_SOURCE = Path(__file__).with_name("crossing.c")
+#: Its cffi declaration: the one function that makes an entry (called with the GIL released).
+CROSSING_CDEF = "int mbgen_crossing(uintptr_t request);\n"
+
+
+@functools.lru_cache(maxsize=None)
+def crossing_source() -> str:
+    """The C of the Python crossing (:data:`CROSSING_SOURCE`), read once."""
+    return CROSSING_SOURCE.read_text(encoding="utf-8")
+
+
 def module_name(rendered: Rendered, native: bool | None = None) -> str:
-    """Content-hash module name of ``rendered`` (flags, target CPU and toolchain included)."""
+    """Content-hash module name of ``rendered`` (flags, target CPU and toolchain included).
+
+    The crossing's C and the NumPy it is compiled against are part of it too: the module
+    uses NumPy's C API, so a NumPy update rebuilds it."""
     import cffi
+    import numpy
 
     h = hashlib.sha256(rendered.digest().encode())
+    h.update(crossing_source().encode())
+    h.update(numpy.__version__.encode())
     flags = cflags(rendered, native)
     h.update(" ".join(flags).encode())
     if NATIVE[0] in flags:
@@ -197,10 +220,21 @@ def build(rendered: Rendered, *, force: bool = False, native: bool | None = None
 
 
 def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -> Path:
-    """Run cffi's build of ``rendered`` in a child process, in ``folder``; the module's path."""
-    spec = {"name": name, "cdef": rendered.cdef + rendered.extension_cdef,
-            "source": f'#include "{rendered.prefix}.h"\n' + rendered.extension,
-            "sources": [str(folder / f"{rendered.prefix}.c")], "include_dirs": [str(folder)],
+    """Run cffi's build of ``rendered`` in a child process, in ``folder``; the module's path.
+
+    The module's own source is the model's header, its batch loops and the Python crossing
+    (:data:`CROSSING_SOURCE`), which uses CPython's full C API and NumPy's: hence NumPy's
+    headers and ``_CFFI_NO_LIMITED_API`` (cffi would otherwise restrict the module to the
+    limited API; the module is built for this one Python anyway, see :func:`module_name`).
+    """
+    import numpy
+
+    spec = {"name": name, "cdef": rendered.cdef + rendered.extension_cdef + CROSSING_CDEF,
+            "source": f'#include "{rendered.prefix}.h"\n' + rendered.extension + "\n"
+                      + crossing_source(),
+            "sources": [str(folder / f"{rendered.prefix}.c")],
+            "include_dirs": [str(folder), numpy.get_include()],
+            "define_macros": [["_CFFI_NO_LIMITED_API", None]],
             "extra_compile_args": list(cflags(rendered, native)), "libraries": ["m"]}
     child = subprocess.run([sys.executable, "-c", cffi_child.START, cffi_child.__file__],
                            input=json.dumps(spec), cwd=folder, text=True, errors="replace",
