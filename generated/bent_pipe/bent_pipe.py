@@ -2,7 +2,7 @@
 
 Model:      bent_pipe
 Source:     scene 'bent_pipe' (mbgen/scenes/bent_pipe.py)
-Derivation: Kane's method (chosen: a right-hand side of 18 operations with the L D L^T solve, against Newton-Euler's 65)
+Derivation: Kane's method (chosen: a right-hand side of 18 operations with the L D L^T solve, against Newton-Euler's 64)
 CSE:        symengine
 Operations: 16 after CSE (23 before)
 

@@ -2,7 +2,7 @@
 
 Model:      disc_pendulum
 Source:     scene 'disc_pendulum' (mbgen/scenes/disc_pendulum.py)
-Derivation: Kane's method (chosen: a right-hand side of 31 operations with the L D L^T solve, against Newton-Euler's 48)
+Derivation: Kane's method (chosen: a right-hand side of 31 operations with the L D L^T solve, against Newton-Euler's 52)
 CSE:        symengine
 Operations: 29 after CSE (53 before)
 

@@ -2,7 +2,7 @@
 
 Model:      rolling_disc
 Source:     scene 'rolling_disc' (mbgen/scenes/rolling_disc.py)
-Derivation: Kane's method (chosen: a right-hand side of 159 operations with the L D L^T solve, against Newton-Euler's 292)
+Derivation: Kane's method (chosen: a right-hand side of 159 operations with the L D L^T solve, against Newton-Euler's 296)
 CSE:        symengine
 Operations: 335 after CSE (1079 before)
 

@@ -2,12 +2,12 @@
  *
  * Model:      whipple
  * Source:     scene 'whipple' (mbgen/scenes/whipple.py)
- * Derivation: Kane's method (chosen: a right-hand side of 3153 operations with the L D L^T solve, against Newton-Euler's 3162)
+ * Derivation: Kane's method (chosen: a right-hand side of 3127 operations with the L D L^T solve, against Newton-Euler's 3156)
  * CSE:        symengine
- * Operations: 7142 after CSE (122234 before), excluding the L D L^T solve
- *   whipple_rhs: 3149 (58005 before CSE)
- *   whipple_energy: 721 (5671 before CSE)
- *   whipple_constraint_forces: 3149 (58005 before CSE)
+ * Operations: 7085 after CSE (122234 before), excluding the L D L^T solve
+ *   whipple_rhs: 3118 (58005 before CSE)
+ *   whipple_energy: 726 (5671 before CSE)
+ *   whipple_constraint_forces: 3118 (58005 before CSE)
  *   whipple_holonomic: 32 (71 before CSE)
  *   whipple_holonomic_jacobian: 91 (482 before CSE)
  *
@@ -102,7 +102,7 @@ extern "C" {
 #define WHIPPLE_P_g 0 /* g */
 
 /* SHA-256 (16 hex digits) of whipple.h, .c and .py with this value blanked. */
-#define WHIPPLE_CONTENT_HASH "69e37ab4e17ac985"
+#define WHIPPLE_CONTENT_HASH "b1aed9b2ca188303"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

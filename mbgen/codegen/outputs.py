@@ -73,6 +73,8 @@ from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Callable, Iterable
 
+import os as _os
+
 import sympy as sm
 
 from ..abi import INTEGRATORS, Output
@@ -340,7 +342,7 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     shape = (L.n_x,) if sensitivity.vector else (L.n_x, nv)
     labels = tuple(f"d({s}')/d({v})" for s in L.state_names for v in var_names)
     tag = f"{row.array.lower()}_"
-    if form is Form.RECURSIVE:
+    if form is Form.RECURSIVE and (eq.residual is None or _os.environ.get("MBGEN_ABA_TANGENT")):
         extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
                                variables, tag)
         entries = tuple((i * nv + j, d[i][j]) for i in range(L.n_x) for j in range(nv))
@@ -350,7 +352,8 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
         return _implicit_sensitivity(eq, row, variables, shape, labels, tag)
     acc = acceleration_symbols(nu)
     M, F = eq.mass_matrix, eq.forcing
-    rows = [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)]
+    rows = (list(eq.residual) if eq.residual is not None else
+            [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)])
     if eq.program:
         extra, d = derivatives(eq.program, list(eq.kinematics) + rows, variables, tag)
         dG, dR = d[:nq], d[nq:]
@@ -363,8 +366,10 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     if all(e == 0 for _, e in d_entries):  # u' does not depend on v: no solve needed
         rows = g_entries + tuple(((nq + i) * nv + j, sm.S.Zero)
                                  for i in range(nu) for j in range(nv))
+        # a recursion's pivots are still checked: a singular M is an error, not zeros
         return Spec(row.output, row.array, shape, labels, (Block("out", L.n_x * nv, rows),),
-                    doc=row.doc, variables=variables, extra=extra)
+                    doc=row.doc, variables=variables, extra=extra,
+                    pivots=eq.accelerations is not None)
     return Spec(row.output, row.array, shape, labels,
                 (Block("out", L.n_x * nv, g_entries), *_mass_blocks(eq)),
                 solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv, doc=row.doc,

@@ -116,4 +116,5 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
                        else bake_matrix(equations.accelerations)),
         reactions=reactions,
         constraints=constraints,
+        residual=None if equations.residual is None else bake_matrix(equations.residual),
     )

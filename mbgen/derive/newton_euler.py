@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import sympy as sm
 
-from ..symbolic.equations import Equations
+from ..symbolic.equations import Equations, acceleration_symbols
 from .articulated import articulated
 from .common import Grouping, Wants, energies, point_kinematics
 from .constraints import ordered
@@ -54,6 +54,7 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
     nu = layout.n_u
     M = [[rows[max(r, s)][min(r, s)] for s in range(nu)] for r in range(nu)]
     udot = articulated(ne) if not model.constraints_ else None
+    residual = ne.residual(acceleration_symbols(nu)) if not model.constraints_ else None
     loads = (joint_reactions(ne, extra=constraint_loads(ne, ordered(model)))
              if wants.reactions else None)
     kinetic, potential = energies(prep, Grouping(prep)) if wants.energy else (None, None)
@@ -71,6 +72,7 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
         program=ne.P.build(),
         accelerations=sm.ImmutableMatrix(udot) if udot is not None else None,
         reactions=loads,
+        residual=sm.ImmutableMatrix(residual) if residual is not None else None,
     )
 
 

@@ -26,8 +26,8 @@ from .constraints import ordered
 from .joints import Body
 from .prepare import Prepared, signed_atoms
 from .recursion import NewtonEuler
-from .spatial import ZERO6, join, matvec6, motion_to_child, split, vadd6, vneg6
-from .tree import ZERO3, cross, mul, unit, vadd, vscale
+from .spatial import split
+from .tree import ZERO3, cross, unit, vadd, vscale
 
 
 def constraint_loads(ne: NewtonEuler, constraints) -> dict:
@@ -73,22 +73,9 @@ def joint_reactions(ne: NewtonEuler, udot=None, extra=None) -> JointLoads:
     hold for whatever ``M u' = F`` gives).  ``extra``: further loads on
     bodies (:func:`constraint_loads`), which do not enter ``F``.
     """
-    P, tree = ne.P, ne.tree
+    tree = ne.tree
     udot = acceleration_symbols(ne.nu) if udot is None else udot
-    accel = {}
-    for b in ne.bodies:
-        a = (motion_to_child(accel[b.parent], ne.to_child(b), ne.kin[b]["r"])
-             if b.parent is not None else ZERO6)
-        for k, s in ne.kin[b]["S"].items():
-            a = vadd6(a, tuple(mul(udot[k], x) for x in s))
-        accel[b] = P.vector(a)
-    f = {}
-    extra = extra or {}
-    for b in reversed(ne.bodies):
-        own = vadd6(matvec6(ne.inertia[b]["spatial"], accel[b]), vneg6(ne.g[b]))
-        for n, force in extra.get(b, ()):
-            own = vadd6(own, vneg6(join(n, force)))
-        f[b] = P.vector(vadd6(own, ne.children_sum(b, f)))
+    f = ne.body_forces(udot, extra)
     rows = []
     for b in ne.bodies:
         n, force = split(f[b])

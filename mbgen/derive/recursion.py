@@ -50,7 +50,7 @@ from .common import line_coefficient
 from .joints import GROUND, Body, BodyTree, build_bodies
 from .prepare import Prepared
 from .spatial import (ZERO6, Rotation, congruence, dot6, force_to_parent, join, matvec6,
-                      spatial_inertia, symmetric, vadd6)
+                      motion_to_child, spatial_inertia, symmetric, vadd6, vneg6)
 from .tree import (S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, transpose, unit, vadd, vneg,
                    vscale)
 
@@ -358,6 +358,40 @@ class NewtonEuler:
             for k, s in self.kin[b]["S"].items():
                 F[k].append(dot6(s, G[b]))
         return [add(*f) for f in F]
+
+    def body_forces(self, udot, extra=None) -> dict:
+        r"""Body -> the wrench :math:`f_b` its parent exerts on it at the joint point, for the
+        accelerations ``udot`` (placeholders): the outward pass
+        :math:`\hat a_b = X_b \hat a_p + S_b u'_b`, then the inward pass
+        :math:`f_b = \mathcal I_b \hat a_b - g_b - e_b + \sum_c X_c^T f_c` (``extra``:
+        body -> ``[(moment, force)]`` of further loads ``e_b``, e.g. constraint forces)."""
+        P, accel, f = self.P, {}, {}
+        for b in self.bodies:
+            a = (motion_to_child(accel[b.parent], self.to_child(b), self.kin[b]["r"])
+                 if b.parent is not None else ZERO6)
+            for k, s in self.kin[b]["S"].items():
+                a = vadd6(a, tuple(mul(udot[k], x) for x in s))
+            accel[b] = P.vector(a)
+        extra = extra or {}
+        for b in reversed(self.bodies):
+            own = vadd6(matvec6(self.inertia[b]["spatial"], accel[b]), vneg6(self.g[b]))
+            for n, force in extra.get(b, ()):
+                own = vadd6(own, vneg6(join(n, force)))
+            f[b] = P.vector(vadd6(own, self.children_sum(b, f)))
+        return f
+
+    def residual(self, udot) -> list:
+        r"""``F - M u'`` for the accelerations ``udot`` by inverse dynamics (linear in the
+        number of bodies): :math:`(F - M u')_k = \tau_k - \sum_b S_{b,k}^T f_b(u')`
+        with :meth:`body_forces`.  Its derivatives with ``u'`` held are those of
+        :math:`R = F - M u'` that the Jacobians need (:mod:`mbgen.codegen.outputs`),
+        without differentiating ``M``."""
+        f = self.body_forces(udot)
+        rows = [list(self.tau.get(k, ())) for k in range(self.nu)]
+        for b in self.bodies:
+            for k, s in self.kin[b]["S"].items():
+                rows[k].append(mul(-1, dot6(s, f[b])))
+        return [self.P.scalar(add(*r)) for r in rows]
 
     def mass_matrix(self) -> list:
         """``M`` by composite rigid bodies (rows of sympy expressions)."""

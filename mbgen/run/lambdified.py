@@ -435,4 +435,5 @@ def _inlined(eq: Equations) -> Equations:
     return replace(eq, mass_matrix=M, forcing=F, kinematics=G,
                    kinetic_energy=None if eq.kinetic_energy is None else T,
                    potential_energy=None if eq.potential_energy is None else V,
-                   points=points, program=Program(), accelerations=None, reactions=reactions)
+                   points=points, program=Program(), accelerations=None, reactions=reactions,
+                   residual=None)

@@ -160,6 +160,11 @@ class Equations:
     accelerations : ImmutableMatrix, shape (n_u, 1), or None
         ``u'`` computed by a recursion (the articulated-body algorithm) in
         program symbols: the alternative to solving ``M u' = F``.
+    residual : ImmutableMatrix, shape (n_u, 1), or None
+        ``F - M u'`` with ``u'`` the placeholders of :func:`acceleration_symbols`, by
+        inverse dynamics in program symbols (a Newton–Euler derivation without
+        constraints): what the Jacobians differentiate, at a cost linear in the
+        number of bodies per variable, instead of ``F`` and ``M``.
     reactions : JointLoads or None
         Joint reaction forces and moments, when derived.
     constraints : Constraints or None
@@ -183,6 +188,7 @@ class Equations:
     program: Program = field(default_factory=Program)
     accelerations: sm.ImmutableMatrix | None = None
     reactions: JointLoads | None = None
+    residual: sm.ImmutableMatrix | None = None
     constraints: Constraints | None = None
 
     def __post_init__(self):
@@ -212,6 +218,11 @@ class Equations:
                              if s.name.startswith("mbgen:")}
         if self.accelerations is not None:
             checked.append(("accelerations", self.accelerations))
+        if self.residual is not None:
+            if self.residual.shape != (n, 1):
+                raise ModelError(f"residual has shape {self.residual.shape}, expected ({n}, 1)")
+            checked.append(("residual", self.residual))
+            known = known | set(acceleration_symbols(n))
         if self.constraints is not None:
             checked.append(("constraints", self.constraints.expressions()))
         for what, exprs in checked:

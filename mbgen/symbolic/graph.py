@@ -8,6 +8,7 @@ expression DAG once.
 
 from __future__ import annotations
 
+from functools import cmp_to_key
 from typing import Iterable, Mapping
 
 import sympy as sm
@@ -162,7 +163,7 @@ def reachable(roots: Iterable[sm.Basic], defs: Mapping) -> set:
         if s in needed:
             continue
         needed.add(s)
-        stack.extend(free_symbols([defs[s]]) & defs.keys() - needed)
+        stack.extend(d for d in free_symbols([defs[s]]) if d in defs and d not in needed)
     return needed
 
 
@@ -174,6 +175,26 @@ def _product(args: list) -> sm.Expr:
         if c.is_Number and c.is_finite and c not in (sm.S.Zero, sm.S.One, sm.S.NegativeOne):
             return sm.Mul._from_args((c, rest[0]))
     return sm.Mul(*args)
+
+
+def _canonical(op, args: list):
+    """``op(*args)`` for the arguments of a symengine sum or product, already combined.
+
+    symengine's sums and products are flat, with like terms and numbers
+    combined; sympy's evaluation would repeat that work (and query assumptions)
+    for every node.  Where ``args`` hold at most one number, the node is built
+    from its arguments in sympy's canonical order (the number first, then
+    sorted as sympy sorts them), so it equals what ``op(*args)`` gives but for
+    a number times a sum, which stays one product (sympy would distribute it).
+    """
+    numbers = [a for a in args if a.is_Number]
+    if len(args) < 2 or len(numbers) > 1 or any(a.func is op for a in args):
+        return op(*args)
+    rest = sorted((a for a in args if not a.is_Number), key=_SORT_KEY)
+    return op._from_args(numbers + rest)
+
+
+_SORT_KEY = cmp_to_key(sm.Basic.compare)
 
 
 def _se():
@@ -289,9 +310,9 @@ def to_sympy(exprs: Iterable, memo: dict | None = None) -> list:
         else:
             sargs = [memo[a] for a in args]
             if isinstance(node, se.Add):
-                out = sm.Add(*sargs)
+                out = _canonical(sm.Add, sargs)
             elif isinstance(node, se.Mul):
-                out = sm.Mul(*sargs)
+                out = _canonical(sm.Mul, sargs)
             elif isinstance(node, se.Pow):
                 out = sm.Pow(*sargs)
             elif type(node) in table:

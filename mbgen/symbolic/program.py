@@ -182,15 +182,27 @@ def derivatives(program: Program, exprs: Sequence, variables: Sequence,
     expr_partials = [local(e) for e in sexprs]
     one = se.Integer(1)
     new: list = []
+    named: dict = {}   # id of a compound partial -> its symbol (assigned once, at first use)
+
+    def name(p):
+        if p.is_Number or p.is_Symbol:
+            return p
+        s = named.get(id(p))
+        if s is None:
+            s = named[id(p)] = se.Symbol(f"mbgen:{tag}{len(new)}")
+            new.append((s, p))
+        return s
+
+    def chain(parts, D):
+        terms = [name(p) if D[f] == one else name(p) * D[f] for f, p in parts.items() if f in D]
+        return se.Add(*terms) if terms else None
+
     jac: list = [[None] * len(svars) for _ in sexprs]
     for j, v in enumerate(svars):
         D = {v: one}
         for s, parts in zip(syms, def_partials):
-            terms = [p if D[f] == one else p * D[f] for f, p in parts.items() if f in D]
-            if not terms:
-                continue
-            d = se.Add(*terms)
-            if d == 0:
+            d = chain(parts, D)
+            if d is None or d == 0:
                 continue
             if d.is_Number or d.is_Symbol:
                 D[s] = d
@@ -199,8 +211,7 @@ def derivatives(program: Program, exprs: Sequence, variables: Sequence,
                 new.append((t, d))
                 D[s] = t
         for i, parts in enumerate(expr_partials):
-            terms = [p if D[f] == one else p * D[f] for f, p in parts.items() if f in D]
-            jac[i][j] = se.Add(*terms) if terms else None
+            jac[i][j] = chain(parts, D)
     back = symbols_back(memo)
     new_syms = [sm.Symbol(str(t)) for t, _ in new]
     for (t, _), s in zip(new, new_syms):
