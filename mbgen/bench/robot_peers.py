@@ -8,9 +8,10 @@ compile that copy (a free joint on the root link for a floating base; URDF dampi
 since Pinocchio's ``aba`` has none) and :func:`switch_off` turns off in MuJoCo what mbgen
 does not model (contacts, limits, equality constraints, friction loss, actuation).
 
-The C++ loop (``templates/bench/robot_aba.cpp.j2``) builds the Pinocchio model from the
-file itself (``pinocchio::urdf`` or ``pinocchio::mjcf``) and is compiled like
-:func:`mbgen.bench.arm_pinocchio.build_aba_driver`, also linking ``pinocchio_parsers``;
+The C++ loop (``templates/bench/robot_aba.cpp.j2``) loads the Pinocchio model that Python's
+``pinocchio`` built from the file (``Model.saveToBinary``: the wheel ships no urdfdom
+headers to parse it in C++) and is compiled like
+:func:`mbgen.bench.arm_pinocchio.build_aba_driver`, also linking boost serialization;
 the C loop (``templates/bench/mj_forward.c.j2``) loads a binary ``.mjb`` saved from
 Python with the switches above and is compiled against the ``mujoco`` wheel's
 ``include`` folder and library.  Both print medians of loops timed like
@@ -135,16 +136,19 @@ def build_aba_driver(folder: Path, repeats: int) -> Path:
     exe = Path(folder) / "bench_robot_aba"
     _run([cxx, "-std=c++17", *DRIVER_FLAGS, *PINOCCHIO_DEFINES, f"-I{prefix / 'include'}",
           f"-I{prefix / 'include' / 'eigen3'}", str(source), "-o", str(exe),
-          f"-L{prefix / 'lib'}", "-lpinocchio_parsers", "-lpinocchio_default",
+          f"-L{prefix / 'lib'}", "-lpinocchio_default", "-lboost_serialization",
           f"-Wl,-rpath,{prefix / 'lib'}"], "compiling Pinocchio's C++ loop")
     return exe
 
 
-def run_aba_driver(exe: Path, path: Path, kind: str, floating: bool, gravity, q, v, tau
-                   ) -> tuple[float, np.ndarray]:
-    """``(median ns per aba call, accelerations)`` from the C++ loop."""
-    text = "\n".join(" ".join(repr(float(x)) for x in row) for row in (gravity, q, v, tau))
-    proc = _run([str(exe), str(path), kind, "1" if floating else "0"],
+def run_aba_driver(exe: Path, model, folder: Path, q, v, tau) -> tuple[float, np.ndarray]:
+    """``(median ns per aba call, accelerations)`` of ``model`` (a ``pinocchio.Model``)
+    from the C++ loop."""
+    path = Path(folder) / "model.bin"
+    model.saveToBinary(str(path))
+    text = "\n".join(" ".join(repr(float(x)) for x in row)
+                     for row in (model.gravity.linear, q, v, tau))
+    proc = _run([str(exe), str(path)],
                 "Pinocchio's C++ loop", input=text + "\n")
     return _times_and(proc.stdout, "ddq")
 
