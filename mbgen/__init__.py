@@ -53,6 +53,7 @@ from .run.compiled import CompiledModel
 from .run.python import PythonModel, python_model
 from .model.scene import Scene, load_scene
 from .model.urdf import from_urdf
+from .model.mjcf import from_mjcf, from_mujoco
 from .codegen.targets import Targets
 from .export import export_fmu
 from .studies.ensemble import ensemble
@@ -77,7 +78,7 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY))
 
 
-__all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", "from_sympy", "from_urdf", "Output", "CseBackend", "compile", "equations_of", "run",
+__all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", "from_sympy", "from_urdf", "from_mjcf", "from_mujoco", "Output", "CseBackend", "compile", "equations_of", "run",
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",

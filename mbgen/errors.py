@@ -111,6 +111,13 @@ class UrdfUnsupportedError(UrdfError):
     revolute, continuous, prismatic and fixed (floating, planar, unknown types)."""
 
 
+class MjcfError(ModelError):
+    """A MuJoCo model cannot become a model (:func:`mbgen.from_mjcf`): MuJoCo could not
+    compile the file, or it holds forces mbgen does not model (gravity compensation, fluid
+    forces, tendon springs and dampers, springs on ball and free joints); the message says
+    which."""
+
+
 class SceneError(MbgenError, ValueError):
     """A scene cannot be found or loaded, or an option is invalid."""
 

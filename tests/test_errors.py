@@ -165,6 +165,7 @@ EXIT_CODES = {
     "OutputBusyError": (2, "error"),
     "UrdfError": (3, "error"), "UrdfSyntaxError": (3, "error"), "UrdfInertiaError": (3, "error"),
     "UrdfStructureError": (3, "error"), "UrdfUnsupportedError": (3, "error"),
+    "MjcfError": (3, "error"),
 }
 
 

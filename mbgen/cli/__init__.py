@@ -78,7 +78,9 @@ COMMANDS = {
     "bench": Command(
         "bench", "benchmarks: 'mbgen bench SCENE' (work-precision: error against run time "
                  "of every integrator and back end), 'mbgen bench scaling' (n-link "
-                 "pendulum, mbgen vs sympy), 'mbgen bench arm' (spatial arm: mbgen vs "
+                 "pendulum, mbgen vs sympy), 'mbgen bench robot' (a URDF or MJCF "
+                 "robot FILE: mbgen vs Pinocchio vs MuJoCo), 'mbgen bench arm' (spatial "
+                 "arm: mbgen vs "
                  "sympy vs Pinocchio, RHS timed inside C) or 'mbgen bench constraints' "
                  "(Whipple bicycle: mbgen vs sympy's KanesMethod; four-bar residual "
                  "against run time)"),

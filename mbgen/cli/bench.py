@@ -20,8 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from ..bench import arm, constraints, scaling, stages
-from ..errors import EXIT_OK, MissingExtraError
+from ..bench import arm, constraints, robot, scaling, stages
+from ..errors import EXIT_OK, MissingExtraError, UsageError
 from ..fileio import write_atomic
 from ..model.scene import load_scene
 from ..studies.workprecision import (BACKENDS, C_METHODS, DEFAULT_RTOLS, DEFAULT_TIME_BUDGET_S,
@@ -56,7 +56,11 @@ def configure(p: argparse.ArgumentParser) -> None:
                      f"install 'mbgen[{EXTRA}]'); without it the CSV is written, and a note "
                      "says so before the sweep starts.")
     p.add_argument("what", metavar="WHAT",
-                   help="a scene (name or .py file), 'scaling', 'arm' or 'constraints'")
+                   help="a scene (name or .py file), 'scaling', 'arm', 'constraints' or "
+                        "'robot'")
+    p.add_argument("file", nargs="?", metavar="FILE",
+                   help="robot: a .urdf or MJCF .xml file, or panda, ur5, solo12, g1 "
+                        "(example-robot-data)")
     shared = p.add_argument_group("every mode but SCENE --stages")
     shared.add_argument("-o", "--output", metavar="DIR",
                         help="folder of the files written (default: bench/WHAT, e.g. "
@@ -115,6 +119,18 @@ def configure(p: argparse.ArgumentParser) -> None:
                           help="time Pinocchio from Python only, no C++ loop")
     arm_only.add_argument("--derivation", default="kane", metavar="METHOD",
                           help="mbgen's derivation method")
+
+    robot_only = p.add_argument_group(
+        "mbgen bench robot FILE", "One robot: mbgen's RHS vs Pinocchio's aba vs MuJoCo's "
+                                  "mj_forward, in C/C++ loops and from Python; generation "
+                                  "stages; agreement (printed, no files).  --no-pinocchio, "
+                                  "--no-cxx and --budget apply too.")
+    robot_only.add_argument("--floating", action="store_true",
+                            help="a floating base on a URDF file's root (named robots: "
+                                 "their own)")
+    robot_only.add_argument("--jacobian", action="store_true",
+                            help="generate the Jacobian too (generation time of rhs+jacobian)")
+    robot_only.add_argument("--no-mujoco", action="store_true", help="leave MuJoCo out")
 
     children = p.add_argument_group(
         "mbgen bench constraints", "Whipple bicycle and four-bar (constraints.txt and "
@@ -183,6 +199,20 @@ def bench_constraints(args) -> int:
     return EXIT_OK
 
 
+def bench_robot(args) -> int:
+    """``bench robot FILE``: one robot against Pinocchio and MuJoCo (printed)."""
+    if not args.file:
+        raise UsageError("mbgen bench robot FILE: give a .urdf or MJCF .xml file, or one of "
+                         + ", ".join(robot.peers.ROBOTS))
+    report = robot.robot_bench(args.file, floating=True if args.floating else None,
+                               jacobian=args.jacobian, repeats=args.repeats or 7,
+                               budget_s=args.budget, memory_gb=args.memory_gb,
+                               pinocchio=not args.no_pinocchio, cxx=not args.no_cxx,
+                               mujoco=not args.no_mujoco, progress=progress)
+    print(robot.format_robot(report))
+    return EXIT_OK
+
+
 def bench_scaling(args) -> int:
     """``bench scaling``: the n-link pendulum, mbgen vs sympy (``scaling.csv``, .png)."""
     repeats = 3 if args.repeats is None else args.repeats
@@ -239,6 +269,7 @@ class Benchmark:
 #: constraints; with scaling it reads 'scaling' as a scene, as it always has).
 BENCHMARKS = {"arm": Benchmark(bench_arm, takes_stages=False),
               "constraints": Benchmark(bench_constraints, takes_stages=False),
+              "robot": Benchmark(bench_robot, takes_stages=False),
               "scaling": Benchmark(bench_scaling, takes_stages=True)}
 #: Any other WHAT: a scene.
 SCENE = Benchmark(bench_work_precision, takes_stages=True)

@@ -14,7 +14,10 @@
   outputs) and :func:`load_scene` for built-in scenes and scene files;
 * :mod:`~mbgen.model.summary` -- a model's notebook summary;
 * :mod:`~mbgen.model.urdf` -- :func:`~mbgen.model.urdf.from_urdf`, a robot's URDF file as a
-  ``Model`` (Pinocchio's conventions), read and checked by :mod:`~mbgen.model.urdf_xml`.
+  ``Model`` (Pinocchio's conventions), read and checked by :mod:`~mbgen.model.urdf_xml`;
+* :mod:`~mbgen.model.mjcf` -- :func:`~mbgen.model.mjcf.from_mjcf` and
+  :func:`~mbgen.model.mjcf.from_mujoco`, a MuJoCo model (compiled by MuJoCo, the
+  ``mujoco`` extra) as a ``Model`` (MuJoCo's ``qpos``/``qvel`` conventions).
 
 Nothing here derives, generates or runs anything: this package imports only
 the layers below it (``symbolic``, ``names``, ``abi``, ``summary``, ``errors``).

@@ -251,11 +251,13 @@ class Model:
             out.append(frame)
         return tuple(out)
 
-    def orient(self, parent: spv.ReferenceFrame, name: str, dcm, rates) -> spv.ReferenceFrame:
+    def orient(self, parent: spv.ReferenceFrame, name: str, dcm, rates, *,
+               relative: bool = False) -> spv.ReferenceFrame:
         """Frame ``name`` turned from ``parent`` by the matrix ``dcm`` (``R_PF``: its columns
         are the new basis in ``parent`` components, functions of the coordinates), with
         angular velocity in N of components ``rates`` in the new frame (body rates, e.g.
-        three speeds); the kinematic equations that relate them are the caller's
+        three speeds; ``relative=True``: in ``parent``, i.e. ``parent``'s own added, as for
+        a ball joint); the kinematic equations that relate them are the caller's
         (:meth:`kinematics`).  A floating base's quaternion is one use (``from_urdf``)."""
         self._check_frame(parent)
         R = sm.ImmutableMatrix(3, 3, [self._scalar(v, f"rotation of frame {name!r}")
@@ -264,6 +266,8 @@ class Model:
         self._claim([name], "frame")
         frame = parent.orientnew(name, "DCM", R)
         omega = w[0] * frame.x + w[1] * frame.y + w[2] * frame.z
+        if relative:
+            omega = parent.ang_vel_in(self.N) + omega
         self.frames[frame] = FrameDef(frame, parent, None, None, omega, R)
         frame.set_ang_vel(self.N, omega)
         return frame

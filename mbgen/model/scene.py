@@ -3,7 +3,8 @@
 A scene file is a Python file with a function ``scene(**options) -> Scene``.
 Built-in scenes live in :mod:`mbgen.scenes`; a user's own file works the same
 way (``mbgen check path/to/my_scene.py``), and so does a robot's URDF file
-(``mbgen check robot.urdf``, :func:`urdf_scene`; option ``-O floating=true``)::
+(``mbgen check robot.urdf``, :func:`urdf_scene`; option ``-O floating=true``) and a
+MuJoCo model (``mbgen check robot.xml``, :func:`mjcf_scene`)::
 
     from mbgen import Model, Scene
 
@@ -46,6 +47,7 @@ from ..names import check_name
 from ..symbolic.equations import Equations
 from .builder import Model
 from .limits import allow_large_models, check_size
+from .mjcf import compile_mjcf, from_mujoco, scene_values
 from .urdf import build_model, read_urdf
 
 
@@ -304,9 +306,13 @@ def _module_for(name_or_path: str):
         def scene(floating: bool = False) -> Scene:
             return urdf_scene(path, floating=floating)
         return SimpleNamespace(scene=scene), str(path.resolve())
+    if path.suffix.lower() == ".xml":
+        if not path.is_file():
+            raise SceneError(f"MJCF file {str(path)!r} does not exist")
+        return SimpleNamespace(scene=lambda: mjcf_scene(path)), str(path.resolve())
     raise SceneError(f"no scene {name_or_path!r}: built-in scenes are "
                      f"{', '.join(builtin_names())}; or give the path of a .py scene file "
-                     f"or a .urdf robot")
+                     f"or a .urdf or MJCF (.xml) robot")
 
 
 def urdf_scene(path, *, floating: bool = False) -> Scene:
@@ -325,6 +331,21 @@ def urdf_scene(path, *, floating: bool = False) -> Scene:
                  outputs=(Output.RHS, Output.DOPRI5), source=str(Path(path).resolve()),
                  description=f"URDF robot {robot.name!r}: {joints} joints"
                              f"{', floating base' if floating else ''}, gravity")
+
+
+def mjcf_scene(path) -> Scene:
+    """The scene of a MuJoCo model file (``mbgen check robot.xml``; :func:`mbgen.from_mjcf`).
+
+    ``g`` is ``|opt.gravity|``; it starts at MuJoCo's ``qpos0`` at rest and runs for a
+    second; outputs as :func:`urdf_scene`'s.
+    """
+    mj = compile_mjcf(path)
+    model = from_mujoco(mj)
+    parameters, initial = scene_values(mj)
+    return Scene(name=model.name, model=model, parameters=parameters, initial_state=initial,
+                 t_span=(0.0, 1.0), outputs=(Output.RHS, Output.DOPRI5),
+                 source=str(Path(path).resolve()),
+                 description=f"MuJoCo model {model.name!r}: {mj.njnt} joints, {mj.nv} speeds")
 
 
 def scene_options(name_or_path: str) -> dict[str, Any]:

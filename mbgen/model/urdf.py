@@ -161,7 +161,7 @@ def model_name(robot: Robot) -> str:
 
 
 # ------------------------------------------------------------------------------ building
-class _Group:
+class Group:
     """A rigid body: a moving link and the links fixed to it, in frame ``frame`` from ``point``."""
 
     def __init__(self, name, frame, point):
@@ -189,7 +189,7 @@ class _Group:
         return mass, centre, (inertia + inertia.T) / 2
 
 
-def _vector(frame, comps) -> object:
+def frame_vector(frame, comps) -> object:
     terms = [float(c) * e for c, e in zip(comps, (frame.x, frame.y, frame.z)) if c != 0]
     return sum(terms[1:], terms[0]) if terms else 0
 
@@ -217,7 +217,7 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
     if floating:
         root = _floating_root(m, names, body_names[robot.root])
     else:
-        root = _Group(None, N, m.origin)
+        root = Group(None, N, m.origin)
     groups = {robot.root: root}
     place = {robot.root: (np.eye(3), np.zeros(3))}   # link -> (A, d) in its group
     for j in robot.ordered_joints():
@@ -236,22 +236,22 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
         link = body_names[j.child]
         if j.type == "prismatic":
             anchor = parent.point if not offset.any() else \
-                m.point(names.internal(f"{link}_anchor"), parent.point, _vector(parent.frame, offset))
+                m.point(names.internal(f"{link}_anchor"), parent.point, frame_vector(parent.frame, offset))
             point = m.point(names.internal(f"{link}_J"), anchor,
-                            _vector(parent.frame, a) * q)
-            child = _Group(link, parent.frame, point)
-            m.force(point, tau * _vector(parent.frame, a), reaction=anchor)
+                            frame_vector(parent.frame, a) * q)
+            child = Group(link, parent.frame, point)
+            m.force(point, tau * frame_vector(parent.frame, a), reaction=anchor)
             place[j.child] = (J, np.zeros(3))
         else:
             point = parent.point if not offset.any() else \
-                m.point(names.internal(f"{link}_J"), parent.point, _vector(parent.frame, offset))
+                m.point(names.internal(f"{link}_J"), parent.point, frame_vector(parent.frame, offset))
             steps, k, s = axis_rotation(a)
             frame, C = parent.frame, np.eye(3)
             for n, (axis, angle) in enumerate(steps):
                 frame = m.rotate(frame, names.internal(f"{link}_axis{n}"), axis, angle)
                 C = C @ simple(axis, angle)
             frame = m.rotate(frame, names.internal(f"{link}_frame"), k, s * q)
-            child = _Group(link, frame, point)
+            child = Group(link, frame, point)
             m.torque(frame, s * tau * (frame.x, frame.y, frame.z)[k - 1], reaction=parent.frame)
             place[j.child] = (C.T @ J, np.zeros(3))
         groups[j.child] = child
@@ -264,18 +264,18 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
     return m
 
 
-def _add_body(m: Model, names: _Names, group: _Group) -> None:
+def _add_body(m: Model, names: _Names, group: Group) -> None:
     made = group.combined()
     if made is None:
         return
     mass, centre, inertia = made
     point = group.point if not centre.any() else \
-        m.point(names.internal(f"{group.name}_G"), group.point, _vector(group.frame, centre))
+        m.point(names.internal(f"{group.name}_G"), group.point, frame_vector(group.frame, centre))
     m.body(group.name, group.frame, float(mass), [[float(v) for v in row] for row in inertia],
            point)
 
 
-def _floating_root(m: Model, names: _Names, link: str) -> _Group:
+def _floating_root(m: Model, names: _Names, link: str) -> Group:
     """The free-flyer: the root link's frame at the quaternion, its origin at ``(x, y, z)``."""
     x, y, z, qx, qy, qz, qw = m.coordinates(" ".join(FLOATING_Q))
     vx, vy, vz, wx, wy, wz = m.speeds(" ".join(FLOATING_U))
@@ -290,4 +290,4 @@ def _floating_root(m: Model, names: _Names, link: str) -> _Group:
                   qy: half * (qw * wy + qz * wx - qx * wz),
                   qz: half * (qw * wz + qx * wy - qy * wx),
                   qw: -half * (qx * wx + qy * wy + qz * wz)})
-    return _Group(link, frame, point)
+    return Group(link, frame, point)

@@ -1,0 +1,48 @@
+"""``mbgen bench robot FILE`` on a tiny URDF: the command runs, its table is filled where the
+peers are installed; nothing timed is asserted.  Pinocchio's C++ loop (a minute to compile)
+is left out here."""
+
+from __future__ import annotations
+
+import pytest
+
+from mbgen.bench import robot
+from mbgen.cli import main
+
+URDF = """<robot name="tiny">
+  <link name="base"/>
+  <link name="upper"><inertial><origin xyz="0 0 0.25" rpy="0 0 0"/><mass value="1.2"/>
+    <inertia ixx="0.03" iyy="0.03" izz="0.002" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="lower"><inertial><origin xyz="0 0 0.2" rpy="0.1 0 0"/><mass value="0.8"/>
+    <inertia ixx="0.012" iyy="0.012" izz="0.001" ixy="0.0005" ixz="0" iyz="0"/></inertial></link>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.1" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-3" upper="3" effort="50" velocity="5"/></joint>
+  <joint name="elbow" type="continuous"><parent link="upper"/><child link="lower"/>
+    <origin xyz="0 0 0.5" rpy="1.5707963267948966 0 0"/><axis xyz="0 0 1"/></joint>
+</robot>
+"""
+
+
+def test_bench_robot_on_a_tiny_urdf(tmp_path, capsys):
+    path = tmp_path / "tiny.urdf"
+    path.write_text(URDF, encoding="utf-8")
+    assert main(["bench", "robot", str(path), "--repeats", "1", "--no-cxx"]) == 0
+    out = capsys.readouterr().out
+    assert "robot " in out and "mbgen RHS" in out and "generation, cold (rhs)" in out
+    assert "mbgen ok" in out
+
+
+def test_peers_fill_their_columns(tmp_path):
+    pytest.importorskip("pinocchio")
+    pytest.importorskip("mujoco")
+    path = tmp_path / "tiny.urdf"
+    path.write_text(URDF, encoding="utf-8")
+    rep = robot.robot_bench(str(path), repeats=1, cxx=False)
+    assert rep.rhs_c_ns and rep.rhs_py_ns and rep.pin_py_ns and rep.mj_py_ns
+    assert rep.diff_pin < 1e-9 and rep.diff_mj < 1e-9
+    assert set(rep.stages) >= {"derive_s", "bake_s", "cse_s", "render_s", "compile_s"}
+
+
+def test_bench_robot_without_a_file_is_a_usage_error(capsys):
+    assert main(["bench", "robot"]) == 2

@@ -1,0 +1,46 @@
+"""mbgen's Jacobian of a URDF robot's RHS against Pinocchio's ``computeABADerivatives`` (slow).
+
+The lower block of ``df/dx`` (``x = (q, u)``) is ``du'/d(q, u)``: for a fixed base with
+revolute and prismatic joints ``q`` is Pinocchio's configuration and ``u = q'``, so it is
+``(ddq_dq, ddq_dv)`` one to one.  A floating base is left out: mbgen's ``q`` holds the
+quaternion, whose derivative is not Pinocchio's tangent ``ddq_dq``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mbgen
+from mbgen.abi import Output
+from mbgen.model.scene import urdf_scene
+
+pin = pytest.importorskip("pinocchio")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", ["panda", "ur5"])
+def test_jacobian_matches_aba_derivatives(robot, tmp_path):
+    from mbgen.bench.robot_peers import clean_urdf, robot_file
+    path = clean_urdf(robot_file(robot)[0], tmp_path)
+    scene = urdf_scene(path)
+    compiled = mbgen.compile(scene.__class__(**{**scene.__dict__,
+                                                "outputs": (Output.RHS, Output.JACOBIAN)}))
+    model = pin.buildModelFromUrdf(str(path))
+    model.gravity.linear = np.array([0.0, 0.0, -9.81])
+    assert all(j.nq == j.nv == 1 for j in list(model.joints)[1:])
+    data = model.createData()
+    rng = np.random.default_rng(11)
+    n = model.nv
+    for _ in range(5):
+        q, v, tau = rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(-5, 5, n)
+        pin.computeABADerivatives(model, data, q, v, tau)
+        J = compiled.jacobian(0.0, np.concatenate([q, v]), None, tau)
+        for ours, theirs in ((J[n:, :n], data.ddq_dq), (J[n:, n:], data.ddq_dv)):
+            scale = np.abs(theirs).max()
+            assert np.abs(ours - theirs).max() <= 1e-9 * scale
+        np.testing.assert_array_equal(J[:n, n:], np.eye(n))
+        assert not J[:n, :n].any()
+    assert Path(path).is_file()
