@@ -57,7 +57,7 @@ int bead_wire_rhs(double t, const double *x, const double *p, double *dxdt)
     int i;
     dxdt[0] = u;
     M[0] = 0.1;
-    F[0] = 0.1*rho*(omega*omega);
+    F[0] = 0.1*(omega*omega)*rho;
     i = bead_wire_ldl(M);
     if (i != BEAD_WIRE_OK) {
         return i;

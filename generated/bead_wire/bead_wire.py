@@ -103,7 +103,7 @@ def _rhs(math, t, x, p):
     M = [0.0] * 1
     M[0] = 0.1
     F = [0.0] * 1
-    F[0] = 0.1*rho*(omega*omega)
+    F[0] = 0.1*(omega*omega)*rho
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[1:] = F

@@ -281,7 +281,7 @@ int bead_wire_force_rhs(double t, const double *x, const double *p, double *dxdt
     M[2] = 0.0;
     M[3] = m;
     F[0] = -m*(-rho*v1 - UR[0]*v0);
-    F[1] = -m*(u*v0 - s_*v1);
+    F[1] = -m*(-s_*v1 + u*v0);
     BETA[0] = 0.0;
     i = bead_wire_force_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != BEAD_WIRE_FORCE_OK) {
@@ -329,7 +329,7 @@ int bead_wire_force_constraint_forces(double t, const double *x, const double *p
     M[2] = 0.0;
     M[3] = m;
     F[0] = -m*(-rho*v1 - UR[0]*v0);
-    F[1] = -m*(u*v0 - s_*v1);
+    F[1] = -m*(-s_*v1 + u*v0);
     BETA[0] = 0.0;
     i = bead_wire_force_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != BEAD_WIRE_FORCE_OK) {

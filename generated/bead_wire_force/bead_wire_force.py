@@ -255,7 +255,7 @@ def _rhs(math, t, x, p):
     M[3] = m
     F = [0.0] * 2
     F[0] = -m*(-rho*v1 - UR[0]*v0)
-    F[1] = -m*(u*v0 - s_*v1)
+    F[1] = -m*(-s_*v1 + u*v0)
     BETA = [0.0] * 1
     BETA[0] = 0
     CR, MT = _kkt_factor(CA, LU, piv, M)
@@ -302,7 +302,7 @@ def _constraint_forces(math, t, x, p):
     M[3] = m
     F = [0.0] * 2
     F[0] = -m*(-rho*v1 - UR[0]*v0)
-    F[1] = -m*(u*v0 - s_*v1)
+    F[1] = -m*(-s_*v1 + u*v0)
     BETA = [0.0] * 1
     BETA[0] = 0
     CR, MT = _kkt_factor(CA, LU, piv, M)

@@ -68,11 +68,11 @@ int bent_pipe_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v2 = q2*v1;
     dxdt[0] = u1;
     dxdt[1] = u2;
-    M[0] = J_ + v1*(q2*q2);
+    M[0] = J_ + (q2*q2)*v1;
     M[2] = 0.0;
     M[3] = m;
     F[0] = -2.0*u1*u2*v2;
-    F[1] = v2*(u1*u1) + 9.81*m*cos(phi);
+    F[1] = 9.81*m*cos(phi) + (u1*u1)*v2;
     i = bent_pipe_ldl(M);
     if (i != BENT_PIPE_OK) {
         return i;

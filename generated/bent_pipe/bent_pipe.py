@@ -112,12 +112,12 @@ def _rhs(math, t, x, p):
     dxdt[0] = u1
     dxdt[1] = u2
     M = [0.0] * 4
-    M[0] = J_ + v1*(q2*q2)
+    M[0] = J_ + (q2*q2)*v1
     M[2] = 0
     M[3] = m
     F = [0.0] * 2
     F[0] = -2*u1*u2*v2
-    F[1] = v2*(u1*u1) + 9.81*m*math.cos(phi)
+    F[1] = 9.81*m*math.cos(phi) + (u1*u1)*v2
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[2:] = F

@@ -68,19 +68,19 @@ int disc_pendulum_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v0 = sin(q2);
     const double v1 = l*m;
     const double v2 = v0*v1;
-    const double v3 = m*(l*l);
+    const double v3 = (l*l)*m;
     const double v4 = v0*v3;
     const double v5 = cos(q2);
     const double v6 = 2.0*u1*u2*v5;
     const double v7 = s_*v1;
-    const double v8 = v5*(u1*u1);
+    const double v8 = (u1*u1)*v5;
     dxdt[0] = u1;
     dxdt[1] = u2;
-    M[0] = m*(s_*s_) + v3*(v0*v0) + 2.0*s_*v2;
+    M[0] = m*(s_*s_) + 2.0*s_*v2 + (v0*v0)*v3;
     M[2] = 0.0;
     M[3] = v3;
     F[0] = -v4*v6 - v6*v7;
-    F[1] = v4*v8 + v7*v8 - g*v2;
+    F[1] = -g*v2 + v4*v8 + v7*v8;
     i = disc_pendulum_ldl(M);
     if (i != DISC_PENDULUM_OK) {
         return i;

@@ -109,22 +109,22 @@ def _rhs(math, t, x, p):
     v0 = math.sin(q2)
     v1 = l*m
     v2 = v0*v1
-    v3 = m*(l*l)
+    v3 = (l*l)*m
     v4 = v0*v3
     v5 = math.cos(q2)
     v6 = 2*u1*u2*v5
     v7 = s_*v1
-    v8 = v5*(u1*u1)
+    v8 = (u1*u1)*v5
     dxdt = [0.0] * 4
     dxdt[0] = u1
     dxdt[1] = u2
     M = [0.0] * 4
-    M[0] = m*(s_*s_) + v3*(v0*v0) + 2*s_*v2
+    M[0] = m*(s_*s_) + 2*s_*v2 + (v0*v0)*v3
     M[2] = 0
     M[3] = v3
     F = [0.0] * 2
     F[0] = -v4*v6 - v6*v7
-    F[1] = v4*v8 + v7*v8 - g*v2
+    F[1] = -g*v2 + v4*v8 + v7*v8
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[2:] = F

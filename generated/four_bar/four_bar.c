@@ -290,12 +290,12 @@ int four_bar_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v5 = lb*sin(q2);
     const double v6 = v4*v5;
     const double v7 = -v3 - v6;
-    const double v8 = v7 - v1;
+    const double v8 = -v1 + v7;
     const double v9 = lc*sin(q3);
     const double v10 = la*v4;
     const double v11 = v0*v5;
     const double v12 = v2*v4;
-    const double v13 = v12 - v11;
+    const double v13 = -v11 + v12;
     const double v14 = v10 + v13;
     const double v15 = lc*cos(q3);
     const double v16 = -v15;
@@ -313,13 +313,13 @@ int four_bar_rhs(double t, const double *x, const double *p, double *dxdt)
     }
     const double v17 = la*mb;
     const double v18 = v17*v2;
-    const double v19 = mb*(lb*lb);
+    const double v19 = (lb*lb)*mb;
     const double v20 = (1.0/3.0)*v19;
     const double v21 = (la*la);
     const double v22 = ma*v21;
     const double v23 = mb*v21;
     const double v24 = (1.0/2.0)*v18;
-    const double v25 = mc*(lc*lc);
+    const double v25 = (lc*lc)*mc;
     const double v26 = u1 + UR[0];
     const double v27 = (v26*v26);
     const double v28 = v17*v5;
@@ -327,7 +327,7 @@ int four_bar_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v30 = 4.905*ma;
     const double v31 = (u1*u1);
     const double v32 = (1.0/2.0)*v31;
-    const double v33 = -v28*v32 - v29*((1.0/2.0)*v12 - 1.0/2.0*v11);
+    const double v33 = -v28*v32 - v29*(-1.0/2.0*v11 + (1.0/2.0)*v12);
     const double v34 = 4.905*mc;
     const double v35 = (UR[1]*UR[1]);
     const double v36 = v11 - v12;
@@ -336,17 +336,17 @@ int four_bar_rhs(double t, const double *x, const double *p, double *dxdt)
     dxdt[0] = u1;
     dxdt[1] = UR[0];
     dxdt[2] = UR[1];
-    M[0] = v18 + v20 + v23 + (1.0/3.0)*v22;
+    M[0] = v18 + v20 + (1.0/3.0)*v22 + v23;
     M[3] = v20 + v24;
     M[4] = v20;
     M[6] = 0.0;
     M[7] = 0.0;
     M[8] = (1.0/3.0)*v25;
-    F[0] = v33 + (1.0/2.0)*v27*v28 - v10*v29 - v10*v30;
+    F[0] = -v10*v29 - v10*v30 + (1.0/2.0)*v27*v28 + v33;
     F[1] = v33;
     F[2] = -v15*v34;
-    BETA[0] = u1*(v37 + u1*(v36 - v10)) + UR[0]*(v37 + u1*v36) + v15*v35;
-    BETA[1] = u1*(v38 + u1*v8) + UR[0]*(v38 + u1*v7) + v35*v9;
+    BETA[0] = u1*(u1*(-v10 + v36) + v37) + UR[0]*(u1*v36 + v37) + v15*v35;
+    BETA[1] = u1*(u1*v8 + v38) + UR[0]*(u1*v7 + v38) + v35*v9;
     i = four_bar_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != FOUR_BAR_OK) {
         return i;
@@ -389,12 +389,12 @@ int four_bar_energy(double t, const double *x, const double *p, double *energy)
     const double v5 = lb*sin(q2);
     const double v6 = v4*v5;
     const double v7 = -v3 - v6;
-    const double v8 = v7 - v1;
+    const double v8 = -v1 + v7;
     const double v9 = lc*sin(q3);
     const double v10 = la*v4;
     const double v11 = v0*v5;
     const double v12 = v2*v4;
-    const double v13 = v12 - v11;
+    const double v13 = -v11 + v12;
     const double v14 = v10 + v13;
     const double v15 = lc*cos(q3);
     const double v16 = -v15;
@@ -412,12 +412,12 @@ int four_bar_energy(double t, const double *x, const double *p, double *energy)
     }
     const double v17 = la*mb;
     const double v18 = v17*v2;
-    const double v19 = mb*(lb*lb);
+    const double v19 = (lb*lb)*mb;
     const double v21 = (la*la);
     const double v22 = ma*v21;
     const double v23 = mb*v21;
     const double v24 = (1.0/2.0)*v18;
-    const double v25 = mc*(lc*lc);
+    const double v25 = (lc*lc)*mc;
     const double v26 = u1 + UR[0];
     const double v27 = (v26*v26);
     const double v29 = 9.81*mb;
@@ -426,7 +426,7 @@ int four_bar_energy(double t, const double *x, const double *p, double *energy)
     const double v32 = (1.0/2.0)*v31;
     const double v34 = 4.905*mc;
     const double v35 = (UR[1]*UR[1]);
-    energy[0] = v23*v32 + (1.0/6.0)*v19*v27 + (1.0/6.0)*v22*v31 + (1.0/6.0)*v25*v35 + u1*v24*v26;
+    energy[0] = u1*v24*v26 + (1.0/6.0)*v19*v27 + (1.0/6.0)*v22*v31 + v23*v32 + (1.0/6.0)*v25*v35;
     energy[1] = v1*v29 + v1*v30 + v29*((1.0/2.0)*v3 + (1.0/2.0)*v6) + v34*v9;
     return four_bar_all_finite(energy, 2) ? FOUR_BAR_OK : FOUR_BAR_NONFINITE;
 }
@@ -463,12 +463,12 @@ int four_bar_constraint_forces(double t, const double *x, const double *p, doubl
     const double v5 = lb*sin(q2);
     const double v6 = v4*v5;
     const double v7 = -v3 - v6;
-    const double v8 = v7 - v1;
+    const double v8 = -v1 + v7;
     const double v9 = lc*sin(q3);
     const double v10 = la*v4;
     const double v11 = v0*v5;
     const double v12 = v2*v4;
-    const double v13 = v12 - v11;
+    const double v13 = -v11 + v12;
     const double v14 = v10 + v13;
     const double v15 = lc*cos(q3);
     const double v16 = -v15;
@@ -486,13 +486,13 @@ int four_bar_constraint_forces(double t, const double *x, const double *p, doubl
     }
     const double v17 = la*mb;
     const double v18 = v17*v2;
-    const double v19 = mb*(lb*lb);
+    const double v19 = (lb*lb)*mb;
     const double v20 = (1.0/3.0)*v19;
     const double v21 = (la*la);
     const double v22 = ma*v21;
     const double v23 = mb*v21;
     const double v24 = (1.0/2.0)*v18;
-    const double v25 = mc*(lc*lc);
+    const double v25 = (lc*lc)*mc;
     const double v26 = u1 + UR[0];
     const double v27 = (v26*v26);
     const double v28 = v17*v5;
@@ -500,23 +500,23 @@ int four_bar_constraint_forces(double t, const double *x, const double *p, doubl
     const double v30 = 4.905*ma;
     const double v31 = (u1*u1);
     const double v32 = (1.0/2.0)*v31;
-    const double v33 = -v28*v32 - v29*((1.0/2.0)*v12 - 1.0/2.0*v11);
+    const double v33 = -v28*v32 - v29*(-1.0/2.0*v11 + (1.0/2.0)*v12);
     const double v34 = 4.905*mc;
     const double v35 = (UR[1]*UR[1]);
     const double v36 = v11 - v12;
     const double v37 = UR[0]*v36;
     const double v38 = UR[0]*v7;
-    M[0] = v18 + v20 + v23 + (1.0/3.0)*v22;
+    M[0] = v18 + v20 + (1.0/3.0)*v22 + v23;
     M[3] = v20 + v24;
     M[4] = v20;
     M[6] = 0.0;
     M[7] = 0.0;
     M[8] = (1.0/3.0)*v25;
-    F[0] = v33 + (1.0/2.0)*v27*v28 - v10*v29 - v10*v30;
+    F[0] = -v10*v29 - v10*v30 + (1.0/2.0)*v27*v28 + v33;
     F[1] = v33;
     F[2] = -v15*v34;
-    BETA[0] = u1*(v37 + u1*(v36 - v10)) + UR[0]*(v37 + u1*v36) + v15*v35;
-    BETA[1] = u1*(v38 + u1*v8) + UR[0]*(v38 + u1*v7) + v35*v9;
+    BETA[0] = u1*(u1*(-v10 + v36) + v37) + UR[0]*(u1*v36 + v37) + v15*v35;
+    BETA[1] = u1*(u1*v8 + v38) + UR[0]*(u1*v7 + v38) + v35*v9;
     i = four_bar_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != FOUR_BAR_OK) {
         return i;
@@ -553,11 +553,11 @@ int four_bar_holonomic(double t, const double *x, const double *p, double *fh)
     const double v10 = la*v4;
     const double v11 = v0*v5;
     const double v12 = v2*v4;
-    const double v13 = v12 - v11;
+    const double v13 = -v11 + v12;
     const double v14 = v10 + v13;
     const double v15 = lc*cos(q3);
     const double v16 = -v15;
-    fh[0] = v14 + v16 - ld;
+    fh[0] = -ld + v14 + v16;
     fh[1] = v1 + v3 + v6 - v9;
     return four_bar_all_finite(fh, 2) ? FOUR_BAR_OK : FOUR_BAR_NONFINITE;
 }
@@ -581,12 +581,12 @@ int four_bar_holonomic_jacobian(double t, const double *x, const double *p, doub
     const double v5 = lb*sin(q2);
     const double v6 = v4*v5;
     const double v7 = -v3 - v6;
-    const double v8 = v7 - v1;
+    const double v8 = -v1 + v7;
     const double v9 = lc*sin(q3);
     const double v10 = la*v4;
     const double v11 = v0*v5;
     const double v12 = v2*v4;
-    const double v13 = v12 - v11;
+    const double v13 = -v11 + v12;
     const double v14 = v10 + v13;
     const double v15 = lc*cos(q3);
     const double v16 = -v15;

@@ -66,10 +66,10 @@ int paraboloid_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v2 = m*q1;
     dxdt[0] = u1;
     dxdt[1] = u2;
-    M[0] = m*(1.0 + v0*v1);
+    M[0] = m*(v0*v1 + 1.0);
     M[2] = 0.0;
     M[3] = m*v0;
-    F[0] = -m*(-q1*(u2*u2) + q1*v1*(u1*u1)) - 19.62*k_*v2;
+    F[0] = -19.62*k_*v2 - m*(q1*(u1*u1)*v1 - q1*(u2*u2));
     F[1] = -2.0*u1*u2*v2;
     i = paraboloid_ldl(M);
     if (i != PARABOLOID_OK) {

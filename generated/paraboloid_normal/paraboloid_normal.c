@@ -344,7 +344,7 @@ int paraboloid_normal_energy(double t, const double *x, const double *p, double 
     const double v2 = (u2*u2);
     const double v4 = 9.81*m;
     const double v5 = (u1*u1);
-    energy[0] = (1.0/2.0)*m*(v5 + (UR[0]*UR[0]) + v1*v2);
+    energy[0] = (1.0/2.0)*m*((UR[0]*UR[0]) + v1*v2 + v5);
     energy[1] = q3*v4;
     return paraboloid_normal_all_finite(energy, 2) ? PARABOLOID_NORMAL_OK : PARABOLOID_NORMAL_NONFINITE;
 }
@@ -413,7 +413,7 @@ int paraboloid_normal_holonomic(double t, const double *x, const double *p, doub
     const double q3 = x[2];
     const double k_ = p[0];
     const double v1 = (q1*q1);
-    fh[0] = q3 - k_*v1;
+    fh[0] = -k_*v1 + q3;
     return paraboloid_normal_all_finite(fh, 1) ? PARABOLOID_NORMAL_OK : PARABOLOID_NORMAL_NONFINITE;
 }
 

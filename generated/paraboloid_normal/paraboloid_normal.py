@@ -321,7 +321,7 @@ def _energy(math, t, x, p):
     v4 = 9.81*m
     v5 = (u1*u1)
     energy = [0.0] * 2
-    energy[0] = (1.0/2.0)*m*(v5 + (UR[0]*UR[0]) + v1*v2)
+    energy[0] = (1.0/2.0)*m*((UR[0]*UR[0]) + v1*v2 + v5)
     energy[1] = q3*v4
     result = np.array(energy, dtype=np.float64)
     if not np.isfinite(result).all():
@@ -407,7 +407,7 @@ def _holonomic(math, t, x, p):
     k_ = p[0]
     v1 = (q1*q1)
     fh = [0.0] * 1
-    fh[0] = q3 - k_*v1
+    fh[0] = -k_*v1 + q3
     result = np.array(fh, dtype=np.float64)
     if not np.isfinite(result).all():
         raise NonFinite("holonomic: non-finite output %r" % (result,))

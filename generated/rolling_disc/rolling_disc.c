@@ -304,7 +304,7 @@ int rolling_disc_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v6 = sin(q1);
     const double v7 = r_*v6;
     const double v8 = v5*v7;
-    const double v9 = v8 - v4*v8;
+    const double v9 = -v4*v8 + v8;
     const double v10 = cos(q1);
     const double v11 = r_*v10;
     const double v12 = (1.0/v5);
@@ -320,7 +320,7 @@ int rolling_disc_rhs(double t, const double *x, const double *p, double *dxdt)
     CA[2] = v15;
     CA[3] = 1.0;
     CA[4] = 0.0;
-    CA[5] = v17 - v16;
+    CA[5] = -v16 + v17;
     CA[6] = -v7;
     CA[7] = v19;
     CA[8] = 0.0;
@@ -350,10 +350,10 @@ int rolling_disc_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v36 = u1*v2 - u3*v0;
     const double v37 = -v33*v36 - v34*v36;
     const double v38 = u1*u3;
-    const double v39 = r_*v38 + r_*(v38 + v26*v38);
+    const double v39 = r_*v38 + r_*(v26*v38 + v38);
     const double v40 = v26*v27;
     const double v41 = (u1*u1);
-    const double v42 = v27*v28 - v13*(-r_*v40 - r_*v41);
+    const double v42 = -v13*(-r_*v40 - r_*v41) + v27*v28;
     const double v43 = v18*v20;
     const double v44 = u3*v11;
     const double v45 = v14*v20;
@@ -368,7 +368,7 @@ int rolling_disc_rhs(double t, const double *x, const double *p, double *dxdt)
     M[6] = (1.0/2.0)*v23;
     M[10] = 0.0;
     M[11] = 0.0;
-    M[12] = v25 + v23*v26;
+    M[12] = v23*v26 + v25;
     M[15] = m*v8;
     M[16] = 0.0;
     M[17] = m*v15;
@@ -378,13 +378,13 @@ int rolling_disc_rhs(double t, const double *x, const double *p, double *dxdt)
     M[22] = m*v19;
     M[23] = 0.0;
     M[24] = m;
-    F[0] = v0*v37 + v2*v35 + v28*v29 + v12*v13*v23*v27;
+    F[0] = v0*v37 + v12*v13*v23*v27 + v2*v35 + v28*v29;
     F[1] = 0.0;
-    F[2] = v2*v37 - v0*v35 - m*v12*v28*v39;
+    F[2] = -m*v12*v28*v39 - v0*v35 + v2*v37;
     F[3] = -m*(v10*v39 - v42*v6);
     F[4] = -m*(v10*v42 + v39*v6);
-    BETA[0] = u1*(v44 + u1*(-v18 + v18*v4) + v26*v44) + v20*(-v43 + u1*(v16 - v17) + u2*v7);
-    BETA[1] = u1*(v46 + u1*(v14 - v14*v4) + v26*v46) + v20*(v45 + u1*v9 - u2*v11);
+    BETA[0] = u1*(u1*(v18*v4 - v18) + v26*v44 + v44) + v20*(u1*(v16 - v17) + u2*v7 - v43);
+    BETA[1] = u1*(u1*(-v14*v4 + v14) + v26*v46 + v46) + v20*(u1*v9 - u2*v11 + v45);
     i = rolling_disc_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != ROLLING_DISC_OK) {
         return i;
@@ -427,7 +427,7 @@ int rolling_disc_energy(double t, const double *x, const double *p, double *ener
     const double v6 = sin(q1);
     const double v7 = r_*v6;
     const double v8 = v5*v7;
-    const double v9 = v8 - v4*v8;
+    const double v9 = -v4*v8 + v8;
     const double v10 = cos(q1);
     const double v11 = r_*v10;
     const double v12 = (1.0/v5);
@@ -443,7 +443,7 @@ int rolling_disc_energy(double t, const double *x, const double *p, double *ener
     CA[2] = v15;
     CA[3] = 1.0;
     CA[4] = 0.0;
-    CA[5] = v17 - v16;
+    CA[5] = -v16 + v17;
     CA[6] = -v7;
     CA[7] = v19;
     CA[8] = 0.0;
@@ -471,7 +471,7 @@ int rolling_disc_energy(double t, const double *x, const double *p, double *ener
     const double v45 = v14*v20;
     const double v47 = (1.0/8.0)*v23;
     const double v48 = (1.0/2.0)*m;
-    energy[0] = m*(UR[0]*(v45 + u1*v8) + UR[1]*(v43 - u1*v16)) + v24*(u2*u2) + v47*(v32*v32) + v47*(v36*v36) + v48*((UR[0]*UR[0]) + (UR[1]*UR[1])) + v48*(v22*v40 + v22*v41);
+    energy[0] = m*(UR[0]*(u1*v8 + v45) + UR[1]*(-u1*v16 + v43)) + (u2*u2)*v24 + (v32*v32)*v47 + (v36*v36)*v47 + v48*((UR[0]*UR[0]) + (UR[1]*UR[1])) + v48*(v22*v40 + v22*v41);
     energy[1] = r_*v29*v5;
     return rolling_disc_all_finite(energy, 2) ? ROLLING_DISC_OK : ROLLING_DISC_NONFINITE;
 }
@@ -508,7 +508,7 @@ int rolling_disc_constraint_forces(double t, const double *x, const double *p, d
     const double v6 = sin(q1);
     const double v7 = r_*v6;
     const double v8 = v5*v7;
-    const double v9 = v8 - v4*v8;
+    const double v9 = -v4*v8 + v8;
     const double v10 = cos(q1);
     const double v11 = r_*v10;
     const double v12 = (1.0/v5);
@@ -524,7 +524,7 @@ int rolling_disc_constraint_forces(double t, const double *x, const double *p, d
     CA[2] = v15;
     CA[3] = 1.0;
     CA[4] = 0.0;
-    CA[5] = v17 - v16;
+    CA[5] = -v16 + v17;
     CA[6] = -v7;
     CA[7] = v19;
     CA[8] = 0.0;
@@ -554,10 +554,10 @@ int rolling_disc_constraint_forces(double t, const double *x, const double *p, d
     const double v36 = u1*v2 - u3*v0;
     const double v37 = -v33*v36 - v34*v36;
     const double v38 = u1*u3;
-    const double v39 = r_*v38 + r_*(v38 + v26*v38);
+    const double v39 = r_*v38 + r_*(v26*v38 + v38);
     const double v40 = v26*v27;
     const double v41 = (u1*u1);
-    const double v42 = v27*v28 - v13*(-r_*v40 - r_*v41);
+    const double v42 = -v13*(-r_*v40 - r_*v41) + v27*v28;
     const double v43 = v18*v20;
     const double v44 = u3*v11;
     const double v45 = v14*v20;
@@ -567,7 +567,7 @@ int rolling_disc_constraint_forces(double t, const double *x, const double *p, d
     M[6] = (1.0/2.0)*v23;
     M[10] = 0.0;
     M[11] = 0.0;
-    M[12] = v25 + v23*v26;
+    M[12] = v23*v26 + v25;
     M[15] = m*v8;
     M[16] = 0.0;
     M[17] = m*v15;
@@ -577,13 +577,13 @@ int rolling_disc_constraint_forces(double t, const double *x, const double *p, d
     M[22] = m*v19;
     M[23] = 0.0;
     M[24] = m;
-    F[0] = v0*v37 + v2*v35 + v28*v29 + v12*v13*v23*v27;
+    F[0] = v0*v37 + v12*v13*v23*v27 + v2*v35 + v28*v29;
     F[1] = 0.0;
-    F[2] = v2*v37 - v0*v35 - m*v12*v28*v39;
+    F[2] = -m*v12*v28*v39 - v0*v35 + v2*v37;
     F[3] = -m*(v10*v39 - v42*v6);
     F[4] = -m*(v10*v42 + v39*v6);
-    BETA[0] = u1*(v44 + u1*(-v18 + v18*v4) + v26*v44) + v20*(-v43 + u1*(v16 - v17) + u2*v7);
-    BETA[1] = u1*(v46 + u1*(v14 - v14*v4) + v26*v46) + v20*(v45 + u1*v9 - u2*v11);
+    BETA[0] = u1*(u1*(v18*v4 - v18) + v26*v44 + v44) + v20*(u1*(v16 - v17) + u2*v7 - v43);
+    BETA[1] = u1*(u1*(-v14*v4 + v14) + v26*v46 + v46) + v20*(u1*v9 - u2*v11 + v45);
     i = rolling_disc_kkt_factor(CA, LU, piv, M, CR, MT);
     if (i != ROLLING_DISC_OK) {
         return i;

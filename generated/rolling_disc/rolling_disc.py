@@ -271,7 +271,7 @@ def _rhs(math, t, x, p):
     v6 = math.sin(q1)
     v7 = r_*v6
     v8 = v5*v7
-    v9 = v8 - v4*v8
+    v9 = -v4*v8 + v8
     v10 = math.cos(q1)
     v11 = r_*v10
     v12 = (1.0/v5)
@@ -288,7 +288,7 @@ def _rhs(math, t, x, p):
     CA[2] = v15
     CA[3] = 1
     CA[4] = 0
-    CA[5] = v17 - v16
+    CA[5] = -v16 + v17
     CA[6] = -v7
     CA[7] = v19
     CA[8] = 0
@@ -316,10 +316,10 @@ def _rhs(math, t, x, p):
     v36 = u1*v2 - u3*v0
     v37 = -v33*v36 - v34*v36
     v38 = u1*u3
-    v39 = r_*v38 + r_*(v38 + v26*v38)
+    v39 = r_*v38 + r_*(v26*v38 + v38)
     v40 = v26*v27
     v41 = (u1*u1)
-    v42 = v27*v28 - v13*(-r_*v40 - r_*v41)
+    v42 = -v13*(-r_*v40 - r_*v41) + v27*v28
     v43 = v18*v20
     v44 = u3*v11
     v45 = v14*v20
@@ -336,7 +336,7 @@ def _rhs(math, t, x, p):
     M[6] = (1.0/2.0)*v23
     M[10] = 0
     M[11] = 0
-    M[12] = v25 + v23*v26
+    M[12] = v23*v26 + v25
     M[15] = m*v8
     M[16] = 0
     M[17] = m*v15
@@ -347,14 +347,14 @@ def _rhs(math, t, x, p):
     M[23] = 0
     M[24] = m
     F = [0.0] * 5
-    F[0] = v0*v37 + v2*v35 + v28*v29 + v12*v13*v23*v27
+    F[0] = v0*v37 + v12*v13*v23*v27 + v2*v35 + v28*v29
     F[1] = 0
-    F[2] = v2*v37 - v0*v35 - m*v12*v28*v39
+    F[2] = -m*v12*v28*v39 - v0*v35 + v2*v37
     F[3] = -m*(v10*v39 - v42*v6)
     F[4] = -m*(v10*v42 + v39*v6)
     BETA = [0.0] * 2
-    BETA[0] = u1*(v44 + u1*(-v18 + v18*v4) + v26*v44) + v20*(-v43 + u1*(v16 - v17) + u2*v7)
-    BETA[1] = u1*(v46 + u1*(v14 - v14*v4) + v26*v46) + v20*(v45 + u1*v9 - u2*v11)
+    BETA[0] = u1*(u1*(v18*v4 - v18) + v26*v44 + v44) + v20*(u1*(v16 - v17) + u2*v7 - v43)
+    BETA[1] = u1*(u1*(-v14*v4 + v14) + v26*v46 + v46) + v20*(u1*v9 - u2*v11 + v45)
     CR, MT = _kkt_factor(CA, LU, piv, M)
     ACC, LAM = _kkt_solve(LU, piv, M, CR, MT, F, [-b for b in BETA])
     dxdt[5:] = ACC[:3]
@@ -398,7 +398,7 @@ def _energy(math, t, x, p):
     v6 = math.sin(q1)
     v7 = r_*v6
     v8 = v5*v7
-    v9 = v8 - v4*v8
+    v9 = -v4*v8 + v8
     v10 = math.cos(q1)
     v11 = r_*v10
     v12 = (1.0/v5)
@@ -415,7 +415,7 @@ def _energy(math, t, x, p):
     CA[2] = v15
     CA[3] = 1
     CA[4] = 0
-    CA[5] = v17 - v16
+    CA[5] = -v16 + v17
     CA[6] = -v7
     CA[7] = v19
     CA[8] = 0
@@ -442,7 +442,7 @@ def _energy(math, t, x, p):
     v47 = (1.0/8.0)*v23
     v48 = (1.0/2.0)*m
     energy = [0.0] * 2
-    energy[0] = m*(UR[0]*(v45 + u1*v8) + UR[1]*(v43 - u1*v16)) + v24*(u2*u2) + v47*(v32*v32) + v47*(v36*v36) + v48*((UR[0]*UR[0]) + (UR[1]*UR[1])) + v48*(v22*v40 + v22*v41)
+    energy[0] = m*(UR[0]*(u1*v8 + v45) + UR[1]*(-u1*v16 + v43)) + (u2*u2)*v24 + (v32*v32)*v47 + (v36*v36)*v47 + v48*((UR[0]*UR[0]) + (UR[1]*UR[1])) + v48*(v22*v40 + v22*v41)
     energy[1] = r_*v29*v5
     result = np.array(energy, dtype=np.float64)
     if not np.isfinite(result).all():
@@ -484,7 +484,7 @@ def _constraint_forces(math, t, x, p):
     v6 = math.sin(q1)
     v7 = r_*v6
     v8 = v5*v7
-    v9 = v8 - v4*v8
+    v9 = -v4*v8 + v8
     v10 = math.cos(q1)
     v11 = r_*v10
     v12 = (1.0/v5)
@@ -501,7 +501,7 @@ def _constraint_forces(math, t, x, p):
     CA[2] = v15
     CA[3] = 1
     CA[4] = 0
-    CA[5] = v17 - v16
+    CA[5] = -v16 + v17
     CA[6] = -v7
     CA[7] = v19
     CA[8] = 0
@@ -529,10 +529,10 @@ def _constraint_forces(math, t, x, p):
     v36 = u1*v2 - u3*v0
     v37 = -v33*v36 - v34*v36
     v38 = u1*u3
-    v39 = r_*v38 + r_*(v38 + v26*v38)
+    v39 = r_*v38 + r_*(v26*v38 + v38)
     v40 = v26*v27
     v41 = (u1*u1)
-    v42 = v27*v28 - v13*(-r_*v40 - r_*v41)
+    v42 = -v13*(-r_*v40 - r_*v41) + v27*v28
     v43 = v18*v20
     v44 = u3*v11
     v45 = v14*v20
@@ -543,7 +543,7 @@ def _constraint_forces(math, t, x, p):
     M[6] = (1.0/2.0)*v23
     M[10] = 0
     M[11] = 0
-    M[12] = v25 + v23*v26
+    M[12] = v23*v26 + v25
     M[15] = m*v8
     M[16] = 0
     M[17] = m*v15
@@ -554,14 +554,14 @@ def _constraint_forces(math, t, x, p):
     M[23] = 0
     M[24] = m
     F = [0.0] * 5
-    F[0] = v0*v37 + v2*v35 + v28*v29 + v12*v13*v23*v27
+    F[0] = v0*v37 + v12*v13*v23*v27 + v2*v35 + v28*v29
     F[1] = 0
-    F[2] = v2*v37 - v0*v35 - m*v12*v28*v39
+    F[2] = -m*v12*v28*v39 - v0*v35 + v2*v37
     F[3] = -m*(v10*v39 - v42*v6)
     F[4] = -m*(v10*v42 + v39*v6)
     BETA = [0.0] * 2
-    BETA[0] = u1*(v44 + u1*(-v18 + v18*v4) + v26*v44) + v20*(-v43 + u1*(v16 - v17) + u2*v7)
-    BETA[1] = u1*(v46 + u1*(v14 - v14*v4) + v26*v46) + v20*(v45 + u1*v9 - u2*v11)
+    BETA[0] = u1*(u1*(v18*v4 - v18) + v26*v44 + v44) + v20*(u1*(v16 - v17) + u2*v7 - v43)
+    BETA[1] = u1*(u1*(-v14*v4 + v14) + v26*v46 + v46) + v20*(u1*v9 - u2*v11 + v45)
     CR, MT = _kkt_factor(CA, LU, piv, M)
     ACC, LAM = _kkt_solve(LU, piv, M, CR, MT, F, [-b for b in BETA])
     lam = [0.0] * 2

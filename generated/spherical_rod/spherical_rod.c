@@ -62,16 +62,16 @@ int spherical_rod_rhs(double t, const double *x, const double *p, double *dxdt)
     double F[2];
     int i;
     const double v0 = sin(q2);
-    const double v1 = m*(L_*L_);
+    const double v1 = (L_*L_)*m;
     const double v2 = (1.0/3.0)*v1;
     const double v3 = v0*cos(q2);
     dxdt[0] = u1;
     dxdt[1] = u2;
-    M[0] = v2*(v0*v0);
+    M[0] = (v0*v0)*v2;
     M[2] = 0.0;
     M[3] = v2;
     F[0] = -2.0/3.0*u1*u2*v1*v3;
-    F[1] = v2*v3*(u1*u1) + 4.905*L_*m*v0;
+    F[1] = 4.905*L_*m*v0 + (u1*u1)*v2*v3;
     i = spherical_rod_ldl(M);
     if (i != SPHERICAL_ROD_OK) {
         return i;

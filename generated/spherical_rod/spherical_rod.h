@@ -57,7 +57,7 @@ extern "C" {
 #define SPHERICAL_ROD_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of spherical_rod.h, .c and .py with this value blanked. */
-#define SPHERICAL_ROD_CONTENT_HASH "7575c08cb2150b7d"
+#define SPHERICAL_ROD_CONTENT_HASH "9f7ffd3beb17e4d1"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -105,19 +105,19 @@ def _rhs(math, t, x, p):
     L_ = p[0]
     m = p[1]
     v0 = math.sin(q2)
-    v1 = m*(L_*L_)
+    v1 = (L_*L_)*m
     v2 = (1.0/3.0)*v1
     v3 = v0*math.cos(q2)
     dxdt = [0.0] * 4
     dxdt[0] = u1
     dxdt[1] = u2
     M = [0.0] * 4
-    M[0] = v2*(v0*v0)
+    M[0] = (v0*v0)*v2
     M[2] = 0
     M[3] = v2
     F = [0.0] * 2
     F[0] = -2.0/3.0*u1*u2*v1*v3
-    F[1] = v2*v3*(u1*u1) + 4.905*L_*m*v0
+    F[1] = 4.905*L_*m*v0 + (u1*u1)*v2*v3
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[2:] = F

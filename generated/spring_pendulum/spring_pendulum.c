@@ -89,7 +89,7 @@ int spring_pendulum_rhs(double t, const double *x, const double *p, double *dxdt
     M[2] = 0.0;
     M[3] = m;
     F[0] = -u1*v3 - v0*v5;
-    F[1] = v16 - v0*v14 - v15*v8;
+    F[1] = -v0*v14 - v15*v8 + v16;
     i = spring_pendulum_ldl(M);
     if (i != SPRING_PENDULUM_OK) {
         return i;
@@ -151,7 +151,7 @@ int spring_pendulum_jacobian(double t, const double *x, const double *p, double 
     M[2] = 0.0;
     M[3] = m;
     F[0] = -u1*v3 - v0*v5;
-    F[1] = v16 - v0*v14 - v15*v8;
+    F[1] = -v0*v14 - v15*v8 + v16;
     i = spring_pendulum_ldl(M);
     if (i != SPRING_PENDULUM_OK) {
         return i;
@@ -159,8 +159,8 @@ int spring_pendulum_jacobian(double t, const double *x, const double *p, double 
     spring_pendulum_ldl_solve(M, F);
     DT[0] = -v0*v16;
     DT[1] = v17;
-    DT[2] = v17 - F[0]*v2 - u2*v18;
-    DT[3] = v15 - v14 - v19/((v11*v11)*v8) - k_*v0*v13*(v6 + 2.0*s_) - v12*v19*v8/(sqrt(v9)*v9);
+    DT[2] = -F[0]*v2 - u2*v18 + v17;
+    DT[3] = -k_*v0*v13*(2.0*s_ + v6) - v12*v19*v8/(sqrt(v9)*v9) - v14 + v15 - v19/((v11*v11)*v8);
     DT[4] = -v3;
     DT[5] = -v18*v8;
     DT[6] = -u1*v2;

@@ -133,7 +133,7 @@ def _rhs(math, t, x, p):
     M[3] = m
     F = [0.0] * 2
     F[0] = -u1*v3 - v0*v5
-    F[1] = v16 - v0*v14 - v15*v8
+    F[1] = -v0*v14 - v15*v8 + v16
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[2:] = F
@@ -202,14 +202,14 @@ def _jacobian(math, t, x, p):
     M[3] = m
     F = [0.0] * 2
     F[0] = -u1*v3 - v0*v5
-    F[1] = v16 - v0*v14 - v15*v8
+    F[1] = -v0*v14 - v15*v8 + v16
     _ldl(M)
     _ldl_solve(M, F)
     DT = [0.0] * 8
     DT[0] = -v0*v16
     DT[1] = v17
-    DT[2] = v17 - F[0]*v2 - u2*v18
-    DT[3] = v15 - v14 - v19/((v11*v11)*v8) - k_*v0*v13*(v6 + 2*s_) - v12*v19*v8/(math.sqrt(v9)*v9)
+    DT[2] = -F[0]*v2 - u2*v18 + v17
+    DT[3] = -k_*v0*v13*(2*s_ + v6) - v12*v19*v8/(math.sqrt(v9)*v9) - v14 + v15 - v19/((v11*v11)*v8)
     DT[4] = -v3
     DT[5] = -v18*v8
     DT[6] = -u1*v2

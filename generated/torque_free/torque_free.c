@@ -94,7 +94,7 @@ int torque_free_rhs(double t, const double *x, const double *p, double *dxdt)
     const double v5 = I23*u2 + I31*u1 + I33*u3;
     const double v6 = I12*u1 + I22*u2 + I23*u3;
     const double v7 = I11*u1 + I12*u2 + I31*u3;
-    dxdt[0] = (v3 - v1)/cos(q2);
+    dxdt[0] = (-v1 + v3)/cos(q2);
     dxdt[1] = u1*v0 + u2*v2;
     dxdt[2] = u3 + v1*v4 - v3*v4;
     M[0] = I11;
@@ -103,9 +103,9 @@ int torque_free_rhs(double t, const double *x, const double *p, double *dxdt)
     M[6] = I31;
     M[7] = I23;
     M[8] = I33;
-    F[0] = u3*v6 - u2*v5;
+    F[0] = -u2*v5 + u3*v6;
     F[1] = u1*v5 - u3*v7;
-    F[2] = u2*v7 - u1*v6;
+    F[2] = -u1*v6 + u2*v7;
     i = torque_free_ldl(M);
     if (i != TORQUE_FREE_OK) {
         return i;

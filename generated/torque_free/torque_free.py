@@ -135,7 +135,7 @@ def _rhs(math, t, x, p):
     v6 = I12*u1 + I22*u2 + I23*u3
     v7 = I11*u1 + I12*u2 + I31*u3
     dxdt = [0.0] * 6
-    dxdt[0] = (v3 - v1)/math.cos(q2)
+    dxdt[0] = (-v1 + v3)/math.cos(q2)
     dxdt[1] = u1*v0 + u2*v2
     dxdt[2] = u3 + v1*v4 - v3*v4
     M = [0.0] * 9
@@ -146,9 +146,9 @@ def _rhs(math, t, x, p):
     M[7] = I23
     M[8] = I33
     F = [0.0] * 3
-    F[0] = u3*v6 - u2*v5
+    F[0] = -u2*v5 + u3*v6
     F[1] = u1*v5 - u3*v7
-    F[2] = u2*v7 - u1*v6
+    F[2] = -u1*v6 + u2*v7
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[3:] = F

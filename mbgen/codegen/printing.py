@@ -122,7 +122,7 @@ class CPrinter(_PowerMixin, C99CodePrinter):
     _sqrt = "sqrt"
 
     def __init__(self, names: Mapping[sm.Symbol, str]):
-        super().__init__({"precision": 17, "math_macros": {}, "order": "none"})
+        super().__init__({"precision": 17, "math_macros": {}})
         self._names = names
 
     def _print_general_pow(self, expr):
@@ -140,8 +140,7 @@ class PyPrinter(_PowerMixin, PythonCodePrinter):
     _sqrt = "math.sqrt"
 
     def __init__(self, names: Mapping[sm.Symbol, str]):
-        super().__init__({"fully_qualified_modules": True, "standard": "python3",
-                          "order": "none"})
+        super().__init__({"fully_qualified_modules": True, "standard": "python3"})
         self._names = names
 
     def _print_general_pow(self, expr):
