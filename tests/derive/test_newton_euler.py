@@ -74,6 +74,26 @@ def test_newton_euler_and_kane_are_identical_symbolically(name):
     assert (sm.Matrix(k.forcing) - F).applyfunc(sm.simplify).is_zero_matrix
 
 
+@pytest.mark.parametrize("name", ["spatial_arm", "disc_pendulum", "torque_free", "stiff_chain",
+                                  "spherical_rod", "n_link_cart"])
+def test_inverse_dynamics_residual_is_forcing_minus_mass_matrix_times_accelerations(name):
+    """Equations.residual (what the Jacobians differentiate) is F - M a for any a: numbers
+    for every symbol and for a, the program inlined."""
+    from mbgen.symbolic.equations import acceleration_symbols
+
+    eq = derive(scene(name).model, Method.NEWTON_EULER)
+    n = eq.layout.n_u
+    a = acceleration_symbols(n)
+    M, F, R = (sm.Matrix(m) for m in eq.program.inline(
+        [sm.Matrix(eq.mass_matrix), sm.Matrix(eq.forcing), sm.Matrix(eq.residual)]))
+    rng = np.random.default_rng(7)
+    symbols = sorted(eq.layout.symbols() | set(a), key=str)
+    values = {s: rng.uniform(0.5, 1.5) for s in symbols}
+    expect = np.array((F - M * sm.Matrix(a)).xreplace(values).evalf(), dtype=float)
+    got = np.array(R.xreplace(values).evalf(), dtype=float)
+    np.testing.assert_allclose(got, expect, rtol=1e-12, atol=1e-12 * np.abs(expect).max())
+
+
 @pytest.mark.parametrize("name", ["disc_pendulum", "torque_free", "stiff_chain", "spherical_rod",
                                   "paraboloid", "bead_wire"])
 def test_recursion_equals_mass_matrix_solve(name):
