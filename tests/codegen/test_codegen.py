@@ -132,16 +132,19 @@ def test_sympy_cse_backend_gives_same_numbers():
     np.testing.assert_allclose(a.rhs(0.0, x), b.rhs(0.0, x), rtol=1e-12)
 
 
-def test_linear_cse_of_a_large_program_gives_the_same_numbers(monkeypatch):
-    """Above LINEAR_CSE_NODES, CSE is one pass of value numbering: forced here on a small
-    arm (threshold 0), its RHS and Jacobian equal those of symengine's CSE, its generated
-    Python equals its C, and it still shares (fewer operations than before CSE)."""
+def test_the_large_kernel_passes_give_the_same_numbers(monkeypatch):
+    """Above LINEAR_CSE_NODES, CSE is one pass of value numbering, and above
+    SORT_TERMS_MAX_OPS sums print unsorted: both forced here on a small arm (thresholds 0),
+    its RHS and Jacobian equal those of the default passes, its generated Python equals its
+    C bit for bit, and CSE still shares (fewer operations than before CSE)."""
     from mbgen.codegen import cse as cse_module
+    from mbgen.codegen.targets import model as model_target
 
     scene = load_scene("spatial_arm", n=3)
     outputs = ("rhs", "jacobian")
     ref = run(scene, outputs, name="arm_vn_ref")
     monkeypatch.setattr(cse_module, "LINEAR_CSE_NODES", 0)
+    monkeypatch.setattr(model_target, "SORT_TERMS_MAX_OPS", 0)
     res = run(scene, outputs, name="arm_vn")
     assert 0 < res.kernel.ops_after < res.kernel.ops_before
     assert res.kernel.ops_after != ref.kernel.ops_after     # a different pass did run

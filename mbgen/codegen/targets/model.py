@@ -17,7 +17,7 @@ from ...abi import Output
 from ..optimize import Kernel, KernelFunction
 from ...symbolic.equations import acceleration_symbols, lambda_symbols
 from ..outputs import Form
-from ..printing import CPrinter, PyPrinter, math_functions
+from ..printing import SORT_TERMS_MAX_OPS, CPrinter, PyPrinter, math_functions
 from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines, solve_program
 from .base import Target
 
@@ -100,8 +100,9 @@ def function_views(kernel: Kernel, prefix: str) -> tuple[list[dict], list[dict]]
         for i, lam in enumerate(lambda_symbols(eq.constraints.m)):
             c_names[lam] = py_names[lam] = f"LAM[{i}]"
     args = signature_args(kernel)
-    c_views = [_view(kernel, fn, prefix, CPrinter(c_names)) for fn in kernel.functions]
-    py_views = [_view(kernel, fn, prefix, PyPrinter(py_names)) for fn in kernel.functions]
+    sort = kernel.ops_after <= SORT_TERMS_MAX_OPS
+    c_views = [_view(kernel, fn, prefix, CPrinter(c_names, sort)) for fn in kernel.functions]
+    py_views = [_view(kernel, fn, prefix, PyPrinter(py_names, sort)) for fn in kernel.functions]
     for v in c_views:
         v["prototype"] = _c_prototype(v, args)
     return c_views, py_views
