@@ -98,7 +98,7 @@ def eliminate(assignments: Sequence, exprs: Sequence, prefix: str,
         back.update({sym: name for (sym, _), name in zip(kept, names)})
         for sym, target in aliases.items():
             back[sym] = back[target]
-        out = to_sympy([e for _, e in kept] + reduced, back)
+        out = to_sympy([e for _, e in kept] + reduced, back, small=True)
         final = {s: back[memo[s]] for s, _ in assignments}
     else:
         mapping = {sym: name for (sym, _), name in zip(kept, names)}

@@ -180,12 +180,10 @@ def _product(args: list) -> sm.Expr:
 def _canonical(op, args: list):
     """``op(*args)`` for the arguments of a symengine sum or product, already combined.
 
-    symengine's sums and products are flat, with like terms and numbers
-    combined; sympy's evaluation would repeat that work (and query assumptions)
-    for every node.  Where ``args`` hold at most one number, the node is built
-    from its arguments in sympy's canonical order (the number first, then
-    sorted as sympy sorts them), so it equals what ``op(*args)`` gives but for
-    a number times a sum, which stays one product (sympy would distribute it).
+    Where ``args`` hold at most one number and no node of ``op`` itself, the node is built
+    from its arguments in sympy's canonical order (the number first, the rest sorted as sympy
+    sorts them); it equals ``op(*args)`` but for a number times a sum, which stays one
+    product (sympy would distribute it).
     """
     numbers = [a for a in args if a.is_Number]
     if len(args) < 2 or len(numbers) > 1 or any(a.func is op for a in args):
@@ -276,11 +274,17 @@ def symbols_back(forward_memo: dict) -> dict:
     return {v: k for k, v in forward_memo.items() if isinstance(k, sm.Symbol)}
 
 
-def to_sympy(exprs: Iterable, memo: dict | None = None) -> list:
+def to_sympy(exprs: Iterable, memo: dict | None = None, small: bool = False) -> list:
     """Convert symengine expressions to sympy, each distinct node once (see :func:`to_symengine`).
 
     ``memo`` may be pre-seeded (``{symengine symbol: sympy symbol}``) to rename
     symbols on the way, and shared between calls to keep results sharing nodes.
+
+    ``small``: the expressions are small assignments (a program's, or what CSE left), so
+    sums and products are built from their arguments in sympy's canonical order without
+    re-evaluating them (:func:`_canonical`; most of the conversion's time otherwise).  Not for
+    deep shared graphs: such a node is not sympy's cached one, and comparing two equal but
+    distinct deep graphs walks them as trees.
     """
     global _SE_TO_SM
     se = _se()
@@ -310,9 +314,9 @@ def to_sympy(exprs: Iterable, memo: dict | None = None) -> list:
         else:
             sargs = [memo[a] for a in args]
             if isinstance(node, se.Add):
-                out = _canonical(sm.Add, sargs)
+                out = _canonical(sm.Add, sargs) if small else sm.Add(*sargs)
             elif isinstance(node, se.Mul):
-                out = _canonical(sm.Mul, sargs)
+                out = _canonical(sm.Mul, sargs) if small else sm.Mul(*sargs)
             elif isinstance(node, se.Pow):
                 out = sm.Pow(*sargs)
             elif type(node) in table:

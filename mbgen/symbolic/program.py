@@ -216,8 +216,8 @@ def derivatives(program: Program, exprs: Sequence, variables: Sequence,
     new_syms = [sm.Symbol(str(t)) for t, _ in new]
     for (t, _), s in zip(new, new_syms):
         back[t] = s
-    values = to_sympy([d for _, d in new], back)
+    values = to_sympy([d for _, d in new], back, small=True)
     flat = [d for row in jac for d in row if d is not None]
-    it = iter(to_sympy(flat, back))
+    it = iter(to_sympy(flat, back, small=True))
     out = [[sm.S.Zero if d is None else next(it) for d in row] for row in jac]
     return Program(tuple(zip(new_syms, values))), out
