@@ -8,7 +8,9 @@ accelerations from ``pin.aba``.  :func:`build_aba_driver` compiles the C++ loop
 :func:`mbgen.bench.timing.c_rhs_ns`) with ``g++`` against the ``pin`` wheel's
 ``include``/``lib`` folders and the Eigen headers of ``cmeel-eigen``;
 :func:`run_aba_driver` feeds it the arm's values and a state and reads back
-``(median ns per call, accelerations)``.
+``(median ns per call, accelerations)``; :func:`run_aba_derivatives_driver` times
+``pinocchio::computeABADerivatives`` with the same executable and reads back
+``[ddq_dq, ddq_dv]`` (:func:`pinocchio_aba_derivatives`: the same from Python).
 
 Pinocchio (PyPI ``pin``, the ``bench`` extra) is imported when first needed.
 """
@@ -16,7 +18,6 @@ Pinocchio (PyPI ``pin``, the ``bench`` extra) is imported when first needed.
 from __future__ import annotations
 
 import shutil
-import statistics
 import subprocess
 from pathlib import Path
 
@@ -25,7 +26,7 @@ import numpy as np
 from ..codegen.templating import environment
 from ..errors import BenchmarkError
 from ..scenes.spatial_arm import axis, link_parameters
-from .timing import DRIVER_FLAGS, MIN_LOOP_S
+from .timing import DRIVER_FLAGS, MIN_LOOP_S, median_ns, run_driver
 
 #: Defines Pinocchio's CMake config exports (boost::variant with its 25 joint types).
 PINOCCHIO_DEFINES = ("-DBOOST_MPL_LIMIT_LIST_SIZE=30", "-DBOOST_MPL_LIMIT_VECTOR_SIZE=30",
@@ -106,16 +107,42 @@ def build_aba_driver(folder: Path, repeats: int) -> Path:
     return exe
 
 
-def run_aba_driver(exe: Path, n: int, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray]:
-    """``(median ns per aba call, accelerations)`` from the C++ loop."""
+def _driver_input(n: int, q: np.ndarray, v: np.ndarray) -> str:
     lines = [str(n)] + [" ".join(repr(float(x)) if k else str(x) for k, x in enumerate(row))
                         for row in link_rows(n)]
     lines += [repr(link_parameters(n)["g"]), " ".join(map(repr, map(float, q))),
               " ".join(map(repr, map(float, v)))]
-    proc = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise BenchmarkError(f"Pinocchio's C++ loop failed: {proc.stderr.strip()}")
-    out = proc.stdout.splitlines()
-    times = [float(s) for s in out if s[:1].isdigit()]
-    ddq = next(s for s in out if s.startswith("ddq")).split()[1:]
-    return statistics.median(times), np.array([float(x) for x in ddq])
+    return "\n".join(lines) + "\n"
+
+
+def _values(out: list[str], key: str) -> np.ndarray:
+    return np.array([float(x) for x in next(s for s in out if s.startswith(key + " ")).split()[1:]])
+
+
+def run_aba_driver(exe: Path, n: int, q: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(median ns per aba call, accelerations)`` from the C++ loop."""
+    out = run_driver([str(exe)], "Pinocchio's C++ loop", _driver_input(n, q, v)).splitlines()
+    return median_ns("\n".join(out)), _values(out, "ddq")
+
+
+def run_aba_derivatives_driver(exe: Path, n: int, q: np.ndarray, v: np.ndarray
+                               ) -> tuple[float, np.ndarray]:
+    """``(median ns per computeABADerivatives call, [ddq_dq, ddq_dv])`` from the C++ loop.
+
+    The same executable as :func:`run_aba_driver`, run with the argument ``derivatives``;
+    the derivatives come back as one ``n x 2n`` array, the layout of the lower ``n`` rows
+    of mbgen's Jacobian (``[du'/dq, du'/du]``).
+    """
+    out = run_driver([str(exe), "derivatives"], "Pinocchio's C++ computeABADerivatives loop",
+                     _driver_input(n, q, v)).splitlines()
+    return median_ns("\n".join(out)), np.hstack([_values(out, "ddq_dq").reshape(n, n),
+                                                 _values(out, "ddq_dv").reshape(n, n)])
+
+
+def pinocchio_aba_derivatives(n: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``[ddq_dq, ddq_dv]`` (``n x 2n``) of the unactuated arm from ``pin.computeABADerivatives``."""
+    pin = import_pinocchio()
+    model = pinocchio_arm(n)
+    data = model.createData()      # the arrays returned are views into data: keep it alive
+    pin.computeABADerivatives(model, data, q, v, np.zeros(n))
+    return np.hstack([np.array(data.ddq_dq, copy=True), np.array(data.ddq_dv, copy=True)])

@@ -5,7 +5,8 @@ lasts :data:`MIN_LOOP_S`, then the median over ``repeats`` such loops (garbage c
 off) is divided by the count.  :func:`c_rhs_ns` writes the generated C next to a small
 driver (``templates/bench/rhs.c.j2``) that calls ``<prefix>_rhs`` in a loop timed with
 ``clock_gettime`` the same way, compiles both with :data:`DRIVER_FLAGS` and runs it as a
-subprocess: the RHS's own time, no Python crossing.  Results are nanoseconds per call.
+subprocess: the RHS's own time, no Python crossing; :func:`c_function_ns` does the same
+for another output of the state (the Jacobian).  Results are nanoseconds per call.
 """
 
 from __future__ import annotations
@@ -53,13 +54,24 @@ def per_call_ns(fn: Callable[[], object], repeats: int) -> float:
 def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int,
              folder: Path) -> float:
     """Median ns per ``<prefix>_rhs`` call in a compiled C loop (driver from the template)."""
+    return c_function_ns(rendered, "rhs", rendered.layout.n_x, x, p, r, repeats, folder)
+
+
+def c_function_ns(rendered, function: str, n_out: int, x: np.ndarray, p: np.ndarray,
+                  r: np.ndarray, repeats: int, folder: Path) -> float:
+    """Median ns per ``<prefix>_<function>(t, x, [p], [r], out)`` call in a compiled C loop.
+
+    ``function`` is an output taking the state (``rhs``, ``jacobian``), ``n_out`` the length
+    of its output array (``n_x`` for the RHS, ``n_x * n_x`` for the Jacobian).
+    """
     layout = rendered.layout
     for name, text in rendered.files.items():
         if name.endswith((".c", ".h")):
             (folder / name).write_text(text, encoding="utf-8")
-    args = ["0.0", "x"] + (["p"] if layout.n_p else []) + (["r"] if layout.n_r else []) + ["dxdt"]
+    args = ["0.0", "x"] + (["p"] if layout.n_p else []) + (["r"] if layout.n_r else []) + ["out"]
     driver = environment().get_template("bench/rhs.c.j2").render(
-        prefix=rendered.prefix, n_x=layout.n_x, n_p=layout.n_p, n_r=layout.n_r,
+        prefix=rendered.prefix, function=function, n_out=n_out, n_x=layout.n_x,
+        n_p=layout.n_p, n_r=layout.n_r,
         x=[repr(float(v)) for v in x], p=[repr(float(v)) for v in p],
         r=[repr(float(v)) for v in r], call_args=", ".join(args), min_loop_s=MIN_LOOP_S,
         repeats=repeats, flags=" ".join(DRIVER_FLAGS))
@@ -69,8 +81,19 @@ def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int
            f"{rendered.prefix}.c", "-lm"]
     proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
     if proc.returncode != 0:
-        raise BuildError(f"compiling the RHS benchmark driver failed:\n{proc.stderr[-3000:]}")
-    run = subprocess.run([str(exe)], capture_output=True, text=True)
+        raise BuildError(f"compiling the {function} benchmark driver failed:\n"
+                         f"{proc.stderr[-3000:]}")
+    return median_ns(run_driver([str(exe)], f"the {function} driver"))
+
+
+def run_driver(cmd, what: str, stdin: str | None = None) -> str:
+    """Run a timing driver; its standard output, or :class:`BenchmarkError` when it fails."""
+    run = subprocess.run(cmd, input=stdin, capture_output=True, text=True)
     if run.returncode != 0:
-        raise BenchmarkError(f"the RHS driver failed: {run.stdout[-300:]} {run.stderr[-300:]}")
-    return statistics.median(float(s) for s in run.stdout.splitlines() if s[:1].isdigit())
+        raise BenchmarkError(f"{what} failed: {run.stdout[-300:]} {run.stderr[-300:]}")
+    return run.stdout
+
+
+def median_ns(stdout: str) -> float:
+    """The median of a driver's per-repeat lines (those that start with a digit)."""
+    return statistics.median(float(s) for s in stdout.splitlines() if s[:1].isdigit())

@@ -119,6 +119,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                           help="time Pinocchio from Python only, no C++ loop")
     arm_only.add_argument("--derivation", default="kane", metavar="METHOD",
                           help="mbgen's derivation method")
+    arm_only.add_argument("--no-casadi", action="store_true",
+                          help="leave CasADi out (it runs where casadi is installed)")
 
     robot_only = p.add_argument_group(
         "mbgen bench robot FILE", "One robot: mbgen's RHS vs Pinocchio's aba vs MuJoCo's "
@@ -129,7 +131,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                             help="a floating base on a URDF file's root (named robots: "
                                  "their own)")
     robot_only.add_argument("--jacobian", action="store_true",
-                            help="generate the Jacobian too (generation time of rhs+jacobian)")
+                            help="robot: generate the Jacobian too (generation time of "
+                                 "rhs+jacobian); arm: the Jacobian's stages, ops and C loop "
+                                 "against Pinocchio's computeABADerivatives (and CasADi's)")
     robot_only.add_argument("--no-mujoco", action="store_true", help="leave MuJoCo out")
 
     children = p.add_argument_group(
@@ -175,7 +179,8 @@ def bench_arm(args) -> int:
     rows = arm.arm_scaling(args.ns, repeats=args.repeats or 7, budget_s=args.budget,
                            sympy_budget_s=args.sympy_budget, memory_gb=args.memory_gb,
                            pinocchio=not args.no_pinocchio, cxx=not args.no_cxx,
-                           method=args.derivation, progress=progress)
+                           method=args.derivation, jacobian=args.jacobian,
+                           casadi=not args.no_casadi, progress=progress)
     print(arm.format_arm(rows))
     folder = Path(args.output or Path("bench") / "arm")
     folder.mkdir(parents=True, exist_ok=True)

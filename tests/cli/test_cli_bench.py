@@ -37,7 +37,7 @@ def test_bench_help_separates_its_modes(capsys):
                                            "time_budget"]
     assert groups["mbgen bench SCENE --stages"] == ["stages", "outputs"]
     assert groups["mbgen bench scaling"] == ["ns", "sympy_max_n"]
-    assert groups["mbgen bench arm"] == ["no_pinocchio", "no_cxx", "derivation"]
+    assert groups["mbgen bench arm"] == ["no_pinocchio", "no_cxx", "derivation", "no_casadi"]
     assert groups["mbgen bench constraints"] == ["budget", "sympy_budget", "memory_gb"]
     for title in groups:
         if title.startswith("mbgen bench"):
