@@ -248,7 +248,7 @@ def _run_child(side: str, n: int, repeats: int, method: str, budget_s: float,
 def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
                 budget_s: float = 300.0, sympy_budget_s: float = 120.0,
                 memory_gb: float = 12.0, pinocchio: bool = True, cxx: bool = True,
-                method: str = "kane", jacobian: bool = False, casadi: bool = True,
+                method: str = "newton_euler", jacobian: bool = False, casadi: bool = True,
                 jacobian_method: str = "newton_euler", progress: Callable[[str], None] | None = None) -> list[ArmRow]:
     """Run the benchmark; one :class:`ArmRow` per ``n`` (see the module docstring).
 

@@ -117,8 +117,9 @@ def configure(p: argparse.ArgumentParser) -> None:
     arm_only.add_argument("--no-pinocchio", action="store_true", help="leave Pinocchio out")
     arm_only.add_argument("--no-cxx", action="store_true",
                           help="time Pinocchio from Python only, no C++ loop")
-    arm_only.add_argument("--derivation", default="kane", metavar="METHOD",
-                          help="mbgen's derivation method")
+    arm_only.add_argument("--derivation", default="newton_euler", metavar="METHOD",
+                          help="mbgen's derivation method (default: newton_euler, the "
+                               "spatial arm scene's own)")
     arm_only.add_argument("--no-casadi", action="store_true",
                           help="leave CasADi out (it runs where casadi is installed)")
 
