@@ -128,12 +128,14 @@ class _Relative:
         return out
 
 
-def _through_matrix(base, node) -> bool:
+def _through_matrix(tree, base, node) -> bool:
     """True when a frame between ``base`` and ``node`` is turned by a matrix (``Model.orient``)."""
-    while node is not None and node is not base:
-        if node.axis is None:
-            return True
-        node = node.parent
+    top = tree.common_ancestor(base, node)
+    for n in (base, node):
+        while n is not top:
+            if n.axis is None:
+                return True
+            n = n.parent
     return False
 
 
@@ -256,7 +258,7 @@ class NewtonEuler:
         acc = to_child(vadd(ap_lin, cross(ap_ang, r), cross(wp, cross(wp, r)),
                             vscale(TWO, cross(wp, v_rel)), a_rel))
         v_child = {k: to_child(v) for k, v in v_parts.items()}
-        if _through_matrix(base, b.frame):
+        if _through_matrix(tree, base, b.frame):
             acc, v_child = self._in_child(to_child, (ap_lin, ap_ang, wp, r), v_rel, w_rel,
                                           acc, v_child)
         acc = P.vector(acc)
