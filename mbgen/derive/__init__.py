@@ -71,7 +71,8 @@ With no method named, :func:`choose_method` looks at the joint tree
 1. a model whose bodies and joints Newton–Euler cannot infer
    (:mod:`mbgen.derive.joints`): Kane's method;
 2. a tree of joints that own their speeds (relative joint coordinates) with a
-   chain of at least :data:`~mbgen.derive.choice.CHAIN` bodies, or with more
+   chain of at least :data:`~mbgen.derive.choice.CHAIN` speeds (bodies, for
+   joints of one speed; a floating base counts six), or with more
    than :data:`~mbgen.derive.choice.COMPARE_SPEEDS` speeds: Newton–Euler, and
    Kane's method is not derived;
 3. any other model with more than ``COMPARE_SPEEDS`` speeds: Kane's method;
@@ -155,7 +156,7 @@ def choose_method(model: Model | Prepared) -> Choice:
     if s.unfit:
         return Choice(Method.KANE, f"chosen: Newton-Euler cannot infer this model's joints "
                                    f"({s.unfit})")
-    if s.owned and s.chain >= CHAIN:
+    if s.owned and s.chain_speeds >= CHAIN:
         return Choice(Method.NEWTON_EULER, f"chosen: {s.joint_tree}; Kane's method not derived")
     if s.speeds > COMPARE_SPEEDS:
         if s.owned:

@@ -21,6 +21,14 @@ spatial arm (``scenes.spatial_arm``)    Kane           95     973   3,635
                                         N-E            92     537   1,230
 ======================================  =========  ======  ======  ======  ======
 
+The length of a chain is counted in speeds, the joints' degrees of freedom from
+the ground out, which is what Kane's partial velocities carry: for joints of
+one speed it is the number of bodies, and a floating base (a free joint of six
+speeds at the root) makes every chain on it six longer.  A floating body alone
+already costs Kane's method several times Newton–Euler's (a free-flying body
+147 against 490 operations; Solo-12, a quadruped of three-joint legs on a
+floating base, 4,264 against 10,760).
+
 Kane wins short chains, models in absolute coordinates (the n-link pendulum
 on a cart: 90 against 292 at 3 links, 1,923 against 5,128 at 16) and most
 constrained ones (the rolling disc: 335 against 600).  From a chain of
@@ -43,8 +51,9 @@ from .articulated import speed_owners
 from .prepare import Prepared
 from .recursion import NewtonEuler
 
-#: Bodies in a chain (joints from the ground out) from which a tree of joints
-#: that own their speeds is derived by Newton–Euler without trying Kane.
+#: Speeds on a chain (joints from the ground out; bodies, for joints of one speed)
+#: from which a tree of joints that own their speeds is derived by Newton–Euler
+#: without trying Kane.
 CHAIN = 6
 #: Most speeds for which both derivations are tried and the cheaper kept; a
 #: larger model gets the structural choice alone (twice a long derivation is
@@ -65,6 +74,9 @@ class Structure:
         the tree of joints on which Newton–Euler is linear.
     chain : int
         Bodies on the longest path from the ground through the joint tree.
+    chain_speeds : int
+        Speeds of the joints on the path from the ground with the most of them (the
+        same as ``chain`` when every joint has one speed; a floating base adds six).
     unfit : str
         Why Newton–Euler cannot infer the model's bodies and joints ("" when it can).
     """
@@ -72,13 +84,15 @@ class Structure:
     speeds: int
     owned: bool
     chain: int
+    chain_speeds: int = 0
     unfit: str = ""
 
     @property
     def joint_tree(self) -> str:
         """The tree in words, for the reason a choice gives."""
+        more = f" and {self.chain_speeds} speeds" if self.chain_speeds != self.chain else ""
         return (f"a tree of joints that own their speeds, with a chain of "
-                f"{self.chain} bod{'y' if self.chain == 1 else 'ies'}")
+                f"{self.chain} bod{'y' if self.chain == 1 else 'ies'}{more}")
 
 
 def structure(prep: Prepared) -> Structure:
@@ -91,11 +105,15 @@ def structure(prep: Prepared) -> Structure:
     try:
         ne = NewtonEuler(prep)
     except ModelError as exc:
-        return Structure(n_u, False, 0, str(exc).splitlines()[0])
+        return Structure(n_u, False, 0, 0, str(exc).splitlines()[0])
     depth: dict = {}
+    speeds: dict = {}
     for body in ne.bodies:  # every parent before its children
-        depth[body] = 1 + (depth[body.parent] if body.parent is not None else 0)
-    return Structure(n_u, speed_owners(ne) is not None, max(depth.values(), default=0))
+        up = body.parent
+        depth[body] = 1 + (depth[up] if up is not None else 0)
+        speeds[body] = len(ne.kin[body]["S"]) + (speeds[up] if up is not None else 0)
+    return Structure(n_u, speed_owners(ne) is not None, max(depth.values(), default=0),
+                     max(speeds.values(), default=0))
 
 
 __all__ = ["CHAIN", "COMPARE_SPEEDS", "Structure", "structure"]

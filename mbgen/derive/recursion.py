@@ -128,6 +128,30 @@ class _Relative:
         return out
 
 
+def _through_matrix(tree, base, node) -> bool:
+    """True when a frame between ``base`` and ``node`` is turned by a matrix (``Model.orient``)."""
+    top = tree.common_ancestor(base, node)
+    for n in (base, node):
+        while n is not top:
+            if n.axis is None:
+                return True
+            n = n.parent
+    return False
+
+
+def _cancel(v):
+    """Components put over a common denominator and cancelled, where that is smaller."""
+    out = []
+    for x in v:
+        # polynomial gcds over floating-point coefficients are not exact: those stay
+        y = sm.cancel(x) if x.free_symbols and not x.has(sm.Float) else x
+        out.append(y if _ops(y) <= _ops(x) else x)
+    return tuple(out)
+
+
+def _ops(*exprs) -> int:
+    return sum(sm.count_ops(x) for v in exprs for x in (v if isinstance(v, tuple) else (v,)))
+
 
 class NewtonEuler:
     """The Newton–Euler quantities of one model, built into one program.
@@ -233,13 +257,45 @@ class NewtonEuler:
         alpha = P.vector(vadd(to_child(ap_ang), a_rel_ang, cross(wp_b, w_rel)))
         acc = to_child(vadd(ap_lin, cross(ap_ang, r), cross(wp, cross(wp, r)),
                             vscale(TWO, cross(wp, v_rel)), a_rel))
+        v_child = {k: to_child(v) for k, v in v_parts.items()}
+        if _through_matrix(tree, base, b.frame):
+            acc, v_child = self._in_child(to_child, (ap_lin, ap_ang, wp, r), v_rel, w_rel,
+                                          acc, v_child)
         acc = P.vector(acc)
         S = {}
         for k in sorted(set(w_parts) | set(v_parts)):
-            col = join(w_parts.get(k, ZERO3), to_child(v_parts.get(k, ZERO3)))
+            col = join(w_parts.get(k, ZERO3), v_child.get(k, ZERO3))
             if not all(x == 0 for x in col):
                 S[k] = P.vector(col)
         self.kin[b] = dict(omega=omega, alpha=alpha, acc=acc, r=r, S=S)
+
+    def _in_child(self, to_child, parent, v_rel, w_rel, acc, v_child):
+        r"""The joint's velocity terms taken in the child's frame, where that is smaller.
+
+        Through a rotation given as a matrix ``R`` (:meth:`mbgen.Model.orient`, e.g.
+        a floating base's quaternion), ``R^T R v`` and ``R^T R' v`` are ``v`` and
+        :math:`\omega\times v` only up to an identity that no term-by-term algebra
+        sees.  Here the joint's velocity in child components, ``v_c``, is put over a
+        common denominator and cancelled (a few small rational functions), and its
+        acceleration follows by the transport theorem in the child frame,
+        :math:`a = \dot v_c + \omega_{rel}\times v_c` (with ``u' = 0``), its
+        partials :math:`\partial v_c/\partial u` giving ``S``: the free-flyer's
+        linear columns are then unit vectors and its bias :math:`\omega\times v`.
+        Each form is kept only where it has fewer operations (a free joint with
+        world-frame speeds, MuJoCo's, keeps the parent-frame one).
+        """
+        ap_lin, ap_ang, wp, r = parent
+        v_c = _cancel(to_child(v_rel))
+        wp_b = to_child(wp)
+        rest = vadd(self.tree.dt_rest(v_c), cross(w_rel, v_c), vscale(TWO, cross(wp_b, v_c)))
+        alt = vadd(to_child(vadd(ap_lin, cross(ap_ang, r), cross(wp, cross(wp, r)))), rest)
+        if _ops(alt) < _ops(acc):
+            acc = alt
+        cols = {k: self.tree.d_du(v_c, k) for k in range(self.nu)}
+        cols = {k: v for k, v in cols.items() if not is_zero(v)}
+        if set(cols) == set(v_child) and _ops(*cols.values()) < _ops(*v_child.values()):
+            v_child = cols
+        return acc, v_child
 
     # ------------------------------------------------------------------ inertia and loads
     def _inertia(self, b: Body):

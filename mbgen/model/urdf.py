@@ -28,7 +28,13 @@ Conventions (Pinocchio's, so its results compare one to one):
   matrix is the homogeneous form divided by :math:`|q|^2`, so any nonzero
   quaternion gives a proper rotation; :math:`\dot q` keeps :math:`|q|` constant
   exactly, and an integrator's drift of the norm changes nothing physical
-  (renormalise between steps when you like).
+  (renormalise between steps when you like).  In the generated code
+  :math:`1/|q|^2` is one division, read by the root's rotation alone: every
+  body below the root is placed relative to the root's frame, and Newton–Euler
+  sees the free-flyer as one joint that owns its six speeds, with the identity
+  for its motion subspace and :math:`\omega\times v` (and gravity turned into the
+  root's frame) for its bias, :math:`R^T R` cancelled exactly
+  (:mod:`mbgen.derive.recursion`), so the articulated-body recursion applies.
 * gravity is ``-g`` along the world's z axis, ``g`` the model's one constant
   (9.81 in the scene of a ``.urdf`` file, :func:`mbgen.model.scene.urdf_scene`).  Every inertial number of the file is
   baked into the model as a number, as a robot's code is usually wanted.
@@ -36,6 +42,11 @@ Conventions (Pinocchio's, so its results compare one to one):
 Angles of ``rpy`` within 1e-12 rad of a multiple of pi/2 are taken as that
 multiple (a cosine of ``1.5707963267948966`` is 6e-17, not 0), which keeps
 axis-aligned frames free of such terms and changes no result by more than 1e-12.
+For the same reason the components of an offset, a mass centre or an inertia
+tensor below 1e-12 of its largest are zero: the rounding of the constant
+rotations that bring a tilted axis onto a coordinate axis (Unitree G1's arms:
+offsets of 6e-18 m, products of inertia of 1e-19) would otherwise cost
+operations in every recursion through them.
 """
 
 from __future__ import annotations
@@ -186,10 +197,22 @@ class Group:
         for m, c, I in self.parts:
             r = c - centre
             inertia += I + m * (r @ r * np.eye(3) - np.outer(r, r))
-        return mass, centre, (inertia + inertia.T) / 2
+        inertia = (inertia + inertia.T) / 2
+        diagonal = np.diag(inertia).copy()   # kept as it is: a pivot, however small
+        inertia = snap(inertia)
+        np.fill_diagonal(inertia, diagonal)
+        return mass, snap(centre), inertia
+
+
+def snap(values: np.ndarray) -> np.ndarray:
+    """``values`` with the entries below 1e-12 of the largest set to zero (rounding)."""
+    values = np.array(values, dtype=float)
+    values[np.abs(values) <= _SNAP * np.abs(values).max(initial=0.0)] = 0.0
+    return values
 
 
 def frame_vector(frame, comps) -> object:
+    comps = snap(comps)
     terms = [float(c) * e for c, e in zip(comps, (frame.x, frame.y, frame.z)) if c != 0]
     return sum(terms[1:], terms[0]) if terms else 0
 

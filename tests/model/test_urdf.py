@@ -15,9 +15,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sm
 
 import mbgen
 from mbgen.cli import main
+from mbgen.derive import Method, choose_method
+from mbgen.derive.articulated import speed_owners
+from mbgen.derive.prepare import prepare
+from mbgen.derive.recursion import NewtonEuler
 from mbgen.errors import (UrdfError, UrdfInertiaError, UrdfStructureError, UrdfSyntaxError,
                           UrdfUnsupportedError)
 from mbgen.model import urdf_xml
@@ -198,6 +203,61 @@ def test_floating_base_matches_pinocchio_free_flyer(tmp_path):
     scaled[3:7] *= 3.0
     np.testing.assert_allclose(compiled.rhs(0.0, scaled)[9:], compiled.rhs(0.0, x)[9:],
                                rtol=1e-12, atol=1e-12)
+
+
+def test_the_floating_root_is_one_joint_owning_six_unit_speeds(tmp_path):
+    """Newton-Euler sees the free-flyer as one joint that owns its six speeds, with the
+    identity for motion subspace and w x v (and gravity) for its velocity-product term:
+    R^T R of the quaternion's rotation cancels instead of multiplying through the tree
+    (before, each linear column was R^T R e_k, 49 to 66 operations an entry, and each
+    component of the root's acceleration some 1,200)."""
+    path = write(tmp_path, urdf(FLOATING_PARTS, "hopper"))
+    model = mbgen.from_urdf(path, floating=True)
+    ne = NewtonEuler(prepare(model))
+    assert speed_owners(ne) is not None
+    root = ne.bodies[0]
+    assert root.parent is None and sorted(ne.kin[root]["S"]) == list(range(6))
+    for k, col in ne.kin[root]["S"].items():   # speeds (v, w); spatial vectors (w, v)
+        assert list(col) == [1 if i == (k + 3) % 6 else 0 for i in range(6)], k
+    defs = dict(ne.P.assignments)
+    wx, wy, wz = (sm.Symbol(f"root_w{c}") for c in "xyz")
+    vx, vy, vz = (sm.Symbol(f"root_v{c}") for c in "xyz")
+    acc = [defs.get(a, a) for a in ne.kin[root]["acc"]]
+    assert all(sm.count_ops(a) <= 20 for a in acc), acc
+    w_x_v = (wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx)
+    g = sm.Symbol("g")
+    assert [sm.expand(a - b).coeff(g, 0) for a, b in zip(acc, w_x_v)] == [0, 0, 0]
+    # a floating base makes every chain on it six speeds longer: Newton-Euler, not compared
+    choice = choose_method(model)
+    assert choice.method is Method.NEWTON_EULER, choice.reason
+    assert "a chain of 3 bodies and 8 speeds; Kane's method not derived" in choice.reason
+
+
+def test_a_free_flying_body_costs_few_operations(tmp_path):
+    """One floating body: 147 operations after CSE (before: 414, the quaternion's
+    normalisation carried through R^T R; Kane's method 490)."""
+    path = write(tmp_path, urdf([FLOATING_PARTS[0]], "flyer"))
+    result = mbgen.pipeline.run(urdf_scene(path, floating=True), build=False)
+    assert result.equations.method == "newton_euler"
+    assert result.kernel.ops_after <= 180, result.kernel.ops_after
+
+
+def test_the_rounding_of_constant_rotations_is_dropped(tmp_path):
+    """A tilted axis turns the frame by constant rotations whose rounding left products of
+    inertia of 6e-19 here (offsets of 6e-18 m on Unitree G1's arms), each an operation in
+    every recursion through them: components below 1e-12 of their largest are zero."""
+    path = write(tmp_path, urdf([
+        link("base_link", inertial(5.0)),
+        link("upper", inertial(2.0, "0.05 0.01 0.2")),
+        link("fore", inertial(1.5, "0.02 -0.03 0.15")),
+        joint("shoulder", "continuous", "base_link", "upper", "0 0 0.3", axis="0.3 0.4 0.866"),
+        joint("elbow", "continuous", "upper", "fore", "0 0 0.4", axis="0 0 1")]))
+    m = mbgen.from_urdf(path)
+    numbers = [float(c) for b in m.bodies for c in b.inertia]
+    numbers += [float(c) for pd in m.points.values() if pd.offset != 0
+                for matrix, _ in pd.offset.args for c in matrix]
+    assert numbers and all(x == 0 or abs(x) > 1e-12 for x in numbers), numbers
+    compare(path, False, [mbgen.compile(urdf_scene(path), method=mbgen.Method.KANE)], samples=2)
 
 
 def test_a_urdf_file_is_a_scene(arm_path):
