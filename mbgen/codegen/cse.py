@@ -33,7 +33,8 @@ from typing import Sequence
 import sympy as sm
 
 from .printing import printed_base_count
-from ..symbolic.graph import symbols_back, to_sympy, to_symengine, xreplace_dag
+from ..symbolic.graph import (postorder_unique, symbols_back, to_sympy, to_symengine,
+                              xreplace_dag)
 
 
 class CseBackend(str, Enum):
@@ -139,26 +140,14 @@ def _value_numbering(exprs: list, se):
     where a descendant was replaced.  It finds no common *part* of two sums or products
     (``a + b`` in ``a + b + c`` and ``a + b + d``), which ``symengine.cse`` does.
     """
-    order: list = []
+    order = postorder_unique(exprs)
     uses: dict = {}
-    seen: set = set()
     for root in exprs:
         uses[root] = uses.get(root, 0) + 1
-        stack = [(root, False)]
-        while stack:
-            node, expanded = stack.pop()
-            if expanded:
-                order.append(node)
-                continue
-            if node in seen:
-                continue
-            seen.add(node)
-            stack.append((node, True))
-            for a in node.args:
-                if a.args:
-                    uses[a] = uses.get(a, 0) + 1
-                    if a not in seen:
-                        stack.append((a, False))
+    for node in order:
+        for a in node.args:
+            if a.args:
+                uses[a] = uses.get(a, 0) + 1
     names = (se.Symbol(f"mbgen:vn{k}") for k in range(len(order)))
     temps: list = []
     memo: dict = {}   # node -> its replacement, for the nodes that changed
