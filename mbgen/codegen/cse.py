@@ -34,7 +34,7 @@ import sympy as sm
 
 from .printing import printed_base_count
 from ..symbolic.graph import (postorder_unique, symbols_back, to_sympy, to_symengine,
-                              xreplace_dag)
+                              walk_unique, xreplace_dag)
 
 
 class CseBackend(str, Enum):
@@ -215,7 +215,7 @@ def _hoist_power_bases(reps, reduced, power):
     values = [e for _, e in reps] + list(reduced)
     bases: list = []
     seen: set = set()
-    for node in _walk(values):
+    for node in walk_unique(values):
         if (isinstance(node, power) and node.args[0].args and node.args[0] not in seen
                 and _repeats_base(node.args[1])):
             seen.add(node.args[0])
@@ -229,7 +229,7 @@ def _hoist_power_bases(reps, reduced, power):
         import symengine as se
 
         new_of = {b: se.Symbol(str(s)) for b, s in new_of.items()}
-    sub = {node: power(new_of[node.args[0]], node.args[1]) for node in _walk(values)
+    sub = {node: power(new_of[node.args[0]], node.args[1]) for node in walk_unique(values)
            if isinstance(node, power) and node.args[0] in new_of}
     inserts: dict[int, list] = {}
     for base in bases:
@@ -240,16 +240,3 @@ def _hoist_power_bases(reps, reduced, power):
         out.append((s, e.xreplace(sub)))
         out.extend(inserts.get(i, []))
     return out, [e.xreplace(sub) for e in reduced]
-
-
-def _walk(exprs):
-    """Every distinct node of ``exprs`` once, pre-order (sympy or symengine)."""
-    seen: set = set()
-    stack = list(reversed(exprs))
-    while stack:
-        node = stack.pop()
-        if node in seen:
-            continue
-        seen.add(node)
-        yield node
-        stack.extend(reversed(node.args))

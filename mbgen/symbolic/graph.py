@@ -15,9 +15,10 @@ import sympy as sm
 
 
 def walk_unique(exprs: Iterable[sm.Basic]):
-    """Yield every distinct node of ``exprs`` once (pre-order, deterministic)."""
+    """Yield every distinct node of ``exprs`` once (pre-order, deterministic); sympy or
+    symengine expressions (anything else is sympified)."""
     seen: set = set()
-    stack = [sm.sympify(e) for e in reversed(list(exprs))]
+    stack = [e if hasattr(e, "args") else sm.sympify(e) for e in reversed(list(exprs))]
     while stack:
         node = stack.pop()
         if node in seen:
