@@ -44,12 +44,6 @@ class CseBackend(str, Enum):
     SYMPY = "sympy"
 
 
-def cse(exprs: list, prefix: str, backend: CseBackend = CseBackend.SYMENGINE):
-    """``(replacements, reduced)``: temporaries ``[(symbol, expr)]`` in order, and ``exprs`` rewritten."""
-    reps, reduced, _ = eliminate((), exprs, prefix, backend)
-    return reps, reduced
-
-
 def eliminate(assignments: Sequence, exprs: Sequence, prefix: str,
               backend: CseBackend = CseBackend.SYMENGINE, checks=frozenset()):
     """CSE of ``exprs`` and of the program ``assignments`` (``[(symbol, expr)]`` in order).

@@ -73,8 +73,6 @@ from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Callable, Iterable
 
-import os as _os
-
 import sympy as sm
 
 from ..abi import INTEGRATORS, Output
@@ -330,9 +328,12 @@ def _holonomic_jacobian(eq: Equations, row: OutputDef, form: Form) -> Spec:
 def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     r"""``df/dv``: kinematic rows symbolic, dynamic rows from :math:`M^{-1}\,\partial R/\partial v`.
 
-    ``v``: the output's :data:`~mbgen.symbolic.availability.SENSITIVITIES` row.  In
-    the recursive form the accelerations themselves are differentiated through
-    the program (forward mode, :func:`mbgen.symbolic.program.derivatives`).
+    ``v``: the output's :data:`~mbgen.symbolic.availability.SENSITIVITIES` row.
+    :math:`R = F - M u'` is the equations' inverse-dynamics ``residual`` where they carry
+    one (a Newton–Euler derivation, in either form), differentiated through the program
+    (forward mode, :func:`mbgen.symbolic.program.derivatives`), so neither ``M`` nor the
+    articulated inertias are differentiated.  A recursion without a residual has its
+    accelerations differentiated through the program instead.
     """
     L = eq.layout
     sensitivity = SENSITIVITIES[row.output]
@@ -342,7 +343,7 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     shape = (L.n_x,) if sensitivity.vector else (L.n_x, nv)
     labels = tuple(f"d({s}')/d({v})" for s in L.state_names for v in var_names)
     tag = f"{row.array.lower()}_"
-    if form is Form.RECURSIVE and (eq.residual is None or _os.environ.get("MBGEN_ABA_TANGENT")):
+    if form is Form.RECURSIVE and eq.residual is None:
         extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
                                variables, tag)
         entries = tuple((i * nv + j, d[i][j]) for i in range(L.n_x) for j in range(nv))
