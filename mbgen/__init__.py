@@ -42,7 +42,7 @@ from .errors import (BuildError, CheckFailed, ConstraintError, IntegrationError,
                      SingularMassMatrixError, UnknownNameError, UsageError)
 from .derive.from_sympy import from_sympy
 from .symbolic.layout import Layout
-from .run.linearize import Linearization, linearize
+from .run.linearize import Linearization, linearize, tangent_jacobian
 from .run.named import InputTable
 from .model.builder import Model, t
 from .codegen.optimize import CseBackend
@@ -78,7 +78,7 @@ def __dir__():
     return sorted(set(globals()) | set(_LAZY))
 
 
-__all__ = ["__version__", "linearize", "Linearization", "Model", "t", "derive", "from_sympy", "from_urdf", "from_mjcf", "from_mujoco", "Output", "CseBackend", "compile", "equations_of", "run",
+__all__ = ["__version__", "linearize", "tangent_jacobian", "Linearization", "Model", "t", "derive", "from_sympy", "from_urdf", "from_mjcf", "from_mujoco", "Output", "CseBackend", "compile", "equations_of", "run",
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",

@@ -98,4 +98,34 @@ def linearize(model, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-8) ->
     return Linearization(A, B, states, tuple(model.input_names), np.linalg.eigvals(A), x.copy())
 
 
-__all__ = ["Linearization", "linearize"]
+def tangent_jacobian(model, x, p=None, r=None, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    r"""``(du'/dv_q, du'/du)``: the Jacobian of the accelerations in the speeds' tangent space.
+
+    Where ``q' = G(q) u`` (the kinematic equations are linear in the speeds, as for
+    every joint of :func:`mbgen.from_urdf` and :func:`mbgen.from_mjcf`), a configuration moved along
+    the speeds, :math:`q \oplus \delta = q + G(q)\,\delta + O(\delta^2)`, gives
+
+    .. math::
+
+        \frac{\partial u'}{\partial \delta} = \frac{\partial u'}{\partial q}\,G,
+        \qquad G = \frac{\partial q'}{\partial u}
+
+    (``n_u x n_u``), both blocks read from the compiled ``jacobian``.  For a
+    floating base (a quaternion in ``q``) this is Pinocchio's ``ddq_dq`` of
+    ``computeABADerivatives`` (its ``integrate`` is :math:`q \oplus \delta` to
+    first order), and ``du'/du`` its ``ddq_dv``; for joints whose ``q' = u``
+    the first block is the ``du'/dq`` block itself.
+    """
+    if Output.JACOBIAN not in model.outputs:
+        raise MbgenError(f"tangent_jacobian needs the 'jacobian' output of {model.name!r}; "
+                         f"compile with outputs including 'jacobian'")
+    n_q = model.layout.n_q
+    if getattr(model, "dependent_coordinates", ()):
+        raise MbgenError(f"{model.name}: tangent_jacobian takes models without configuration "
+                         f"constraints")
+    J = model.jacobian(t, model._x(x), p, r)
+    G = J[:n_q, n_q:]
+    return J[n_q:, :n_q] @ G, J[n_q:, n_q:].copy()
+
+
+__all__ = ["Linearization", "linearize", "tangent_jacobian"]

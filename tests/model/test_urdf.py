@@ -205,6 +205,33 @@ def test_floating_base_matches_pinocchio_free_flyer(tmp_path):
                                rtol=1e-12, atol=1e-12)
 
 
+def test_floating_base_jacobian_in_the_tangent_space_matches_aba_derivatives(tmp_path):
+    """``mbgen.tangent_jacobian`` = Pinocchio's ``computeABADerivatives`` on a free-flyer
+    (``ddq_dq`` in the tangent space: ``du'/dq`` times ``G = dq'/du``); ``du'/dq``
+    alone, in the quaternion's four components, is not it."""
+    path = write(tmp_path, urdf(FLOATING_PARTS, "hopper"))
+    scn = urdf_scene(path, floating=True)
+    compiled = mbgen.compile(scn.__class__(**{**scn.__dict__, "outputs": (
+        mbgen.Output.RHS, mbgen.Output.JACOBIAN)}))
+    model = pinocchio_model(path, True)
+    data = model.createData()
+    rng = np.random.default_rng(4)
+    for _ in range(3):
+        q, v, tau = random_state(rng, model, True)
+        pin.computeABADerivatives(model, data, q, v, np.concatenate([np.zeros(6), tau]))
+        dq, dv = mbgen.tangent_jacobian(compiled, np.concatenate([q, v]), None, tau)
+        for ours, theirs in ((dq, data.ddq_dq), (dv, data.ddq_dv)):
+            assert np.abs(ours - theirs).max() <= RTOL * np.abs(theirs).max()
+        J = compiled.jacobian(0.0, np.concatenate([q, v]), None, tau)
+        assert J[model.nq:, :model.nq].shape != data.ddq_dq.shape
+
+
+def test_tangent_jacobian_names_the_missing_output(arm_compiled):
+    assert mbgen.Output.JACOBIAN not in arm_compiled.outputs
+    with pytest.raises(mbgen.MbgenError, match="compile with outputs including 'jacobian'"):
+        mbgen.tangent_jacobian(arm_compiled, np.zeros(arm_compiled.n_x))
+
+
 def test_the_floating_root_is_one_joint_owning_six_unit_speeds(tmp_path):
     """Newton-Euler sees the free-flyer as one joint that owns its six speeds, with the
     identity for motion subspace and w x v (and gravity) for its velocity-product term:
