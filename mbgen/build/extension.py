@@ -56,8 +56,9 @@ CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off")
 #: -O3 -march=native gave the same as -O2 and -O2 -march=native (within 4 %).
 NATIVE = ("-march=native",)
 
-#: Sources longer than this (characters) compile at -O1 (see :func:`cflags`).
-LARGE_SOURCE_CHARS = 100_000
+#: A source whose longest function is longer than this (characters) compiles at -O1
+#: (see :func:`cflags`; :mod:`mbgen.codegen.split` keeps most functions below it).
+LARGE_FUNCTION_CHARS = 150_000
 #: ``$MBGEN_OPT`` forces an optimisation level for every build (e.g. ``-O2``).
 OPT_LEVELS = ("-O0", "-O1", "-O2", "-O3", "-Os")
 
@@ -105,7 +106,9 @@ def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
     gcc's -O2 grows much faster than linearly with the size of one function:
     the Whipple bicycle's RHS + Jacobian (343 KB of C) took 53.5 s and 3.4 GB at
     -O2 against 8.8 s and 0.28 GB at -O1, for calls 10 % slower (RHS 1.43 vs
-    1.57 µs, Jacobian 8.4 vs 9.1 µs).  ``$MBGEN_OPT`` (one of :data:`OPT_LEVELS`)
+    1.57 µs, Jacobian 8.4 vs 9.1 µs).  So a source whose longest function exceeds
+    :data:`LARGE_FUNCTION_CHARS` compiles at -O1; :mod:`mbgen.codegen.split` cuts the
+    long functions of unconstrained models into parts, which keep -O2.  ``$MBGEN_OPT`` (one of :data:`OPT_LEVELS`)
     overrides the choice; the flags are part of the module's cache key.
     """
     forced = os.environ.get("MBGEN_OPT", "").strip()
@@ -116,11 +119,16 @@ def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
         level = forced
     else:
         source = rendered.files[f"{rendered.prefix}.c"]
-        level = "-O1" if len(source) > LARGE_SOURCE_CHARS else "-O2"
+        level = "-O1" if longest_function(source) > LARGE_FUNCTION_CHARS else "-O2"
     flags = tuple(level if f == "-O2" else f for f in CFLAGS)
     if (wants_native() if native is None else native) and native_target(_cc()):
         flags += NATIVE
     return flags
+
+
+def longest_function(source: str) -> int:
+    """Characters of the longest top-level block of a generated C source (a function)."""
+    return max(len(block) for block in source.split("\n}\n"))
 
 
 _loaded: dict[str, object] = {}

@@ -9,8 +9,9 @@ prints a kernel with :mod:`~mbgen.codegen.printing` into the Jinja templates of
 ``templates/`` (:mod:`~mbgen.codegen.templating`), one folder per target
 (:mod:`mbgen.codegen.targets`): the model's C and Python, the integrators (views of
 :mod:`mbgen.integrators` in :mod:`~mbgen.codegen.integrators`), the step API, the batch
-loops, the FMU and the embedding example.  :mod:`~mbgen.codegen.solver` unrolls the mass
-matrix's ``L D L^T`` solve, :mod:`~mbgen.codegen.header` states the header's index
+loops, the FMU and the embedding example.  :mod:`~mbgen.codegen.split` cuts a long C
+function into parts that share a work array (a compiler's time stays linear in the model),
+:mod:`~mbgen.codegen.solver` unrolls the mass matrix's ``L D L^T`` solve, :mod:`~mbgen.codegen.header` states the header's index
 macros, content hash and stack bounds, :mod:`~mbgen.codegen.escape` escapes user text
 where it lands.
 

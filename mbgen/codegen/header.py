@@ -55,12 +55,23 @@ def content_hash(files: dict) -> str:
 
 
 def _function_bytes(view: dict) -> int:
-    """Automatic storage one model function declares."""
-    doubles = int(view["uses_time"]) + len(view["loads"]) + len(view["temps"]) \
-        + len(view["post_temps"]) + sum(b["size"] for b in view["pre"] + view["post"]
-                                        if b["local"])
-    ints = int(bool(view["solve"])) + int(bool(view["columns"])) + 1
+    """Automatic storage one model function declares (its parts' own: :func:`_part_bytes`)."""
+    temps = sum(len(view[s]) for s in ("temps", "post_temps") if s not in view["split"])
+    imports = sum(len(v) for v in view["main_imports"].values())
+    doubles = int(view["main_uses_time"]) + len(view["main_loads"]) + temps + imports \
+        + view["work"] + sum(b["size"] for b in view["pre"] + view["post"] if b["local"])
+    ints = int(bool(view["solve"])) + int(bool(view["columns"])) + 1 \
+        + int(any(p["status"] for p in view["parts"]))
+    if view["columns"] and view["n_u"] > UNROLL_MAX:    # the row-wise solve: acc, B, k
+        doubles += view["columns"] + 1
+        ints += 1
     return D * doubles + I * ints
+
+
+def _part_bytes(view: dict) -> int:
+    """The largest automatic storage of one part of a split function (0: not split)."""
+    return max((D * (int(p["uses_time"]) + len(p["loads"]) + len(p["imports"]) + len(p["temps"]))
+                + I for p in view["parts"]), default=0)
 
 
 def _ldl_bytes(kernel) -> int:
@@ -96,7 +107,7 @@ def stack_bounds(kernel, views: list[dict], prefix: str, step_methods=()) -> dic
         constraint_solve = 2 * F + D * (c.m + n_all + 10) + I * 10
     for v in views:
         callee = max(ldl, helper) if v["solve"] or v["columns"] else helper
-        callee = max(callee, constraint_solve)
+        callee = max(callee, constraint_solve, F + _part_bytes(v) if v["parts"] else 0)
         bounds[v["name"]] = F + _function_bytes(v) + callee
     fn = {v["output"]: bounds[v["name"]] for v in views}
     rhs = fn.get("rhs", 0)

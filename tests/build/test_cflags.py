@@ -8,7 +8,7 @@ import pytest
 import numpy as np
 
 from mbgen.build import extension
-from mbgen.build.extension import (LARGE_SOURCE_CHARS, NATIVE, cflags, compiled_path, compiler,
+from mbgen.build.extension import (LARGE_FUNCTION_CHARS, NATIVE, cflags, compiled_path, compiler,
                                    load, module_name, native_target)
 from mbgen.run.compiled import CompiledModel
 from mbgen.studies.ensemble import worker_module
@@ -22,14 +22,19 @@ def rendered():
     return run(load_scene("disc_pendulum"), ("rhs",), build=False).rendered
 
 
-def test_small_sources_compile_at_O2_large_ones_at_O1(rendered, monkeypatch):
+def test_small_functions_compile_at_O2_a_long_one_at_O1(rendered, monkeypatch):
+    """The level follows the longest function, not the file: a split function's parts
+    (mbgen.codegen.split) keep -O2 however long the file is."""
     monkeypatch.delenv("MBGEN_OPT", raising=False)
     assert "-O2" in cflags(rendered) and "-ffp-contract=off" in cflags(rendered)
     c = f"{rendered.prefix}.c"
-    files = {**rendered.files, c: rendered.files[c] + "/* pad */\n" * (LARGE_SOURCE_CHARS // 10)}
-    big = dataclasses.replace(rendered, files=files)
-    assert len(big.source) > LARGE_SOURCE_CHARS
+    pad = "/* pad */\n" * (LARGE_FUNCTION_CHARS // 10 + 1)
+    big = dataclasses.replace(rendered, files={**rendered.files, c: rendered.files[c] + pad})
     assert "-O1" in cflags(big) and "-O2" not in cflags(big)
+    parts = "static void part(void)\n{\n" + pad[:LARGE_FUNCTION_CHARS // 4] + "}\n"
+    many = dataclasses.replace(rendered, files={**rendered.files, c: rendered.files[c] + parts * 8})
+    assert len(many.source) > 2 * LARGE_FUNCTION_CHARS
+    assert "-O2" in cflags(many) and "-O1" not in cflags(many)
 
 
 def test_MBGEN_OPT_overrides_and_is_part_of_the_cache_key(rendered, monkeypatch):

@@ -8,7 +8,7 @@ generated Python against the lambdified equations solved by NumPy.
 from __future__ import annotations
 
 import numpy as np
-import pytest
+import mbgen
 
 import mbgen.codegen.targets.model
 import mbgen.codegen.header
@@ -38,3 +38,21 @@ def test_thirteen_speeds_take_the_loop_path():
     report = check(None, result=result, samples=3)
     assert report.ok, report.format()
     assert all(r.compared == 3 for r in report.rows)
+
+
+def test_the_row_wise_column_solve_gives_the_per_column_solves_bits(monkeypatch):
+    """Past UNROLL_MAX the Jacobian's columns are solved together, row by row (the inner
+    loops along a row vectorise): per column the operations of ``ldl_solve`` in its order,
+    so the C Jacobian is the generated Python's (one column at a time) bit for bit."""
+    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
+    monkeypatch.setattr(mbgen.codegen.header, "UNROLL_MAX", 1)
+    result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "parameter_jacobian"))
+    assert "double acc[8];" in result.rendered.source
+    py = mbgen.python_model(result.rendered)
+    rng = np.random.default_rng(2)
+    for _ in range(4):
+        x = rng.uniform(-1, 1, result.compiled.n_x)
+        r = rng.uniform(-1, 1, result.compiled.n_r)
+        for name in ("jacobian", "parameter_jacobian"):
+            np.testing.assert_array_equal(getattr(result.compiled, name)(0.0, x, None, r),
+                                          getattr(py, name)(0.0, x, None, r))

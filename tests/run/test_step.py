@@ -1,7 +1,6 @@
 """The step API: same steps and bits as the whole-trajectory integrators, inputs per step,
 step size kept between calls, caller-owned memory, stated stack bounds."""
 
-import re
 import shutil
 import subprocess
 
@@ -17,6 +16,7 @@ from mbgen.codegen.targets import Targets
 from mbgen.run.stepper import Stepper
 
 import models
+from cstack import call_graph, deepest, stack_usage
 
 CC = shutil.which("gcc") or shutil.which("cc")
 
@@ -133,34 +133,6 @@ def test_memory_holds_the_large_arrays(chain):
     assert bounds["stiff_chain_rosenbrock_step"] < 8 * 2 * n * n + 8 * 1024
 
 
-def _stack_usage(tmp_path, files, opt):
-    for name, text in files.items():
-        (tmp_path / name).write_text(text)
-    src = next(n for n in files if n.endswith(".c"))
-    subprocess.run([CC, "-std=c99", opt, "-fstack-usage", "-c", src, "-o",
-                    src.replace(".c", ".o")], cwd=tmp_path, check=True)
-    usage = {}
-    for line in (tmp_path / src.replace(".c", ".su")).read_text().splitlines():
-        m = re.match(r".*:\d+:\d+:(\w+)(?:\.\w+)*\s+(\d+)\s+([\w,]+)", line)
-        assert m and m.group(3) in ("static", "dynamic,bounded"), line   # never unbounded
-        # a clone (f.constprop.0) counts for f
-        usage[m.group(1)] = max(usage.get(m.group(1), 0), int(m.group(2)))
-    return usage
-
-
-def _call_graph(source):
-    """``{function: names of the functions its body calls}`` from the generated C."""
-    bodies = re.findall(r"^(?:static )?(?:int|void|double) (\w+)\([^)]*\)\n\{\n(.*?)^\}",
-                        source, re.M | re.S)
-    names = {n for n, _ in bodies}
-    return {n: {c for c in re.findall(r"\b(\w+)\(", body) if c in names and c != n}
-            for n, body in bodies}
-
-
-def _deepest(fn, usage, graph):
-    return usage[fn] + max((_deepest(c, usage, graph) for c in graph[fn]), default=0)
-
-
 @pytest.mark.parametrize("name", ["disc_pendulum", "stiff_chain", "n_link_cart", "four_bar",
                                   "slider_crank"])
 @pytest.mark.parametrize("opt", ["-O0", "-O2"])
@@ -168,15 +140,15 @@ def test_stack_bounds_hold(name, opt, tmp_path):
     """gcc's stack usage along the deepest call chain of each public function stays under the
     bound the header states (-O0: every local in its own slot; -O2: inlining and spills)."""
     rendered = run(load_scene(name), build=False, targets=Targets(step=True)).rendered
-    usage = _stack_usage(tmp_path, rendered.files, opt)
-    graph = _call_graph(rendered.source)
+    usage = stack_usage(CC, tmp_path, rendered.files, opt)
+    graph = call_graph(rendered.source)
     bounds = dict(rendered.stack_bounds)
     assert set(bounds) <= set(usage) and set(bounds) <= set(graph)
     for fn, bound in bounds.items():
         macro = f"{rendered.prefix.upper()}_STACK_{fn[len(rendered.prefix) + 1:].upper()}"
         assert f"#define {macro} {bound}\n" in rendered.header
         graph_o2 = {f: {c for c in cs if c in usage} for f, cs in graph.items()}  # inlined: gone
-        assert _deepest(fn, usage, graph_o2) <= bound, (fn, _deepest(fn, usage, graph_o2), bound)
+        assert deepest(fn, usage, graph_o2) <= bound, (fn, deepest(fn, usage, graph_o2), bound)
 
 
 CXX = shutil.which("g++") or shutil.which("c++")

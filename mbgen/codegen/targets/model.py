@@ -19,6 +19,7 @@ from ...symbolic.equations import acceleration_symbols, lambda_symbols
 from ..outputs import Form
 from ..printing import SORT_TERMS_MAX_OPS, CPrinter, PyPrinter, math_functions
 from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines, solve_program
+from ..split import split_view
 from .base import Target
 
 
@@ -105,6 +106,10 @@ def function_views(kernel: Kernel, prefix: str) -> tuple[list[dict], list[dict]]
     py_views = [_view(kernel, fn, prefix, PyPrinter(py_names, sort)) for fn in kernel.functions]
     for v in c_views:
         v["prototype"] = _c_prototype(v, args)
+        if constrained:     # its temporaries may read ACC, LAM, UR: kept in one function
+            split_view(v, L.identifiers[L.time], (), split_chars=float("inf"))
+        else:
+            split_view(v, L.identifiers[L.time], ("F",) if v["solve"] else ())
     return c_views, py_views
 
 
