@@ -2,7 +2,7 @@
 
 Model:      bead_wire
 Source:     scene 'bead_wire' (mbgen/scenes/bead_wire.py)
-Derivation: Kane's method (chosen: a right-hand side of 4 operations with the L D L^T solve, against Newton-Euler's 25)
+Derivation: Kane's method (chosen: a right-hand side of 4 operations with the L D L^T solve, against Newton-Euler's 24)
 CSE:        symengine
 Operations: 3 after CSE (3 before)
 

@@ -4,7 +4,7 @@ Model:      car_trailer
 Source:     scene 'car_trailer' (mbgen/scenes/car_trailer.py)
 Derivation: Newton-Euler (named by the scene or --derivation)
 CSE:        symengine
-Operations: 277 after CSE (551 before)
+Operations: 275 after CSE (551 before)
 
 Equations: M(q,t) u' = F(q,u,r,t),  q' = G(q,u,t).  Same layout as car_trailer.h:
 state x = ['X', 'Y', 'psi', 'theta', 'u', 'v', 'r', 'w']
@@ -111,7 +111,7 @@ def _ldl_solve(M, b, o=0):
 def rhs(t, x, p, r):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
-    Returns a new array of shape 8; 120 operations (249 before CSE).
+    Returns a new array of shape 8; 119 operations (249 before CSE).
     """
     try:
         return _rhs(math, float(t), x.tolist(), p.tolist(), r.tolist())
@@ -151,63 +151,56 @@ def _rhs(math, t, x, p, r):
     v14 = v11*v13 + v12*v8
     v15 = -v11*v12 + v13*v8
     v16 = -1.6*m_tr
-    v17 = 2.5600000000000005*m_tr
-    v18 = v17 + 700
-    v19 = math.cos(delta)
-    v20 = math.sin(delta)
-    v21 = 1.2*r_ + v
-    v22 = -u*v20 + v19*v21
-    v23 = (1.0/(u*v19 + v20*v21))
-    v24 = (-1.5*r_ + v)/u
-    v25 = -96000.0*v19*v22*v23 + 135000.0*v24
-    v26 = 80000*v22*v23
-    v27 = F_drive - m_car*v7 + v20*v26
-    v28 = -m_car*v8 - v19*v26 - 90000*v24
-    v29 = -2.5*r_ + v
-    v30 = (-u*v12 - 1.9*v10 + v13*v29)/(u*v13 + v12*v29)
-    v31 = -v15*v16 + 95000.0*v30
-    v32 = -m_tr*v14 + (v10*v10)*v16
-    v33 = -m_tr*v15 - 50000*v30
-    v34 = v12*v32
-    v35 = v13*v33 + v34
-    v36 = v25 + v31 - 2.5*v35
-    v37 = v13*v32
-    v38 = -v12*v33 + v27 + v37
-    v39 = v28 + v35
-    v45 = v12*v16
-    v47 = v13*v16
-    v48 = 6.25*m_tr - 5.0*v47
-    v50 = v18 + v48 + 2500
-    v51 = -v45
-    v52 = m_car + m_tr
-    v53 = 2.5*m_tr
-    v54 = v47 - v53
-    v56 = v51*v9
-    v57 = v52*v9
-    v58 = v54*v9
-    v59 = v52*v9
-    v60 = v18 - 2.5*v47
+    v17 = 2.5600000000000005*m_tr + 700
+    v18 = math.cos(delta)
+    v19 = math.sin(delta)
+    v20 = 1.2*r_ + v
+    v21 = (-u*v19 + v18*v20)/(u*v18 + v19*v20)
+    v22 = v18*v21
+    v23 = (-1.5*r_ + v)/u
+    v24 = -96000.0*v22 + 135000.0*v23
+    v25 = F_drive - m_car*v7 + 80000*v19*v21
+    v26 = -m_car*v8 - 80000*v22 - 90000*v23
+    v27 = -2.5*r_ + v
+    v28 = (-u*v12 - 1.9*v10 + v13*v27)/(u*v13 + v12*v27)
+    v29 = -v15*v16 + 95000.0*v28
+    v30 = -m_tr*v14 + (v10*v10)*v16
+    v31 = -m_tr*v15 - 50000*v28
+    v32 = v12*v30 + v13*v31
+    v33 = v24 + v29 - 2.5*v32
+    v34 = -v12*v31 + v13*v30 + v25
+    v35 = v26 + v32
+    v36 = v13*v16
+    v37 = 6.25*m_tr + v17 - 5.0*v36 + 2500
+    v38 = -v12*v16
+    v39 = m_car + m_tr
+    v40 = -2.5*m_tr + v36
+    v41 = v38*v9
+    v42 = v39*v9
+    v43 = v40*v9
+    v44 = v39*v9
+    v45 = v17 - 2.5*v36
     dxdt = [0.0] * 8
     dxdt[0] = v5
     dxdt[1] = v2 + v3
     dxdt[2] = r_
     dxdt[3] = w
     M = [0.0] * 16
-    M[0] = v57*v9
+    M[0] = v42*v9
     M[4] = 0
-    M[5] = v59*v9
-    M[8] = v56
-    M[9] = v58
-    M[10] = v50
-    M[12] = v51*v9
-    M[13] = v47*v9
-    M[14] = v60
-    M[15] = v18
+    M[5] = v44*v9
+    M[8] = v41
+    M[9] = v43
+    M[10] = v37
+    M[12] = v38*v9
+    M[13] = v36*v9
+    M[14] = v45
+    M[15] = v17
     F = [0.0] * 4
-    F[0] = v38*v9
-    F[1] = v39*v9
-    F[2] = v36
-    F[3] = v31
+    F[0] = v34*v9
+    F[1] = v35*v9
+    F[2] = v33
+    F[3] = v29
     _ldl(M)
     _ldl_solve(M, F)
     dxdt[4:] = F
@@ -220,7 +213,7 @@ def _rhs(math, t, x, p, r):
 def reactions(t, x, p, r):
     """Joint reactions, row-major 2 x 6: for each joint, the force and the moment (about the joint point) that the parent exerts on the child, in the joint's frame: Fx, Fy, Fz, Mx, My, Mz.
 
-    Returns a new array of shape 2 x 6; 157 operations (302 before CSE).
+    Returns a new array of shape 2 x 6; 156 operations (302 before CSE).
     """
     try:
         return _reactions(math, float(t), x.tolist(), p.tolist(), r.tolist())
@@ -260,95 +253,80 @@ def _reactions(math, t, x, p, r):
     v14 = v11*v13 + v12*v8
     v15 = -v11*v12 + v13*v8
     v16 = -1.6*m_tr
-    v17 = 2.5600000000000005*m_tr
-    v18 = v17 + 700
-    v19 = math.cos(delta)
-    v20 = math.sin(delta)
-    v21 = 1.2*r_ + v
-    v22 = -u*v20 + v19*v21
-    v23 = (1.0/(u*v19 + v20*v21))
-    v24 = (-1.5*r_ + v)/u
-    v25 = -96000.0*v19*v22*v23 + 135000.0*v24
-    v26 = 80000*v22*v23
-    v27 = F_drive - m_car*v7 + v20*v26
-    v28 = -m_car*v8 - v19*v26 - 90000*v24
-    v29 = -2.5*r_ + v
-    v30 = (-u*v12 - 1.9*v10 + v13*v29)/(u*v13 + v12*v29)
-    v31 = -v15*v16 + 95000.0*v30
-    v32 = -m_tr*v14 + (v10*v10)*v16
-    v33 = -m_tr*v15 - 50000*v30
-    v34 = v12*v32
-    v35 = v13*v33 + v34
-    v36 = v25 + v31 - 2.5*v35
-    v37 = v13*v32
-    v38 = -v12*v33 + v27 + v37
-    v39 = v28 + v35
-    v45 = v12*v16
-    v47 = v13*v16
-    v48 = 6.25*m_tr - 5.0*v47
-    v50 = v18 + v48 + 2500
-    v51 = -v45
-    v52 = m_car + m_tr
-    v53 = 2.5*m_tr
-    v54 = v47 - v53
-    v56 = v51*v9
-    v57 = v52*v9
-    v58 = v54*v9
-    v59 = v52*v9
-    v60 = v18 - 2.5*v47
-    v64 = -v33
-    v79 = -v25
-    v81 = -v27
-    v83 = -v28
-    v140 = -v31
-    v142 = -v32
+    v17 = 2.5600000000000005*m_tr + 700
+    v18 = math.cos(delta)
+    v19 = math.sin(delta)
+    v20 = 1.2*r_ + v
+    v21 = (-u*v19 + v18*v20)/(u*v18 + v19*v20)
+    v22 = v18*v21
+    v23 = (-1.5*r_ + v)/u
+    v24 = -96000.0*v22 + 135000.0*v23
+    v25 = F_drive - m_car*v7 + 80000*v19*v21
+    v26 = -m_car*v8 - 80000*v22 - 90000*v23
+    v27 = -2.5*r_ + v
+    v28 = (-u*v12 - 1.9*v10 + v13*v27)/(u*v13 + v12*v27)
+    v29 = -v15*v16 + 95000.0*v28
+    v30 = -m_tr*v14 + (v10*v10)*v16
+    v31 = -m_tr*v15 - 50000*v28
+    v32 = v12*v30 + v13*v31
+    v33 = v24 + v29 - 2.5*v32
+    v34 = -v12*v31 + v13*v30 + v25
+    v35 = v26 + v32
+    v36 = v13*v16
+    v37 = 6.25*m_tr + v17 - 5.0*v36 + 2500
+    v38 = -v12*v16
+    v39 = m_car + m_tr
+    v40 = -2.5*m_tr + v36
+    v41 = v38*v9
+    v42 = v39*v9
+    v43 = v40*v9
+    v44 = v39*v9
+    v45 = v17 - 2.5*v36
     M = [0.0] * 16
-    M[0] = v57*v9
+    M[0] = v42*v9
     M[4] = 0
-    M[5] = v59*v9
-    M[8] = v56
-    M[9] = v58
-    M[10] = v50
-    M[12] = v51*v9
-    M[13] = v47*v9
-    M[14] = v60
-    M[15] = v18
+    M[5] = v44*v9
+    M[8] = v41
+    M[9] = v43
+    M[10] = v37
+    M[12] = v38*v9
+    M[13] = v36*v9
+    M[14] = v45
+    M[15] = v17
     F = [0.0] * 4
-    F[0] = v38*v9
-    F[1] = v39*v9
-    F[2] = v36
-    F[3] = v31
+    F[0] = v34*v9
+    F[1] = v35*v9
+    F[2] = v33
+    F[3] = v29
     _ldl(M)
     _ldl_solve(M, F)
-    v133 = F[0]*v9
-    v134 = F[1]*v9
-    v135 = F[2] + F[3]
-    v136 = -2.5*F[2]
-    v146 = 2500*F[2] + v79
-    v152 = v134 + v136
-    v153 = v12*v152 + v13*v133
-    v154 = -v12*v133 + v13*v152
-    v155 = v135*v18 + v140 + v154*v16
-    v156 = m_tr*v153 + v142
-    v157 = m_tr*v154 + v135*v16 + v64
-    v158 = v12*v156 + v13*v157
-    v159 = v146 + v155 - 2.5*v158
-    v160 = -v12*v157 + v13*v156
-    v161 = m_car*v133 + v160 + v81
-    v162 = m_car*v134 + v158 + v83
+    v46 = F[0]*v9
+    v47 = F[1]*v9
+    v48 = F[2] + F[3]
+    v49 = -2.5*F[2] + v47
+    v50 = v12*v49 + v13*v46
+    v51 = -v12*v46 + v13*v49
+    v52 = v16*v51 + v17*v48 - v29
+    v53 = m_tr*v50 - v30
+    v54 = m_tr*v51 + v16*v48 - v31
+    v55 = v12*v53 + v13*v54
+    v56 = 2500*F[2] - v24 + v52 - 2.5*v55
+    v57 = -v12*v54 + v13*v53
+    v58 = m_car*v46 - v25 + v57
+    v59 = m_car*v47 - v26 + v55
     reactions = [0.0] * 12
-    reactions[0] = v161
-    reactions[1] = v162
+    reactions[0] = v58
+    reactions[1] = v59
     reactions[2] = 0
     reactions[3] = 0
     reactions[4] = 0
-    reactions[5] = v159
-    reactions[6] = v160
-    reactions[7] = v158
+    reactions[5] = v56
+    reactions[6] = v57
+    reactions[7] = v55
     reactions[8] = 0
     reactions[9] = 0
     reactions[10] = 0
-    reactions[11] = v155
+    reactions[11] = v52
     result = np.array(reactions, dtype=np.float64).reshape(2, 6)
     if not np.isfinite(result).all():
         raise NonFinite("reactions: non-finite output %r" % (result,))

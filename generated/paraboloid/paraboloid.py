@@ -2,7 +2,7 @@
 
 Model:      paraboloid
 Source:     scene 'paraboloid' (mbgen/scenes/paraboloid.py)
-Derivation: Kane's method (chosen: a right-hand side of 23 operations with the L D L^T solve, against Newton-Euler's 46)
+Derivation: Kane's method (chosen: a right-hand side of 23 operations with the L D L^T solve, against Newton-Euler's 45)
 CSE:        symengine
 Operations: 21 after CSE (25 before)
 

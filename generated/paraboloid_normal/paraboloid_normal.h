@@ -2,7 +2,7 @@
  *
  * Model:      paraboloid_normal
  * Source:     scene 'paraboloid_normal' (mbgen/scenes/paraboloid_normal.py)
- * Derivation: Kane's method (chosen: a right-hand side of 23 operations with the L D L^T solve, against Newton-Euler's 48)
+ * Derivation: Kane's method (chosen: a right-hand side of 23 operations with the L D L^T solve, against Newton-Euler's 47)
  * CSE:        symengine
  * Operations: 44 after CSE (48 before), excluding the L D L^T solve
  *   paraboloid_normal_rhs: 13 (15 before CSE)
@@ -77,7 +77,7 @@ extern "C" {
 #define PARABOLOID_NORMAL_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of paraboloid_normal.h, .c and .py with this value blanked. */
-#define PARABOLOID_NORMAL_CONTENT_HASH "424d77451cee41d2"
+#define PARABOLOID_NORMAL_CONTENT_HASH "fb17fd4a316bbb4b"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -2,7 +2,7 @@
 
 Model:      paraboloid_normal
 Source:     scene 'paraboloid_normal' (mbgen/scenes/paraboloid_normal.py)
-Derivation: Kane's method (chosen: a right-hand side of 23 operations with the L D L^T solve, against Newton-Euler's 48)
+Derivation: Kane's method (chosen: a right-hand side of 23 operations with the L D L^T solve, against Newton-Euler's 47)
 CSE:        symengine
 Operations: 44 after CSE (48 before)
 

@@ -95,14 +95,14 @@ extern "C" {
 #define SPATIAL_ARM_P_g 1 /* g */
 
 /* SHA-256 (16 hex digits) of spatial_arm.h, .c and .py with this value blanked. */
-#define SPATIAL_ARM_CONTENT_HASH "da257ac9c1188acd"
+#define SPATIAL_ARM_CONTENT_HASH "1eff7ea2d9e5881a"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
 #define SPATIAL_ARM_STACK_DEFAULT_PARAMETERS 256
-#define SPATIAL_ARM_STACK_DOPRI5 3960
-#define SPATIAL_ARM_STACK_REACTIONS 2840
-#define SPATIAL_ARM_STACK_RHS 2184
+#define SPATIAL_ARM_STACK_DOPRI5 3808
+#define SPATIAL_ARM_STACK_REACTIONS 2432
+#define SPATIAL_ARM_STACK_RHS 2032
 
 int spatial_arm_rhs(double t, const double *x, const double *p, double *dxdt);
 int spatial_arm_reactions(double t, const double *x, const double *p, double *reactions);

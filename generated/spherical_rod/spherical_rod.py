@@ -2,7 +2,7 @@
 
 Model:      spherical_rod
 Source:     scene 'spherical_rod' (mbgen/scenes/spherical_rod.py)
-Derivation: Kane's method (chosen: a right-hand side of 21 operations with the L D L^T solve, against Newton-Euler's 30)
+Derivation: Kane's method (chosen: a right-hand side of 21 operations with the L D L^T solve, against Newton-Euler's 29)
 CSE:        symengine
 Operations: 19 after CSE (32 before)
 

@@ -2,7 +2,7 @@
 
 Model:      spring_pendulum
 Source:     scene 'spring_pendulum' (mbgen/scenes/spring_pendulum.py)
-Derivation: Kane's method (chosen: a right-hand side of 35 operations with the L D L^T solve, against Newton-Euler's 52)
+Derivation: Kane's method (chosen: a right-hand side of 35 operations with the L D L^T solve, against Newton-Euler's 51)
 CSE:        symengine
 Operations: 93 after CSE (185 before)
 

@@ -2,7 +2,7 @@
 
 Model:      whipple
 Source:     scene 'whipple' (mbgen/scenes/whipple.py)
-Derivation: Kane's method (chosen: a right-hand side of 3127 operations with the L D L^T solve, against Newton-Euler's 3156)
+Derivation: Kane's method (chosen: a right-hand side of 3127 operations with the L D L^T solve, against Newton-Euler's 3159)
 CSE:        symengine
 Operations: 7085 after CSE (122234 before)
 

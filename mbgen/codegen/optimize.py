@@ -145,12 +145,20 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
     prefix = _temp_prefix(equations)
     specs = [spec(equations, o, form) for o in outputs if not o.is_integrator]
 
-    # every assignment (the program, and each output's own) and every output expression
+    # every assignment the outputs reach (the program's, and each output's own), and every
+    # output expression: what the outputs do not reach (another output's intermediates, the
+    # energies') is left out before CSE, so it cannot change the code of what they do reach
     assignments = list(equations.program.assignments)
     for s in specs:
         assignments += list(s.extra.assignments)
-    defined = {sym for sym, _ in assignments}
     checks = set(equations.program.checks)
+    roots = [e for s in specs for b in s.velocity + s.pre + s.post for _, e in b.entries]
+    if any(s.pivots for s in specs):
+        roots += sorted(checks, key=str)
+    reached = reachable(roots, dict(assignments))
+    assignments = [(sym, e) for sym, e in assignments if sym in reached]
+    checks &= reached
+    defined = {sym for sym, _ in assignments}
 
     # one CSE pass over the program and every distinct expression of every output
     distinct: dict = {}

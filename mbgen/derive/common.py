@@ -137,10 +137,14 @@ def line_coefficient(tree, el, atoms):
 
 def energies(prep: Prepared, grp: Grouping):
     """Kinetic energy and the potential of gravity and springs."""
+    return kinetic_energy(prep, grp), potential_energy(prep, grp)
+
+
+def kinetic_energy(prep: Prepared, grp: Grouping):
+    """``T`` from the atoms' velocities (Kane's derivation; Newton-Euler's is its recursion's)."""
     tree = prep.tree
-    ids = sorted(grp.bodies_of)
     T = []
-    for i in ids:
+    for i in sorted(grp.bodies_of):
         a = grp.atom[i]
         va = tree.atom_velocity(a)
         for j in grp.cooccur[i]:
@@ -154,9 +158,15 @@ def energies(prep: Prepared, grp: Grouping):
         if me.frame is not None:
             w = tree.omega(me.frame)
             T.append(dot3(w, matvec(me.inertia, w)))
+    return mul(HALF, add(*T))
+
+
+def potential_energy(prep: Prepared, grp: Grouping):
+    """``V``: gravity's potential and the springs' energy."""
+    tree = prep.tree
     V = []
     if prep.gravity:
-        for i in ids:
+        for i in sorted(grp.bodies_of):
             a = grp.atom[i]
             g = add(*(tree.dot(a.c, a.frame, gv, gf) for gf, gv in prep.gravity))
             V.append(mul(NEG, mul(grp.mass_sum(grp.bodies_of[i]), g)))
@@ -166,4 +176,4 @@ def energies(prep: Prepared, grp: Grouping):
         _, L2 = line_geometry(tree, atoms)
         squared = L2 if el.natural_length == 0 else stretch(L2, el.natural_length) ** 2
         V.append(mul(HALF, mul(el.stiffness, squared)))
-    return mul(HALF, add(*T)), add(*V)
+    return add(*V)

@@ -33,7 +33,7 @@ import sympy as sm
 
 from ..symbolic.equations import Equations, acceleration_symbols
 from .articulated import articulated
-from .common import Grouping, Wants, energies, point_kinematics
+from .common import Grouping, Wants, point_kinematics, potential_energy
 from .constraints import ordered
 from .prepare import Prepared
 from .reactions import constraint_loads, joint_reactions
@@ -57,7 +57,8 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
     residual = ne.residual(acceleration_symbols(nu)) if not model.constraints_ else None
     loads = (joint_reactions(ne, extra=constraint_loads(ne, ordered(model)))
              if wants.reactions else None)
-    kinetic, potential = energies(prep, Grouping(prep)) if wants.energy else (None, None)
+    kinetic, potential = ((ne.kinetic_energy(), potential_energy(prep, Grouping(prep)))
+                          if wants.energy else (None, None))
     return Equations(
         name=model.name,
         layout=layout,

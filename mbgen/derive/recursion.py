@@ -267,7 +267,8 @@ class NewtonEuler:
             col = join(w_parts.get(k, ZERO3), v_child.get(k, ZERO3))
             if not all(x == 0 for x in col):
                 S[k] = P.vector(col)
-        self.kin[b] = dict(omega=omega, alpha=alpha, acc=acc, r=r, S=S)
+        self.kin[b] = dict(omega=omega, alpha=alpha, acc=acc, r=r, S=S, v_rel=v_rel,
+                           through=_through_matrix(tree, base, b.frame))
 
     def _in_child(self, to_child, parent, v_rel, w_rel, acc, v_child):
         r"""The joint's velocity terms taken in the child's frame, where that is smaller.
@@ -397,6 +398,25 @@ class NewtonEuler:
             n_app.append(n)
             f_app.append(f)
         return self.P.vector(join(vadd(*n_app, vneg(n_in)), vadd(*f_app, vneg(f_in))))
+
+    def kinetic_energy(self):
+        r"""``T``: :math:`\tfrac12\sum_b V_b^T \mathcal I_b V_b` with the spatial velocity
+        :math:`V_b = (\omega_b, v_b)` of each body at its joint point, in its frame, from the
+        outward pass :math:`v_b = R_b (v_p + \omega_p\times r_b + v_{rel})` (each ``v_b`` a
+        named intermediate: linear in the number of bodies)."""
+        P, vel, terms = self.P, {}, []
+        for b in self.bodies:
+            k = self.kin[b]
+            if b.parent is not None:
+                p = self.kin[b.parent]
+                v = vadd(vel[b.parent], cross(p["omega"], k["r"]), k["v_rel"])
+            else:
+                v = k["v_rel"]
+            v = self.to_child(b)(v)
+            vel[b] = P.vector(_cancel(v) if k["through"] else v)
+            V = join(k["omega"], vel[b])
+            terms.append(dot6(V, matvec6(self.inertia[b]["spatial"], V)))
+        return mul(sm.Rational(1, 2), add(*terms))
 
     # ------------------------------------------------------------------ equations of motion
     def children_sum(self, b: Body, of: dict):
