@@ -213,7 +213,7 @@ loop; mb/pin: the ratio of the two; rel diff: max |mbgen - Pinocchio| / max |Pin
 [ddq_dq, ddq_dv] and mbgen's lower n rows, at the timed state.
 CasADi: the arm's ABA traced on casadi.SX (Function option cse), Function.generate, cc -c with
 the driver flags (cc -O3; cc -O1 apart), timed in a C loop; cas gen s = trace + generate +
-cc -O3; mb gen s = mbgen's derive..compile (cffi, -O2, -O1 for a large source).  ops: mbgen's
+cc -O3; mb gen s = mbgen's derive..compile (cffi, -O2; long functions in parts).  ops: mbgen's
 after CSE; CasADi's instructions less inputs, outputs and constants.  |cas-pin|: largest
 difference of the accelerations from Pinocchio's aba (mbgen's where Pinocchio is out)."""
 

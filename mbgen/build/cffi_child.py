@@ -42,8 +42,9 @@ def _result(**fields) -> None:
 
 def main() -> int:
     """Build the extension that stdin describes: ``name``, ``cdef``, ``source`` (the
-    C preamble), ``sources``, ``include_dirs``, ``define_macros`` (``[name, value]``
-    pairs, optional), ``extra_compile_args``, ``libraries``."""
+    C preamble), ``sources``, ``extra_objects`` (optional), ``include_dirs``,
+    ``define_macros`` (``[name, value]`` pairs, optional), ``extra_compile_args``,
+    ``libraries``."""
     spec = json.load(sys.stdin)
     ffi = cffi.FFI()
     try:
@@ -52,6 +53,7 @@ def main() -> int:
         _result(cdef=str(exc))
         return 3
     ffi.set_source(spec["name"], spec["source"], sources=spec["sources"],
+                   extra_objects=spec.get("extra_objects", []),
                    include_dirs=spec["include_dirs"],
                    define_macros=[tuple(m) for m in spec.get("define_macros", ())],
                    extra_compile_args=spec["extra_compile_args"], libraries=spec["libraries"])
