@@ -64,13 +64,10 @@ def _chunks(temps: list, size: int) -> list[list]:
 
 
 def _main_statements(view: dict, section: str) -> list[str]:
-    """What the public function itself prints after ``section``'s parts ran."""
-    if section == "temps":
-        blocks = view["pre"] + view["post"]
-        exprs = [e for _, e, _ in view["post_temps"]] if "post_temps" not in view["split"] else []
-    else:
-        blocks, exprs = view["post"], []
-    return exprs + [e for b in blocks for _, e in b["assignments"]]
+    """What the public function itself prints after ``section``'s parts ran (every
+    non-empty section is split, so these are block entries only)."""
+    blocks = view["pre"] + view["post"] if section == "temps" else view["post"]
+    return [e for b in blocks for _, e in b["assignments"]]
 
 
 def split_view(view: dict, time_name: str, arrays: tuple[str, ...],
@@ -118,9 +115,6 @@ def split_view(view: dict, time_name: str, arrays: tuple[str, ...],
         imports = [s for s in names if s in owner and parts[owner[s]]["section"] == section]
         view["main_imports"][section] = [(s, export(s)) for s in sorted(imports, key=_order)]
         main_read |= names
-    keep = [(s, e, c) for sec in SECTIONS if sec not in view["split"] for s, e, c in view[sec]]
-    for _, e, _ in keep:
-        main_read |= _names(e)
     view["main_loads"] = [loads[s] for s in loads if s in main_read]
     view["main_uses_time"] = time_name in main_read
     for k, part in enumerate(parts):
