@@ -16,7 +16,8 @@ light enough for every every-scene case but the heavy ones (``heavy=True``):
 those that generate, compile and lambdify *every* output at once (the back ends
 on every output, the Jacobians against lambdified symbolic ones, the sliced code
 against the full code), the golden diff (its bytes are compared with
-``generated/whipple`` by ``tests/codegen/test_determinism.py`` twice by default)
+``generated/whipple`` by ``tests/codegen/test_determinism.py`` once by default, a second
+machine variant ``slow``)
 and the example program, about 85 s together of a default run near 9 minutes.
 Its determinism, generated C's warnings (C and C++), energy, derivation choice,
 Newton–Euler against Kane, constrained back ends (rhs and constraint forces) and
