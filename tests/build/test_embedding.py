@@ -35,7 +35,7 @@ def compile_and_run(folder, sources, exe="prog"):
                           check=True)
 
 
-@pytest.mark.parametrize("name", scene_params())
+@pytest.mark.parametrize("name", scene_params(heavy=True))
 def test_plain_c_and_cxx_compile_without_python(name, tmp_path):
     files = golden.scene_files(name)
     write(tmp_path, files)

@@ -56,7 +56,7 @@ def no_kane(monkeypatch):
 
 
 # ------------------------------------------------------------------ the 10 % rule
-@pytest.mark.parametrize("name", scene_params())
+@pytest.mark.parametrize("name", scene_params(heavy=True))
 def test_default_costs_at_most_ten_percent_more_than_the_cheaper(name):
     default = run(unnamed(name), build=False)
     chosen = Method(default.equations.method)
