@@ -72,7 +72,7 @@ from .arm_casadi import have_casadi
 from .arm_jacobian import format_extra, relative_difference, run_casadi, run_jacobian
 from .arm_pinocchio import (build_aba_driver, import_pinocchio, pinocchio_aba_derivatives,
                             pinocchio_arm, run_aba_derivatives_driver, run_aba_driver)
-from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns
+from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, staged
 
 @dataclass
 class ArmRow:
@@ -135,11 +135,7 @@ def state(n: int) -> tuple[np.ndarray, np.ndarray]:
 # ----------------------------------------------------------------------------- mbgen (child)
 def _mbgen_child(n: int, repeats: int, method: str, emit) -> None:
     """mbgen's side for one ``n``; ``emit(key, value)`` reports each result as it is known."""
-    def stage(key, fn, *args, **kw):
-        t0 = time.perf_counter()
-        value = fn(*args, **kw)
-        emit(key, time.perf_counter() - t0)
-        return value
+    stage = staged(emit)
 
     scene = arm_scene(n)
     equations = stage("derive_s", equations_of, scene, Method(method), energy=False)

@@ -27,7 +27,6 @@ from __future__ import annotations
 import json
 import sys
 import tempfile
-import time
 from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
@@ -46,7 +45,7 @@ from ..run.compiled import CompiledModel
 from ..scenes.spatial_arm import scene as arm_scene
 from . import children
 from .arm_casadi import have_casadi
-from .timing import c_function_ns
+from .timing import c_function_ns, staged
 
 JAC_STAGES = ("jac_derive_s", "jac_bake_s", "jac_cse_s", "jac_render_s", "jac_compile_s",
               "jac_c_ns")
@@ -62,11 +61,7 @@ def relative_difference(ours, theirs) -> float:
 
 # ----------------------------------------------------------------------------- mbgen (child)
 def _jacobian_child(n: int, repeats: int, method: str, x: np.ndarray, emit) -> None:
-    def stage(key, fn, *args, **kw):
-        t0 = time.perf_counter()
-        value = fn(*args, **kw)
-        emit(key, time.perf_counter() - t0)
-        return value
+    stage = staged(emit)
 
     scene = replace(arm_scene(n), outputs=(Output.JACOBIAN,))
     equations = stage("jac_derive_s", equations_of, scene, Method(method), energy=False)

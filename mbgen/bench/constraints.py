@@ -64,7 +64,7 @@ from ..run.compiled import CompiledModel
 from ..run.linearize import linearize
 from ..scenes.whipple import PARAMETERS, upright_state
 from . import children
-from .timing import c_rhs_ns, per_call_ns
+from .timing import c_rhs_ns, per_call_ns, staged
 
 #: Speed (m/s) of the steady upright run where both sides linearise and evaluate.
 SPEED = 5.0
@@ -96,11 +96,7 @@ def operating_point() -> dict:
 
 # ------------------------------------------------------------------------------ mbgen (child)
 def _mbgen_child(point: dict, repeats: int, emit) -> None:
-    def stage(key, fn, *args, **kw):
-        t0 = time.perf_counter()
-        value = fn(*args, **kw)
-        emit(key, time.perf_counter() - t0)
-        return value
+    stage = staged(emit)
 
     scene = load_scene("whipple")
     equations = stage("derive_s", equations_of, scene, energy=False)

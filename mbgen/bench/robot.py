@@ -30,7 +30,6 @@ from __future__ import annotations
 import json
 import sys
 import tempfile
-import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable
@@ -48,7 +47,7 @@ from ..model.scene import Scene, urdf_scene
 from ..pipeline import equations_of
 from ..run.compiled import CompiledModel
 from . import children, robot_peers as peers
-from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns
+from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, staged
 
 STAGES = ("derive_s", "bake_s", "cse_s", "render_s", "compile_s")
 
@@ -109,11 +108,7 @@ def random_state(layout, floating: bool, mjcf_mj=None, seed: int = 7):
 
 # ----------------------------------------------------------------------------- mbgen (child)
 def _mbgen_child(file: str, floating: bool, jacobian: bool, repeats: int, emit) -> None:
-    def stage(key, fn, *args, **kw):
-        t0 = time.perf_counter()
-        value = fn(*args, **kw)
-        emit(key, time.perf_counter() - t0)
-        return value
+    stage = staged(emit)
 
     path = Path(file)
     scene = stage("read_s", _scene, path, floating, jacobian)

@@ -30,6 +30,17 @@ MIN_LOOP_S = 0.02
 DRIVER_FLAGS = ("-O3", "-march=native", "-DNDEBUG")
 
 
+def staged(emit: Callable[[str, object], None]) -> Callable:
+    """``stage(key, fn, *args, **kw)``: run ``fn`` once, ``emit(key, seconds)``, return its value
+    (the per-stage timing of every benchmark child)."""
+    def stage(key, fn, *args, **kw):
+        t0 = time.perf_counter()
+        value = fn(*args, **kw)
+        emit(key, time.perf_counter() - t0)
+        return value
+    return stage
+
+
 def per_call_ns(fn: Callable[[], object], repeats: int) -> float:
     """Median nanoseconds of one ``fn()`` call: loops of at least MIN_LOOP_S, gc off."""
 

@@ -155,7 +155,8 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
     roots = [e for s in specs for b in s.velocity + s.pre + s.post for _, e in b.entries]
     if any(s.pivots for s in specs):
         roots += sorted(checks, key=str)
-    reached = reachable(roots, dict(assignments))
+    program_defs = dict(assignments)
+    reached = reachable(roots, program_defs)
     assignments = [(sym, e) for sym, e in assignments if sym in reached]
     checks &= reached
     defined = {sym for sym, _ in assignments}
@@ -176,7 +177,6 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
     if equations.constraints is not None:
         solved |= set(lambda_symbols(equations.constraints.m))
     after_solve = _depends_on(reps, solved - defined)
-    program_defs = dict(assignments)
 
     functions = []
     for s in specs:
