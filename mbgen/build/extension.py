@@ -112,8 +112,9 @@ def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
     -O2 against 8.8 s and 0.28 GB at -O1, for calls 10 % slower (RHS 1.43 vs
     1.57 µs, Jacobian 8.4 vs 9.1 µs).  So a source whose longest function exceeds
     :data:`LARGE_FUNCTION_CHARS` compiles at -O1; :mod:`mbgen.codegen.split` cuts the
-    long functions of unconstrained models into parts, which keep -O2.  ``$MBGEN_OPT`` (one of :data:`OPT_LEVELS`)
-    overrides the choice; the flags are part of the module's cache key.
+    long functions of unconstrained models into parts, which keep -O2.  ``$MBGEN_OPT``
+    (one of :data:`OPT_LEVELS`) overrides the choice; the flags are part of the module's
+    cache key.
     """
     forced = os.environ.get("MBGEN_OPT", "").strip()
     if forced:
@@ -137,6 +138,8 @@ def longest_function(source: str) -> int:
 
 _loaded: dict[str, object] = {}
 _lock = threading.RLock()  # re-entered by load's rebuild of a module that does not import
+#: Threads that find no crossing object build it once (:func:`crossing_object`).
+_crossing_lock = threading.Lock()
 #: One lock per module name: threads that need the same module build it once.
 _building: dict[str, threading.Lock] = {}
 
@@ -172,7 +175,7 @@ def crossing_object(root: Path) -> Path:
     """The crossing compiled once into ``root`` (the cache): ``_mbgen_crossing_<key>.o``.
 
     Linking it costs a model's build nothing, where compiling it (CPython's and NumPy's
-    headers included) was 0.09 s of every build (0.59 -> 0.50 s for a small model).  Kept
+    headers included) was 0.09 s of every build (0.59 -> 0.48 s for a small model).  Kept
     like a module: written under a temporary name, recorded, renamed; reused only when
     :func:`~mbgen.build.cache.verified`.
     """
@@ -181,7 +184,7 @@ def crossing_object(root: Path) -> Path:
     target = root / f"_mbgen_crossing_{_crossing_key()}.o"
     if verified(target):
         return target
-    with _lock:
+    with _crossing_lock:
         if verified(target):
             return target
         with tempfile.TemporaryDirectory(prefix="_mbgen_crossing-", dir=root) as tmp:
@@ -293,7 +296,6 @@ def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -
     would otherwise restrict the module to the limited API (the module is built for this
     one Python anyway, see :func:`module_name`).
     """
-
     spec = {"name": name, "cdef": rendered.cdef + rendered.extension_cdef + CROSSING_CDEF,
             "source": f'#include <stdint.h>\n#include "{rendered.prefix}.h"\n'
                       + rendered.extension + "\n" + CROSSING_CDEF,

@@ -99,11 +99,11 @@ def linearize(model, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-8) ->
 
 
 def tangent_jacobian(model, x, p=None, r=None, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    r"""``(du'/dv_q, du'/du)``: the Jacobian of the accelerations in the speeds' tangent space.
+    r"""``(du'/d delta, du'/du)``: the Jacobian of the accelerations in the speeds' tangent space.
 
     Where ``q' = G(q) u`` (the kinematic equations are linear in the speeds, as for
-    every joint of :func:`mbgen.from_urdf` and :func:`mbgen.from_mjcf`), a configuration moved along
-    the speeds, :math:`q \oplus \delta = q + G(q)\,\delta + O(\delta^2)`, gives
+    every joint of :func:`mbgen.from_urdf` and :func:`mbgen.from_mjcf`), a configuration
+    moved along the speeds, :math:`q \oplus \delta = q + G(q)\,\delta + O(\delta^2)`, gives
 
     .. math::
 
