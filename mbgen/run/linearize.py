@@ -99,7 +99,7 @@ def linearize(model, x, p=None, r=None, t: float = 0.0, *, tol: float = 1e-8) ->
 
 
 def tangent_jacobian(model, x, p=None, r=None, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    r"""``(du'/d delta, du'/du)``: the Jacobian of the accelerations in the speeds' tangent space.
+    r"""``(du'/d delta, du'/du)``: the accelerations' Jacobian in the speeds' tangent space.
 
     Where ``q' = G(q) u`` (the kinematic equations are linear in the speeds, as for
     every joint of :func:`mbgen.from_urdf` and :func:`mbgen.from_mjcf`), a configuration
