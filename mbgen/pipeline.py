@@ -67,20 +67,21 @@ class PipelineResult:
 
 def equations_of(source: Model | Equations | Scene, method: Method | None = None, *,
                  energy: bool = True, points: Sequence[str] | None = None,
-                 reactions: bool = False) -> Equations:
+                 reactions: bool = False, jacobian: bool = False) -> Equations:
     """Derive (for a ``Model`` or a scene holding one) or pass through ``Equations``.
 
     A scene's parameter values become the equations' defaults and its name and
     file the equations' source line.  ``energy``: derive energies too;
     ``points``: names of points whose position and velocity to carry (``None``:
-    the scene's points, else none).  ``method``: the derivation (default: the
+    the scene's points, else none); ``jacobian``: the analytic residual Jacobian
+    where the derivation has one.  ``method``: the derivation (default: the
     scene's, else :func:`mbgen.derive.derive`'s default, which compares no
     operation counts: :func:`run` does).
     """
     if isinstance(source, Scene):
         eq = equations_of(source.model, method or source.method, energy=energy,
                           points=source.points if points is None else points,
-                          reactions=reactions)
+                          reactions=reactions, jacobian=jacobian)
         if method is None and source.method is not None and eq.method_reason == NAMED:
             eq = replace(eq, method_reason=SCENE_NAMED)
         src = source_label(source)  # the file's name, never the path as typed
@@ -89,7 +90,7 @@ def equations_of(source: Model | Equations | Scene, method: Method | None = None
                        source=src)
     if isinstance(source, Model):
         return derive(source, method, energy=energy, points=tuple(points or ()),
-                      reactions=reactions)
+                      reactions=reactions, jacobian=jacobian)
     if isinstance(source, Equations):
         return source
     raise ModelError(f"expected a Model, Equations or Scene, got {type(source).__name__}")
@@ -263,7 +264,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         """Derive with ``how`` (None: the source's own) for ``reason``, and bake."""
         equations = timed("derive", equations_of, source, how, of=how,
                           reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
-                          points=points)
+                          points=points, jacobian=Output.JACOBIAN in outs)
         if reason:
             equations = replace(equations, method_reason=reason)
         if parameters:

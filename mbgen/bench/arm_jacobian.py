@@ -64,7 +64,8 @@ def _jacobian_child(n: int, repeats: int, method: str, x: np.ndarray, emit) -> N
     stage = staged(emit)
 
     scene = replace(arm_scene(n), outputs=(Output.JACOBIAN,))
-    equations = stage("jac_derive_s", equations_of, scene, Method(method), energy=False)
+    equations = stage("jac_derive_s", equations_of, scene, Method(method), energy=False,
+                      jacobian=True)
     baked = stage("jac_bake_s", bake, equations, scene.fixed, scene.inputs)
     kernel = stage("jac_cse_s", optimize, baked, (Output.JACOBIAN,))
     emit("jac_ops", kernel.ops_after)

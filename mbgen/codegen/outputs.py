@@ -355,7 +355,11 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     M, F = eq.mass_matrix, eq.forcing
     rows = (list(eq.residual) if eq.residual is not None else
             [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)])
-    if eq.program:
+    if row.output is Output.JACOBIAN and eq.residual_jacobian is not None:
+        # analytic dR/dx (mbgen.derive.rnea_partials): only q' = G goes through the program
+        extra, dG = derivatives(eq.program, list(eq.kinematics), variables, tag)
+        dR = [list(eq.residual_jacobian.row(i)) for i in range(nu)]
+    elif eq.program:
         extra, d = derivatives(eq.program, list(eq.kinematics) + rows, variables, tag)
         dG, dR = d[:nq], d[nq:]
     else:

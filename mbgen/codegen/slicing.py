@@ -117,4 +117,6 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
         reactions=reactions,
         constraints=constraints,
         residual=None if equations.residual is None else bake_matrix(equations.residual),
+        residual_jacobian=(None if equations.residual_jacobian is None
+                           else bake_matrix(equations.residual_jacobian)),
     )

@@ -169,7 +169,7 @@ def choose_method(model: Model | Prepared) -> Choice:
 
 
 def derive(model: Model, method: Method | None = None, *, energy: bool = True,
-           points=(), reactions: bool = False) -> Equations:
+           points=(), reactions: bool = False, jacobian: bool = False) -> Equations:
     """Derive the equations of motion of ``model``.
 
     Parameters
@@ -190,6 +190,9 @@ def derive(model: Model, method: Method | None = None, *, energy: bool = True,
         (needed for ``Output.POSITIONS`` and ``Output.VELOCITIES``).
     reactions : bool
         Also derive the joint reactions (needed for ``Output.REACTIONS``).
+    jacobian : bool
+        Also derive ``Equations.residual_jacobian`` where the method has an analytic
+        one (Newton–Euler on revolute joints; used by ``Output.JACOBIAN``).
 
     Returns
     -------
@@ -206,7 +209,7 @@ def derive(model: Model, method: Method | None = None, *, energy: bool = True,
                                                                                UNDECIDED)
     else:
         reason = NAMED
-    eq = METHODS[named](prep, Wants(energy, tuple(points), reactions))
+    eq = METHODS[named](prep, Wants(energy, tuple(points), reactions, jacobian))
     return replace(constrain(eq, prep), method_reason=reason)
 
 

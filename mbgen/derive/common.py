@@ -28,12 +28,14 @@ class Wants:
 
     ``energy``: the kinetic and potential energy; ``points``: names of points
     whose Newtonian position and velocity to carry; ``reactions``: the joint
-    reactions.
+    reactions; ``jacobian``: the residual's state Jacobian where a derivation has
+    an analytic one (:mod:`mbgen.derive.rnea_partials`).
     """
 
     energy: bool = True
     points: tuple[str, ...] = ()
     reactions: bool = False
+    jacobian: bool = False
 
 
 class Grouping:

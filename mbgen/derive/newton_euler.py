@@ -20,7 +20,9 @@ in its own module:
    wrench, the inward pass for ``F`` and composite rigid bodies for ``M``;
 2. :mod:`mbgen.derive.articulated` -- the articulated-body recursion, which
    gives ``u'`` directly when every speed belongs to exactly one joint;
-3. :mod:`mbgen.derive.reactions` -- the joint reactions ``f_b`` above.
+3. :mod:`mbgen.derive.reactions` -- the joint reactions ``f_b`` above;
+4. :mod:`mbgen.derive.rnea_partials` -- the analytic state Jacobian of the
+   inverse dynamics, where every joint is revolute (asked for by ``wants.jacobian``).
 
 Every per-body quantity is a named intermediate of one program
 (:class:`mbgen.symbolic.program.Program`), so the equations' size is linear in
@@ -32,12 +34,14 @@ from __future__ import annotations
 import sympy as sm
 
 from ..symbolic.equations import Equations, acceleration_symbols
+from ..symbolic.program import Program
 from .articulated import articulated
 from .common import Grouping, Wants, point_kinematics, potential_energy
 from .constraints import ordered
 from .prepare import Prepared
 from .reactions import constraint_loads, joint_reactions
 from .recursion import NewtonEuler
+from .rnea_partials import residual_jacobian
 
 
 def newton_euler(prep: Prepared, wants: Wants) -> Equations:
@@ -59,6 +63,11 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
              if wants.reactions else None)
     kinetic, potential = ((ne.kinetic_energy(), potential_energy(prep, Grouping(prep)))
                           if wants.energy else (None, None))
+    partials = (residual_jacobian(ne, acceleration_symbols(nu))
+                if wants.jacobian and residual is not None else None)
+    program = ne.P.build()
+    if partials is not None:
+        program = Program(program.assignments + partials[1].assignments, program.checks)
     return Equations(
         name=model.name,
         layout=layout,
@@ -70,10 +79,11 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
         points=point_kinematics(prep, wants.points),
         source=f"mbgen.Model {model.name!r}",
         method="newton_euler",
-        program=ne.P.build(),
+        program=program,
         accelerations=sm.ImmutableMatrix(udot) if udot is not None else None,
         reactions=loads,
         residual=sm.ImmutableMatrix(residual) if residual is not None else None,
+        residual_jacobian=partials[0] if partials is not None else None,
     )
 
 

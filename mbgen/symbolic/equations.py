@@ -165,6 +165,11 @@ class Equations:
         inverse dynamics in program symbols (a Newton–Euler derivation without
         constraints): what the Jacobians differentiate, at a cost linear in the
         number of bodies per variable, instead of ``F`` and ``M``.
+    residual_jacobian : ImmutableMatrix, shape (n_u, n_q + n_u), or None
+        :math:`\partial R/\partial x` of the ``residual`` at ``u'`` held, where the
+        derivation has it analytically (:mod:`mbgen.derive.rnea_partials`; asked for
+        with ``derive(..., jacobian=True)``); ``Output.JACOBIAN`` then uses it instead
+        of differentiating ``residual`` through the program.
     reactions : JointLoads or None
         Joint reaction forces and moments, when derived.
     constraints : Constraints or None
@@ -190,6 +195,7 @@ class Equations:
     reactions: JointLoads | None = None
     residual: sm.ImmutableMatrix | None = None
     constraints: Constraints | None = None
+    residual_jacobian: sm.ImmutableMatrix | None = None
 
     def __post_init__(self):
         L = self.layout
@@ -223,6 +229,11 @@ class Equations:
                 raise ModelError(f"residual has shape {self.residual.shape}, expected ({n}, 1)")
             checked.append(("residual", self.residual))
             known = known | set(acceleration_symbols(n))
+        if self.residual_jacobian is not None:
+            if self.residual is None or self.residual_jacobian.shape != (n, L.n_x):
+                raise ModelError(f"residual_jacobian has shape {self.residual_jacobian.shape}, "
+                                 f"expected ({n}, {L.n_x}) with a residual")
+            checked.append(("residual Jacobian", self.residual_jacobian))
         if self.constraints is not None:
             checked.append(("constraints", self.constraints.expressions()))
         for what, exprs in checked:

@@ -22,7 +22,8 @@ derivative of every assignment with respect to a variable ``v`` is
     \frac{d s_k}{d v} = \sum_{s \in e_k} \frac{\partial e_k}{\partial s}\,\frac{d s}{d v},
 
 one new assignment per nonzero derivative; the cost per variable is the size
-of the program, never that of the expanded expressions.
+of the part of the program that the expressions read, never that of the
+expanded expressions.
 """
 
 from __future__ import annotations
@@ -32,8 +33,8 @@ from typing import Iterable, Sequence
 
 import sympy as sm
 
-from .graph import (free_symbols, postorder_unique, symbols_back, to_symengine, to_sympy,
-                    xreplace_dag)
+from .graph import (free_symbols, postorder_unique, reachable, symbols_back, to_symengine,
+                    to_sympy, xreplace_dag)
 
 
 @dataclass(frozen=True)
@@ -162,8 +163,10 @@ def derivatives(program: Program, exprs: Sequence, variables: Sequence,
     import symengine as se
 
     memo: dict = {}
-    syms = to_symengine([s for s, _ in program.assignments], memo)
-    defs = to_symengine([e for _, e in program.assignments], memo)
+    needed = reachable(list(exprs), dict(program.assignments))   # only what exprs read
+    kept = [(s, e) for s, e in program.assignments if s in needed]
+    syms = to_symengine([s for s, _ in kept], memo)
+    defs = to_symengine([e for _, e in kept], memo)
     svars = to_symengine(list(variables), memo)
     sexprs = to_symengine(list(exprs), memo)
     tracked = set(syms) | set(svars)
