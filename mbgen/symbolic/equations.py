@@ -166,7 +166,7 @@ class Equations:
         constraints): what the Jacobians differentiate, at a cost linear in the
         number of bodies per variable, instead of ``F`` and ``M``.
     residual_jacobian : ImmutableMatrix, shape (n_u, n_q + n_u), or None
-        :math:`\partial R/\partial x` of the ``residual`` at ``u'`` held, where the
+        ``dR/dx`` of the ``residual`` at ``u'`` held, where the
         derivation has it analytically (:mod:`mbgen.derive.rnea_partials`; asked for
         with ``derive(..., jacobian=True)``); ``Output.JACOBIAN`` then uses it instead
         of differentiating ``residual`` through the program.
