@@ -36,6 +36,7 @@ from .codegen.optimize import CseBackend, Form, Kernel, optimize
 from .abi import Output
 from .abi import Rendered
 from .codegen.render import render
+from .codegen.outputs import needs_jacobian
 from .run.compiled import CompiledModel
 from .model.scene import Scene, source_label
 from .codegen.slicing import bake
@@ -264,7 +265,7 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         """Derive with ``how`` (None: the source's own) for ``reason``, and bake."""
         equations = timed("derive", equations_of, source, how, of=how,
                           reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
-                          points=points, jacobian=Output.JACOBIAN in outs)
+                          points=points, jacobian=needs_jacobian(outs))
         if reason:
             equations = replace(equations, method_reason=reason)
         if parameters:

@@ -100,6 +100,14 @@ def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[
     return Output.parse(wanted)
 
 
+def needs_jacobian(outputs: Iterable[Output]) -> bool:
+    """Whether ``outputs`` include ``df/dx``, asked for or called by an implicit integrator
+    (what a derivation is asked for with ``derive(..., jacobian=True)``)."""
+    wanted = set(Output.parse(outputs))
+    return Output.JACOBIAN in wanted or any(
+        Output.JACOBIAN in METHODS[o].needs for o in INTEGRATORS if o in wanted)
+
+
 class Form(str, Enum):
     """How the generated code gets the accelerations ``u'``.
 
