@@ -158,7 +158,8 @@ def constrain(eq: Equations, prep: Prepared) -> Equations:
                    mass_matrix=sm.ImmutableMatrix(n, n, [M[i, j] for i in order for j in order]),
                    forcing=sm.ImmutableMatrix(n, 1, [F[i] for i in order]),
                    program=program if isinstance(program, Program) else Program(),
-                   accelerations=None, reactions=reactions, constraints=cons, residual=None)
+                   accelerations=None, reactions=reactions, constraints=cons, residual=None,
+                   residual_jacobian=None)
 
 
 def ordered(model) -> list:

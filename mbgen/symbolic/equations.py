@@ -19,7 +19,7 @@ import sympy as sm
 
 from ..errors import ModelError
 from ..summary import names, table
-from .graph import applied_functions, count_ops_dag, free_symbols
+from .graph import count_ops_dag, free_symbols, leaves
 from .layout import Layout
 from .program import Program
 
@@ -218,10 +218,9 @@ class Equations:
         checked = [("mass matrix", self.mass_matrix), ("forcing", self.forcing),
                    ("kinematics", self.kinematics)]
         if self.program:
-            checked.append(("program", [e for _, e in self.program.assignments]))
+            checked.append(("program", self.program))
             # the placeholders of solved quantities (accelerations, multipliers) are internal
-            known = known | {s for s in free_symbols([e for _, e in self.program.assignments])
-                             if s.name.startswith("mbgen:")}
+            known = known | {s for s in self.program.leaves[0] if s.name.startswith("mbgen:")}
         if self.accelerations is not None:
             checked.append(("accelerations", self.accelerations))
         if self.residual is not None:
@@ -237,13 +236,14 @@ class Equations:
         if self.constraints is not None:
             checked.append(("constraints", self.constraints.expressions()))
         for what, exprs in checked:
-            unknown = free_symbols(exprs) - known
+            # a program's leaves are walked once per Program (dataclasses.replace keeps it)
+            symbols, funcs = exprs.leaves if isinstance(exprs, Program) else leaves(exprs)
+            unknown = symbols - known
             if unknown:
                 names = ", ".join(sorted(map(str, unknown)))
                 raise ModelError(f"the {what} contains symbol(s) {names} that are neither "
                                  f"coordinates, speeds, parameters, inputs nor time; declare "
                                  f"them (e.g. model.constants('{names.split(', ')[0]}'))")
-            funcs = applied_functions(exprs)
             if funcs:
                 raise ModelError(f"the {what} still contains function(s) of time "
                                  f"{sorted(map(str, funcs))}; declare them as coordinates, "

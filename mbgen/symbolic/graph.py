@@ -33,6 +33,17 @@ def free_symbols(exprs: Iterable[sm.Basic]) -> set:
     return {n for n in walk_unique(exprs) if isinstance(n, sm.Symbol)}
 
 
+def leaves(exprs: Iterable[sm.Basic]) -> tuple[set, set]:
+    """``(free symbols, applied undefined functions)`` of ``exprs`` in one DAG walk."""
+    symbols, funcs = set(), set()
+    for n in walk_unique(exprs):
+        if isinstance(n, sm.Symbol):
+            symbols.add(n)
+        elif isinstance(n, sm.core.function.AppliedUndef):
+            funcs.add(n)
+    return symbols, funcs
+
+
 def applied_functions(exprs: Iterable[sm.Basic]) -> set:
     """Undefined functions applied to arguments, e.g. ``q1(t)`` (DAG walk)."""
     return {n for n in walk_unique(exprs) if isinstance(n, sm.core.function.AppliedUndef)}

@@ -28,13 +28,14 @@ expanded expressions.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 import sympy as sm
 
-from .graph import (free_symbols, postorder_unique, reachable, symbols_back, to_symengine,
-                    to_sympy, xreplace_dag)
+from .graph import (free_symbols, leaves, postorder_unique, reachable, symbols_back,
+                    to_symengine, to_sympy, xreplace_dag)
 
 
 @dataclass(frozen=True)
@@ -53,6 +54,11 @@ class Program:
     @property
     def symbols(self) -> tuple[sm.Symbol, ...]:
         return tuple(s for s, _ in self.assignments)
+
+    @functools.cached_property
+    def leaves(self) -> tuple[set, set]:
+        """``(free symbols, applied functions)`` of the definitions (walked once, kept)."""
+        return leaves([e for _, e in self.assignments])
 
     def inline(self, exprs: Iterable, evaluate: bool = True) -> list:
         """``exprs`` with every program symbol replaced by its definition (a shared graph).
