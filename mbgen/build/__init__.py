@@ -1,8 +1,8 @@
 """Build: rendered texts to binaries, with the C compiler.
 
 :mod:`~mbgen.build.extension` compiles a :class:`~mbgen.abi.Rendered` into a cffi
-extension module, cached by content hash (``load``), running cffi's build in a child
-process (:mod:`~mbgen.build.cffi_child`) so that threads may build at once;
+extension module, cached by content hash (``load``): cffi writes the wrapper, the
+compiler runs in child processes read through pipes, so that threads may build at once;
 :mod:`~mbgen.build.cache` keeps the folder of compiled modules private and decides
 which file may be loaded (owner, mode, SHA-256 record); :mod:`~mbgen.build.fmu` compiles
 an FMU's sources into this platform's shared library and writes the ``.fmu`` zip.

@@ -1,4 +1,4 @@
-r"""Analytic partial derivatives of inverse dynamics on a tree of revolute joints.
+r"""Analytic partial derivatives of inverse dynamics on a tree of revolute and prismatic joints.
 
 The state Jacobian of ``u'`` is :math:`M^{-1}\,\partial R/\partial x` with
 :math:`R = F - M u'` at ``u'`` held (:mod:`mbgen.codegen.outputs`).  Forward-mode
@@ -11,10 +11,11 @@ Carpentier & Mansard (RSS 2018), with world-frame spatial quantities at the
 world origin (motions ``(w, v)``, forces ``(n, f)``, angular part first), so that
 a pair of joints costs a few 6-vector dot products.
 
-**Where it applies** (:func:`screw_joints`): no constraints, and every body turns
-relative to its parent by one coordinate ``q_k`` about a fixed axis through its
-joint point, with ``q_k' = u_k`` (a revolute joint; constant rotations before
-and after are allowed).  Then ``S_b`` is constant in the body,
+**Where it applies** (:func:`screw_joints`): no constraints, and every body moves
+relative to its parent by one coordinate ``q_k`` with ``q_k' = u_k``: turning about
+a fixed axis through its joint point (revolute; constant rotations before and after
+are allowed, the angle may be ``a q_k + b``) or sliding along a fixed axis
+(prismatic).  Then ``S_b`` is constant in the body,
 :math:`\partial(\cdot)/\partial q_k` of everything below joint ``k`` is the
 twist ``S_k`` (world :math:`J_k`), and in the world frame
 
@@ -40,7 +41,8 @@ strict descendant of ``b``
     \partial\tau_b/\partial q_d = J_b\cdot(F_{q,d} + J_d\times^* f^C_d),\qquad
     \partial\tau_b/\partial u_d = J_b\cdot F_{v,d},
 
-and on the diagonal :math:`J_b\cdot F_{q,b}`, :math:`J_b\cdot F_{v,b}`.  Loads
+and on the diagonal :math:`J_b\cdot F_{q,b}`, :math:`J_b\cdot F_{v,b}`.  ``B`` needs
+12 numbers, not 36 (:meth:`_World._coriolis`).  Loads
 other than gravity (and generalized forces on massless parts) enter ``R`` as
 :math:`\tau^{app}_k + \sum_b S_{b,k}\cdot G^{app}_b`, differentiated through the
 program in forward mode (cheap: they touch few bodies).  Every per-body quantity
@@ -82,7 +84,8 @@ def fcross(a, f) -> tuple:
 
 
 def inertia_action(Y, x) -> tuple:
-    """``Y x`` for the inertia ``Y = (m, h, I)`` about the origin: ``(I w + h x v, m v - h x w)``."""
+    """``Y x`` for the inertia ``Y = (m, h, I)`` about the origin: ``(I w + h x v, m v - h x w)``
+    (``x = (w, v)``)."""
     m, h, I = Y
     w, v = split(x)
     return join(vadd(matvec(I, w), cross(h, v)), vadd(vscale(m, v), vneg(cross(h, w))))
@@ -282,17 +285,17 @@ class _World:
         Aq = P.vector(vadd6(mcross(ap, J), mcross(vp, Vq)))
         Av = scale6(TWO, Vq)
         Y = self._inertia(b, R, c)
-        self.Y_I = Y[2]
         h = P.vector(inertia_action(Y, v))
         f = P.vector(vadd6(inertia_action(Y, a), fcross(v, h)))
-        B = self._coriolis(split(v)[0], split(v)[1], Y[1], h)
+        B = self._coriolis(split(v), Y, h)
         self.R[b], self.c[b], self.J[b], self.v[b], self.a[b] = R, c, J, v, a
         self.Y[b], self.B[b], self.f[b] = Y, B, f
         self.Vq[b], self.Aq[b], self.Av[b] = Vq, Aq, Av
 
-    def _coriolis(self, w, vl, hO, h):
+    def _coriolis(self, v, Y, h):
         r"""``B`` of one body as ``(B_ww, p)``: :math:`B = [[B_{ww}, 0], [-2[p\times], 0]]`
-        with ``p`` the linear momentum and, ``(h_n, p) = Y v`` and ``h_O`` the first moment,
+        for the velocity ``v = (w, v_l)``, the inertia ``Y = (m, h_O, I)`` (``h_O`` the
+        first moment about the origin) and the momentum ``h = Y v = (h_n, p)``,
 
         .. math::
 
@@ -300,8 +303,7 @@ class _World:
                      - [h_n\times]
 
         (the right column vanishes: :math:`w\times h_O + m v_l = p`)."""
-        P = self.P
-        I = self.Y_I
+        P, (w, vl), (_, hO, I) = self.P, v, Y
         hn, p = split(h)
         wx = _skew(w)
         WI, IW = _matmul(wx, I), _matmul(I, wx)
@@ -417,4 +419,5 @@ def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, Program] | None:
     return sm.ImmutableMatrix(rows), extra
 
 
-__all__ = ["MIN_SPEEDS", "applied_residual", "inertial_partials", "residual_jacobian", "screw_joints"]
+__all__ = ["MIN_SPEEDS", "applied_residual", "inertial_partials", "residual_jacobian",
+           "screw_joints"]
