@@ -340,7 +340,9 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     :math:`R = F - M u'` is the equations' inverse-dynamics ``residual`` where they carry
     one (a Newton–Euler derivation, in either form), differentiated through the program
     (forward mode, :func:`mbgen.symbolic.program.derivatives`), so neither ``M`` nor the
-    articulated inertias are differentiated.  A recursion without a residual has its
+    articulated inertias are differentiated; for ``df/dx``, the equations'
+    ``residual_jacobian`` where the derivation wrote it analytically
+    (:mod:`mbgen.derive.rnea_partials`).  A recursion without a residual has its
     accelerations differentiated through the program instead.
     """
     L = eq.layout

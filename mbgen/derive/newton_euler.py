@@ -22,7 +22,8 @@ in its own module:
    gives ``u'`` directly when every speed belongs to exactly one joint;
 3. :mod:`mbgen.derive.reactions` -- the joint reactions ``f_b`` above;
 4. :mod:`mbgen.derive.rnea_partials` -- the analytic state Jacobian of the
-   inverse dynamics, where every joint is revolute (asked for by ``wants.jacobian``).
+   inverse dynamics, where every joint is revolute or prismatic (asked for by
+   ``wants.jacobian``).
 
 Every per-body quantity is a named intermediate of one program
 (:class:`mbgen.symbolic.program.Program`), so the equations' size is linear in
