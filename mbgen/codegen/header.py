@@ -27,7 +27,7 @@ import re
 from ..integrators import METHODS, method
 from .escape import c_comment
 from .integrators import explicit_time
-from .solver import COLUMN_BLOCK, UNROLL_MAX, factor_program
+from .solver import UNROLL_MAX, factor_program
 
 #: Allowance per call level: return address, saved registers, alignment, compiler spills.
 FRAME_BYTES = 256
@@ -62,9 +62,9 @@ def _function_bytes(view: dict) -> int:
         + view["work"] + sum(b["size"] for b in view["pre"] + view["post"] if b["local"])
     ints = int(bool(view["solve"])) + int(bool(view["columns"])) + 1 \
         + int(any(p["status"] for p in view["parts"]))
-    if view["columns"] and view["n_u"] > UNROLL_MAX:    # the row-wise solve: acc, B, k, c0
-        doubles += min(view["columns"], COLUMN_BLOCK) + 1
-        ints += 2
+    if view["columns"] and view["n_u"] > UNROLL_MAX:    # the row-wise solve: acc, B, k
+        doubles += view["columns"] + 1
+        ints += 1
     return D * doubles + I * ints
 
 

@@ -43,12 +43,6 @@ from dataclasses import dataclass
 
 #: Largest ``n_u`` whose solver is unrolled into straight-line code.
 UNROLL_MAX = 12
-#: Columns solved together in the row-wise ``M^-1 DT`` of a Jacobian past :data:`UNROLL_MAX`:
-#: a block's running sums stay in vector registers (four AVX2 registers).  Measured on the
-#: solve alone, ``n_u = 32`` and 64 columns, in a C loop at ``-O2 -march=native
-#: -ffp-contract=off`` (gcc 12): 7.7 us all columns at once, 4.8 us in blocks of 16, 8.6 us
-#: in blocks of 8; ``-O3`` on the unblocked loops 5.3 us.
-COLUMN_BLOCK = 16
 #: A pivot ``d_j <= PIVOT_ULPS * n * eps * M_jj`` is singular (the module docstring).
 PIVOT_ULPS = 16
 

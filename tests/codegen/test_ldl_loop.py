@@ -8,8 +8,6 @@ generated Python against the lambdified equations solved by NumPy.
 from __future__ import annotations
 
 import numpy as np
-import pytest
-
 import mbgen
 
 import mbgen.codegen.targets.model
@@ -17,7 +15,7 @@ import mbgen.codegen.header
 from mbgen.verify.check import check
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
-from mbgen.codegen.solver import COLUMN_BLOCK, UNROLL_MAX
+from mbgen.codegen.solver import UNROLL_MAX
 
 
 def _loops(rendered) -> bool:
@@ -42,19 +40,14 @@ def test_thirteen_speeds_take_the_loop_path():
     assert all(r.compared == 3 for r in report.rows)
 
 
-@pytest.mark.parametrize("block", [COLUMN_BLOCK, 3])
-def test_the_row_wise_column_solve_gives_the_per_column_solves_bits(monkeypatch, block):
-    """Past UNROLL_MAX the Jacobian's columns are solved together, row by row, in blocks of
-    ``COLUMN_BLOCK`` (the inner loops along a row vectorise): per column the operations of
-    ``ldl_solve`` in its order, so the C Jacobian is the generated Python's (one column at a
-    time) bit for bit.  Blocks of 3: two whole blocks of the 8 columns and a last one of 2."""
+def test_the_row_wise_column_solve_gives_the_per_column_solves_bits(monkeypatch):
+    """Past UNROLL_MAX the Jacobian's columns are solved together, row by row (the inner
+    loops along a row vectorise): per column the operations of ``ldl_solve`` in its order,
+    so the C Jacobian is the generated Python's (one column at a time) bit for bit."""
     monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
     monkeypatch.setattr(mbgen.codegen.header, "UNROLL_MAX", 1)
-    monkeypatch.setattr(mbgen.codegen.targets.model, "COLUMN_BLOCK", block)
-    monkeypatch.setattr(mbgen.codegen.header, "COLUMN_BLOCK", block)
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "parameter_jacobian"))
-    assert f"double acc[{min(8, block)}];" in result.rendered.source
-    assert ("the last 2 columns" in result.rendered.source) == (block == 3)
+    assert "double acc[8];" in result.rendered.source
     py = mbgen.python_model(result.rendered)
     rng = np.random.default_rng(2)
     for _ in range(4):

@@ -18,8 +18,7 @@ from ..optimize import Kernel, KernelFunction
 from ...symbolic.equations import acceleration_symbols, lambda_symbols
 from ..outputs import Form
 from ..printing import SORT_TERMS_MAX_OPS, CPrinter, PyPrinter, math_functions
-from ..solver import (COLUMN_BLOCK, UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines,
-                      solve_program)
+from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines, solve_program
 from ..split import split_view
 from .base import Target
 
@@ -175,7 +174,6 @@ class ModelFiles(Target):
             ops_after=kernel.ops_after,
             any_solve=any_solve,
             unrolled=unrolled,
-            block_columns=COLUMN_BLOCK,
             pivot_factor=pivot_factor(L.n_u),
             ldl_factor_c=c_lines(factor, f"{upper}_NOT_POSITIVE_DEFINITE") if unrolled else [],
             ldl_solve_c=c_lines(solve_program(L.n_u, kernel.mass_pattern), "")
