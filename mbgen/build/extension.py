@@ -192,7 +192,7 @@ def crossing_object(root: Path) -> Path:
             src.write_text("#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n" + crossing_source(),
                            encoding="utf-8")
             obj, record = folder / "crossing.o", folder / "crossing.o.sha256"
-            cmd = [_cc(), *CROSSING_FLAGS, "-I", sysconfig.get_paths()["include"],
+            cmd = [_cc(), *CROSSING_FLAGS, *(f"-I{d}" for d in _python_includes()),
                    "-I", numpy.get_include(), "-c", str(src), "-o", str(obj)]
             done = subprocess.run(cmd, capture_output=True, text=True, errors="replace")
             full = mentions_full_disk(done.stdout + done.stderr)

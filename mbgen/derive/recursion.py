@@ -393,11 +393,11 @@ class NewtonEuler:
         m, h, IJ = inn["m"], inn["h"], inn["IJ"]
         n_in = vadd(matvec(IJ, alpha), cross(h, acc), cross(w, matvec(IJ, w)))
         f_in = vadd(vscale(m, acc), cross(alpha, h), cross(w, cross(w, h)))
-        n_app, f_app = [ZERO3], [ZERO3]
-        for n, f in self._loads.get(b, ()):
-            n_app.append(n)
-            f_app.append(f)
-        return self.P.vector(join(vadd(*n_app, vneg(n_in)), vadd(*f_app, vneg(f_in))))
+        return self.P.vector(vadd6(self.applied_wrench(b), vneg6(join(n_in, f_in))))
+
+    def applied_wrench(self, b: Body) -> tuple:
+        """The loads applied to ``b`` (gravity aside): moment about ``J_b`` and force."""
+        return join(*(vadd(ZERO3, *(w[i] for w in self._loads.get(b, ()))) for i in (0, 1)))
 
     def kinetic_energy(self):
         r"""``T``: :math:`\tfrac12\sum_b V_b^T \mathcal I_b V_b` with the spatial velocity
@@ -424,11 +424,11 @@ class NewtonEuler:
         terms = [force_to_parent(of[c], self.to_parent(c), self.kin[c]["r"]) for c in b.children]
         return tuple(add(*(t[i] for t in terms)) for i in range(6)) if terms else ZERO6
 
-    def forcing(self) -> list:
-        """``F``: projections of the inward sums of ``g`` on the joints' free motions."""
-        G = {}
+    def forcing(self, wrenches: dict | None = None) -> list:
+        """``F``: ``tau`` + the inward sums of ``wrenches`` (default ``g``) on the free motions."""
+        wrenches, G = self.g if wrenches is None else wrenches, {}
         for b in reversed(self.bodies):
-            G[b] = self.P.vector(vadd6(self.g[b], self.children_sum(b, G)))
+            G[b] = self.P.vector(vadd6(wrenches[b], self.children_sum(b, G)))
         F = [list(self.tau.get(k, ())) for k in range(self.nu)]
         for b in self.bodies:
             for k, s in self.kin[b]["S"].items():

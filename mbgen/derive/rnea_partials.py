@@ -57,7 +57,8 @@ import sympy as sm
 
 from ..symbolic.program import Program, derivatives
 from .joints import Body
-from .spatial import ZERO6, dot6, join, split, vadd6
+from .spatial import (ZERO6, dot6, fcross, join, matmul3, mcross, scale6, skew, split,
+                      vadd6)
 from .tree import S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, vadd, vneg, vscale
 
 TWO = sm.Integer(2)
@@ -69,31 +70,12 @@ MIN_SPEEDS = 5
 
 
 # ---------------------------------------------------------------- spatial algebra (world)
-def mcross(a, b) -> tuple:
-    """Motion cross product ``a x b``: ``(w x wb, w x vb + v x wb)``."""
-    w, v = split(a)
-    wb, vb = split(b)
-    return join(cross(w, wb), vadd(cross(w, vb), cross(v, wb)))
-
-
-def fcross(a, f) -> tuple:
-    """Motion ``a`` acting on force ``f``: ``(w x n + v x fl, w x fl)``."""
-    w, v = split(a)
-    n, fl = split(f)
-    return join(vadd(cross(w, n), cross(v, fl)), cross(w, fl))
-
-
 def inertia_action(Y, x) -> tuple:
     """``Y x`` for the inertia ``Y = (m, h, I)`` about the origin: ``(I w + h x v, m v - h x w)``
     (``x = (w, v)``)."""
     m, h, I = Y
     w, v = split(x)
     return join(vadd(matvec(I, w), cross(h, v)), vadd(vscale(m, v), vneg(cross(h, w))))
-
-
-def _skew(a):
-    """``[a x]`` (rows)."""
-    return ((S0, mul(-1, a[2]), a[1]), (a[2], S0, mul(-1, a[0])), (mul(-1, a[1]), a[0], S0))
 
 
 def coriolis_action(B, x) -> tuple:
@@ -108,15 +90,6 @@ def coriolis_transpose_action(B, x) -> tuple:
     Bww, p = B
     BT = tuple(tuple(Bww[j][i] for j in range(3)) for i in range(3))
     return join(vadd(matvec(BT, x[:3]), vscale(TWO, cross(p, x[3:]))), ZERO3)
-
-
-def scale6(s, x) -> tuple:
-    return tuple(mul(s, e) for e in x)
-
-
-def _matmul(X, Y):
-    return tuple(tuple(add(*(mul(X[i][k], Y[k][j]) for k in range(3))) for j in range(3))
-                 for i in range(3))
 
 
 # ---------------------------------------------------------------- where it applies
@@ -136,6 +109,7 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
     moving = frozenset(L.coordinates) | frozenset(L.speeds) | {L.time}
     look = _Look(dict(ne.P.assignments), moving)
     out: dict = {}
+    used: set = set()      # coordinates already a joint's
     for b in ne.bodies:
         k = ne.kin[b]
         if len(k["S"]) != 1 or k["through"]:
@@ -152,8 +126,9 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
             q = _sliding(ne, b, col, look) if is_zero(col[:3]) else None
         if q is None or q not in coords or ne.prep.qdot.get(q) not in speeds:
             return None
-        if speeds[ne.prep.qdot[q]] != s_index or any(v[0] == coords[q] for v in out.values()):
+        if speeds[ne.prep.qdot[q]] != s_index or q in used:
             return None
+        used.add(q)
         out[b] = (coords[q], s_index)
     return out
 
@@ -217,7 +192,16 @@ class _Look:
 
     def varies(self, x) -> bool:
         """Whether ``x`` depends on q, u or t (through program symbols, each looked at once)."""
-        return _varies(sm.sympify(x), self.defs, self.moving, self._varies)
+        for s in sm.sympify(x).free_symbols:
+            if s in self.moving:
+                return True
+            if s in self.defs:
+                hit = self._varies.get(s)
+                if hit is None:
+                    hit = self._varies[s] = self.varies(self.defs[s])
+                if hit:
+                    return True
+        return False
 
     def inline(self, x):
         """``x`` with program symbols replaced by their definitions (memoised)."""
@@ -230,21 +214,6 @@ class _Look:
                     hit = self._inline[s] = self.inline(self.defs[s])
                 subs[s] = hit
         return x.xreplace(subs) if subs else x
-
-
-def _varies(x, defs, moving, memo) -> bool:
-    """Whether ``x`` depends on a symbol of ``moving``, following program definitions
-    (each program symbol looked at once)."""
-    for s in x.free_symbols:
-        if s in moving:
-            return True
-        if s in defs:
-            hit = memo.get(s)
-            if hit is None:
-                hit = memo[s] = _varies(defs[s], defs, moving, memo)
-            if hit:
-                return True
-    return False
 
 
 # ---------------------------------------------------------------- the partials
@@ -270,7 +239,7 @@ class _World:
             R, c = Rb, ne.kin[b]["r"]
             vp, ap = ZERO6, ground_acc
         else:
-            R = _matmul(self.R[p], Rb)
+            R = matmul3(self.R[p], Rb)
             c = vadd(self.c[p], matvec(self.R[p], ne.kin[b]["r"]))
             vp, ap = self.v[p], self.a[p]
         R = tuple(tuple(P.scalar(x) for x in row) for row in R)
@@ -305,10 +274,10 @@ class _World:
         (the right column vanishes: :math:`w\times h_O + m v_l = p`)."""
         P, (w, vl), (_, hO, I) = self.P, v, Y
         hn, p = split(h)
-        wx = _skew(w)
-        WI, IW = _matmul(wx, I), _matmul(I, wx)
+        wx = skew(w)
+        WI, IW = matmul3(wx, I), matmul3(I, wx)
         two = mul(TWO, dot3(vl, hO))
-        hnx = _skew(hn)
+        hnx = skew(hn)
         B = tuple(tuple(P.scalar(add(WI[i][j], mul(-1, IW[i][j]), two if i == j else S0,
                                      mul(-1, mul(hO[i], vl[j])), mul(-1, mul(vl[i], hO[j])),
                                      mul(-1, hnx[i][j])))
@@ -321,9 +290,9 @@ class _World:
         P, inn = self.P, self.ne.inertia[b]
         m = inn["m"]
         h = P.vector(matvec(R, inn["h"]))
-        RI = _matmul(R, inn["IJ"])
+        RI = matmul3(R, inn["IJ"])
         RT = tuple(tuple(R[j][i] for j in range(3)) for i in range(3))
-        IJ = _matmul(RI, RT)
+        IJ = matmul3(RI, RT)
         diag = add(mul(m, dot3(c, c)), mul(TWO, dot3(c, h)))
         mc = vscale(m, c)
         low = {}
@@ -383,18 +352,9 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list]:
 
 
 def applied_residual(ne) -> list:
-    r"""``R^{app}_k = \tau_k + \sum_b S_{b,k}\cdot G^{app}_b`` with the inward sums
-    :math:`G^{app}_b = \text{applied}_b + \sum_c X_c^T G^{app}_c` (no inertial terms)."""
-    G = {}
-    for b in reversed(ne.bodies):
-        own = join(vadd(ZERO3, *(n for n, _ in ne._loads.get(b, ()))),
-                   vadd(ZERO3, *(f for _, f in ne._loads.get(b, ()))))
-        G[b] = ne.P.vector(vadd6(own, ne.children_sum(b, G)))
-    rows = [list(ne.tau.get(k, ())) for k in range(ne.nu)]
-    for b in ne.bodies:
-        for k, s in ne.kin[b]["S"].items():
-            rows[k].append(dot6(s, G[b]))
-    return [add(*r) for r in rows]
+    r"""``R^{app}_k = \tau_k + \sum_b S_{b,k}\cdot G^{app}_b``: the inward pass of
+    :meth:`~mbgen.derive.recursion.NewtonEuler.forcing` over the applied loads alone."""
+    return ne.forcing({b: ne.applied_wrench(b) for b in ne.bodies})
 
 
 def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, Program] | None:

@@ -53,6 +53,29 @@ def vneg6(a) -> tuple:
     return tuple(mul(-1, x) for x in a)
 
 
+def scale6(s, x) -> tuple:
+    return tuple(mul(s, e) for e in x)
+
+
+def skew(a) -> tuple:
+    """``[a x]`` (rows): ``skew(a) b = a x b``."""
+    return ((S0, mul(-1, a[2]), a[1]), (a[2], S0, mul(-1, a[0])), (mul(-1, a[1]), a[0], S0))
+
+
+def mcross(a, b) -> tuple:
+    """Motion cross product ``a x b``: ``(w x wb, w x vb + v x wb)``."""
+    w, v = split(a)
+    wb, vb = split(b)
+    return join(cross(w, wb), vadd(cross(w, vb), cross(v, wb)))
+
+
+def fcross(a, f) -> tuple:
+    """Motion ``a`` acting on force ``f``: ``(w x n + v x fl, w x fl)``."""
+    w, v = split(a)
+    n, fl = split(f)
+    return join(vadd(cross(w, n), cross(v, fl)), cross(w, fl))
+
+
 def motion_to_child(m, to_child, r) -> tuple:
     """``(R w, R(v + w x r))``; ``to_child`` maps parent to child components."""
     w, v = split(m)
@@ -68,7 +91,7 @@ def force_to_parent(f, to_parent, r) -> tuple:
 
 def spatial_inertia(m, h, IJ) -> tuple:
     """6x6 rows of the spatial inertia about the reference point (see module docstring)."""
-    hx = ((S0, mul(-1, h[2]), h[1]), (h[2], S0, mul(-1, h[0])), (mul(-1, h[1]), h[0], S0))
+    hx = skew(h)
     rows = [tuple(IJ[i]) + hx[i] for i in range(3)]
     rows += [tuple(hx[j][i] for j in range(3)) + tuple(m if i == k else S0 for k in range(3))
              for i in range(3)]
@@ -102,8 +125,8 @@ def congruence(I, rotation, r) -> dict:
     B = tuple(tuple(I[i][3 + j] for j in range(3)) for i in range(3))
     C = tuple(tuple(I[3 + i][3 + j] for j in range(3)) for i in range(3))
     A1, B1, C1 = rotation.sym(A), rotation.full(B), rotation.sym(C)
-    S = ((S0, mul(-1, r[2]), r[1]), (r[2], S0, mul(-1, r[0])), (mul(-1, r[1]), r[0], S0))
-    SC = _matmul(S, C1)
+    S = skew(r)
+    SC = matmul3(S, C1)
     out = {}
     for i in range(3):
         for j in range(i + 1):
@@ -119,7 +142,8 @@ def congruence(I, rotation, r) -> dict:
     return out
 
 
-def _matmul(X, Y):
+def matmul3(X, Y) -> tuple:
+    """``X Y`` of two 3x3 (rows), zeros and ones folded."""
     return tuple(tuple(add(*(mul(X[i][k], Y[k][j]) for k in range(3))) for j in range(3))
                  for i in range(3))
 
@@ -149,7 +173,7 @@ class Rotation:
         """``R X R^T`` for a general 3x3 ``X``."""
         R = self.matrix
         RT = tuple(tuple(R[j][i] for j in range(3)) for i in range(3))
-        return _matmul(_matmul(R, X), RT)
+        return matmul3(matmul3(R, X), RT)
 
     def sym(self, X):
         """``R X R^T`` for a symmetric ``X`` (rows of a full symmetric matrix)."""
