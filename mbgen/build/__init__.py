@@ -4,7 +4,8 @@
 extension module, cached by content hash (``load``): cffi writes the wrapper, the
 compiler runs in child processes read through pipes, so that threads may build at once;
 :mod:`~mbgen.build.cache` keeps the folder of compiled modules private and decides
-which file may be loaded (owner, mode, SHA-256 record); :mod:`~mbgen.build.fmu` compiles
+which file may be loaded (owner, mode, SHA-256 record, checked on the open file that is
+then loaded); :mod:`~mbgen.build.fmu` compiles
 an FMU's sources into this platform's shared library and writes the ``.fmu`` zip.
 Nothing here renders code (:mod:`mbgen.codegen`) or calls a model (:mod:`mbgen.run`).
 

@@ -16,7 +16,11 @@ record are moved into the cache with atomic renames, so concurrent builds -- thr
 processes -- and interrupted ones never leave a half-written module behind: a reader
 sees the old file or the new one, and a module whose record does not match is rebuilt.
 
-No ``os.chdir``, no ``sys.path`` edits: the module is loaded from its file.
+No ``os.chdir``, no ``sys.path`` edits: the module is loaded from the very file that
+passed the cache's checks (:func:`~mbgen.build.cache.loadable`), never from its name opened
+again.  Every argument of the compiler and the linker is in the module's name (the cache
+key: :func:`module_name`), ``$CFLAGS`` and ``$LDFLAGS`` included; flags that break IEEE
+arithmetic (:data:`IEEE_BREAKERS`) are refused.
 
 Besides the model (and its batch loops), every module holds the Python crossing
 (``crossing.c`` beside this file, :mod:`mbgen.run.crossing`): a CPython entry per
@@ -44,7 +48,7 @@ from pathlib import Path
 from ..errors import BuildError, CacheError
 from ..fileio import write_files
 from ..abi import Rendered
-from .cache import (cache_dir, disk_error, disk_full, mentions_full_disk, owner_line,
+from .cache import (cache_dir, disk_error, disk_full, loadable, mentions_full_disk, owner_line,
                     record_path, remove_stale_builds, verified, writable, write_record)
 
 #: Flags for the generated C.  -ffp-contract=off keeps results bitwise close to
@@ -58,6 +62,31 @@ CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-g0")
 #: -O2: 33 / 423 / 1,242 / 2,711; -O2 -march=native: 31 / 350 / 968 / 2,417; -O3 and
 #: -O3 -march=native gave the same as -O2 and -O2 -march=native (within 4 %).
 NATIVE = ("-march=native",)
+
+#: Flags that break the IEEE arithmetic the generated code relies on, refused wherever they
+#: come from ($CFLAGS, $LDFLAGS, Python's own flags), each with its reason; the second field
+#: takes the flag back when it comes later on the line (None: nothing does).  The NaN checks
+#: are what turn a singular state into SingularConstraintError, and the results are meant
+#: to be the generated Python's bit for bit.  (gcc < 13 also links ``crtfastmath.o`` into
+#: a shared library built with -ffast-math or -Ofast: loading it sets flush-to-zero for the
+#: whole process.)
+IEEE_BREAKERS = (
+    ("-ffast-math", "-fno-fast-math", "it assumes no NaN or infinity ever arises, so the "
+     "checks that find them (a singular state's SingularConstraintError) are compiled out"),
+    ("-Ofast", None, "it is -O3 with -ffast-math, which assumes no NaN or infinity ever "
+     "arises, so the checks that find them are compiled out"),
+    ("-ffinite-math-only", "-fno-finite-math-only", "it assumes no NaN or infinity ever "
+     "arises, so the checks that find them are compiled out"),
+    ("-fno-honor-nans", "-fhonor-nans", "it assumes no NaN ever arises, so the checks that "
+     "find them are compiled out"),
+    ("-fno-honor-infinities", "-fhonor-infinities", "it assumes no infinity ever arises"),
+    ("-funsafe-math-optimizations", "-fno-unsafe-math-optimizations", "it reorders and "
+     "approximates floating point: the results are no longer the generated Python's"),
+    ("-fassociative-math", "-fno-associative-math", "it reorders sums: the results are no "
+     "longer the generated Python's"),
+    ("-freciprocal-math", "-fno-reciprocal-math", "it divides by multiplying with "
+     "reciprocals: the results are no longer the generated Python's"),
+)
 
 #: A source whose longest function is longer than this (characters) compiles at -O1
 #: (see :func:`cflags`; :mod:`mbgen.codegen.split` keeps most functions below it).
@@ -211,8 +240,11 @@ def crossing_object(root: Path) -> Path:
 def module_name(rendered: Rendered, native: bool | None = None) -> str:
     """Content-hash module name of ``rendered`` (flags, target CPU and toolchain included).
 
-    The crossing's C and the NumPy it is compiled against are part of it too: the module
-    uses NumPy's C API, so a NumPy update rebuilds it."""
+    Every argument that reaches the compiler and the linker is part of it -- the compiler's
+    name, Python's flags, ``$CFLAGS`` and ``$LDFLAGS`` (:func:`_python_flags`), the include
+    folders, :func:`cflags` -- so a module built with other flags is never taken for this
+    one.  The crossing's C and the NumPy it is compiled against are part of it too: the
+    module uses NumPy's C API, so a NumPy update rebuilds it."""
     import cffi
     import numpy
 
@@ -220,7 +252,9 @@ def module_name(rendered: Rendered, native: bool | None = None) -> str:
     h.update(crossing_source().encode())
     h.update(numpy.__version__.encode())
     flags = cflags(rendered, native)
-    h.update(" ".join(flags).encode())
+    compile_flags, link = _python_flags()
+    for part in (_cc(), *compile_flags, "|", *link, "|", *_python_includes(), "|", *flags):
+        h.update(part.encode() + b"\0")
     if NATIVE[0] in flags:
         h.update(native_target(_cc()).encode())
     h.update(cffi.__version__.encode())
@@ -350,15 +384,52 @@ def _run_all(commands: list[list[str]], folder: Path, name: str, prefix: str) ->
 def _python_flags() -> tuple[tuple[str, ...], tuple[str, ...]]:
     """``(compile flags, link command)`` as distutils builds an extension: Python's
     ``CFLAGS`` and ``CCSHARED`` then ``$CFLAGS``; ``LDSHARED`` (its compiler swapped for
-    ``$CC`` where set) then ``$LDFLAGS``."""
+    ``$CC`` where set) then ``$LDFLAGS``.
+
+    Raises
+    ------
+    BuildError
+        A variable that does not split into arguments (a quote left open), or a flag of
+        :data:`IEEE_BREAKERS`, each named with the variable it came from.
+    """
     var = sysconfig.get_config_var
-    compile_flags = shlex.split(var("CFLAGS") or "") + shlex.split(var("CCSHARED") or "")
-    compile_flags += shlex.split(os.environ.get("CFLAGS", ""))
-    link = shlex.split(var("LDSHARED") or "cc -shared")
+    compile_flags = _split("Python's CFLAGS", var("CFLAGS")) + \
+        _split("Python's CCSHARED", var("CCSHARED")) + _split("$CFLAGS", os.environ.get("CFLAGS"))
+    link = _split("Python's LDSHARED", var("LDSHARED") or "cc -shared")
     if os.environ.get("CC"):
-        link[0] = _cc()
-    link += shlex.split(os.environ.get("LDFLAGS", ""))
-    return tuple(compile_flags), tuple(link)
+        link[0] = ("$CC", _cc())
+    link += _split("$LDFLAGS", os.environ.get("LDFLAGS"))
+    for line in (compile_flags, link):
+        _refuse_ieee_breakers(line)
+    return tuple(f for _, f in compile_flags), tuple(f for _, f in link)
+
+
+def _split(source: str, text: str | None) -> list[tuple[str, str]]:
+    """``text`` split as the shell would, each argument paired with ``source``."""
+    try:
+        return [(source, arg) for arg in shlex.split(text or "")]
+    except ValueError as exc:           # "No closing quotation", "No escaped character"
+        name = source.lstrip("$").replace("Python's ", "")
+        fix = (f"close the quote or unset {name}" if source.startswith("$") else
+               f"Python's build settings (sysconfig {name}) are damaged; reinstall Python")
+        raise BuildError(f"{source}={text!r} does not split into compiler arguments "
+                         f"({str(exc).lower()}); {fix}") from None
+
+
+def _refuse_ieee_breakers(line: list[tuple[str, str]]) -> None:
+    """A BuildError for the first flag of :data:`IEEE_BREAKERS` in force on ``line``."""
+    for flag, undo, why in IEEE_BREAKERS:
+        last = None
+        for source, arg in line:
+            if arg == flag:
+                last = source
+            elif arg == undo:
+                last = None
+        if last is not None:
+            fix = (f"remove it from {last[1:]}" if last.startswith("$") else
+                   "use a Python built without it")
+            raise BuildError(f"{last} holds {flag}, which mbgen does not build with: {why}; "
+                             f"{fix}")
 
 
 def _python_includes() -> tuple[str, ...]:
@@ -367,21 +438,29 @@ def _python_includes() -> tuple[str, ...]:
 
 
 def _import(path: Path):
+    """Import the module at ``path`` from the bytes that passed
+    :func:`~mbgen.build.cache.open_verified` (:func:`~mbgen.build.cache.loadable`: the
+    checked file itself, never the name opened again); an ImportError when they do not."""
     name = path.name[: -len(_suffix())]
-    spec = importlib.util.spec_from_file_location(name, path)
-    if spec is None or spec.loader is None:  # pragma: no cover
-        raise BuildError(f"cannot load compiled module {path}")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    with loadable(path) as origin:
+        if origin is None:
+            raise ImportError(f"{path} is not the user's own build, whole and unchanged")
+        loader = importlib.machinery.ExtensionFileLoader(name, origin)
+        spec = importlib.util.spec_from_file_location(name, origin, loader=loader)
+        if spec is None:  # pragma: no cover
+            raise BuildError(f"cannot load compiled module {path}")
+        mod = importlib.util.module_from_spec(spec)
+        loader.exec_module(mod)
     return mod
 
 
 def load(rendered: Rendered, *, force: bool = False, native: bool | None = None):
     """Build if needed and import the extension; returns the cffi module (``.ffi``, ``.lib``).
 
-    A module is imported from its file only after :func:`build` found it trusted
-    (:func:`mbgen.build.cache.verified`: the user's own, whole and unchanged), else it
-    is rebuilt first; one that still fails to import is rebuilt once more.  A module
+    A module is imported only from the bytes that were found trusted
+    (:func:`mbgen.build.cache.open_verified`: the user's own, whole and unchanged, checked
+    on the open file that is then loaded), else it is rebuilt first; one that still fails
+    to import is rebuilt once more.  A module
     already imported by this process is returned without reading the disk.  ``native``:
     build for this machine's CPU (default :func:`wants_native`; see :func:`cflags`).
     """

@@ -2,8 +2,10 @@
 
 A damaged module is loaded in a child process: a truncated library used to crash the
 interpreter (SIGBUS) when mapped, so the crash must not take the test run down.  A
-planted library is refused before it is mapped (its constructor would run), and a
-full disk or a read-only cache is a named error (CacheError), never an OSError.
+planted library is refused before it is mapped (its constructor would run), a module
+swapped after its check is not the one loaded (the checked file is), and a full disk,
+a read-only cache or a cache reached through another user's link is a named error
+(CacheError), never an OSError.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from pathlib import Path
 
 import pytest
 
+from mbgen.build import cache as cache_module
 from mbgen.build.cache import STALE_AFTER, cache_dir, remove_stale_builds, verified
 from mbgen.build import extension
 from mbgen.build.extension import build, compiled_path, load, module_name
@@ -331,3 +334,82 @@ def test_a_full_disk_while_compiling_is_a_named_error(tmp_path, monkeypatch):
     message = str(info.value)
     assert str(cache) in message and "no space left" in message.lower()
     assert "\n" not in message
+
+
+# ------------------------------------------------------------------ links, records, the load
+def test_a_cache_is_reached_only_through_the_users_own_links(tmp_path, monkeypatch):
+    """Issue 28: a link another user owns can be pointed elsewhere while modules load."""
+    real = tmp_path / "real"
+    real.mkdir(mode=0o700)
+    (tmp_path / "mine").symlink_to(real)
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path / "mine" / "cache"))
+    assert cache_dir() == real / "cache"                    # used by its real path
+    theirs = tmp_path / "theirs"
+    theirs.symlink_to("mine")                               # a link on the way, not the last
+    if os.geteuid() == 0:
+        os.lchown(theirs, 65534, 65534)
+    else:
+        lstat = os.lstat
+        monkeypatch.setattr(os, "lstat", lambda p, **k: os.stat_result(
+            (*lstat(p, **k)[:4], 65534, *lstat(p, **k)[5:10])) if str(p) == str(theirs)
+            else lstat(p, **k))
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(theirs / "cache"))
+    with pytest.raises(CacheError, match=f"through the link {theirs}, owned by .*65534"):
+        cache_dir()
+    loop = tmp_path / "loop"
+    loop.symlink_to("loop")
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(loop / "cache"))
+    with pytest.raises(CacheError, match="more than 40 links"):
+        cache_dir()
+
+
+def test_a_record_that_is_not_the_users_own_private_file_vouches_for_nothing(cache,
+                                                                             monkeypatch):
+    """The record (``<module>.sha256``) is what makes a module trusted: one that group or
+    others could write, another user's, or a link is not read."""
+    root, path, _ = cache
+    record = path.with_name(path.name + ".sha256")
+    record.chmod(0o666)
+    assert not verified(path)
+    record.chmod(0o644)
+    assert verified(path)
+    elsewhere = root / "elsewhere.sha256"
+    os.replace(record, elsewhere)
+    record.symlink_to(elsewhere)
+    assert not verified(path)
+    os.replace(elsewhere, record)
+    assert verified(path)
+    _owned_by_someone_else(record, monkeypatch)
+    assert not verified(path)
+
+
+@pytest.mark.parametrize("way", ["proc", "copy"])
+def test_the_loaded_bytes_are_the_checked_bytes(cache, monkeypatch, tmp_path_factory, way):
+    """Issue 28: the check and the load opened the module by name, ~0.2 ms apart; a planted
+    library swapped in between ran (7 loads in 300).  Here the swap comes right after the
+    check, with a plant that would pass it: the module loaded is still the checked one."""
+    root, path, _ = cache
+    scratch = tmp_path_factory.mktemp("plant")
+    marker, plant = scratch / "constructor-ran", scratch / "plant.so"
+    _plant(plant, marker, scratch)
+    if way == "copy":
+        monkeypatch.setattr(cache_module, "PROC_FD", None)
+    real = cache_module.open_verified
+
+    def checked_then_swapped(module):
+        fd = real(module)
+        if sys._getframe(1).f_code.co_name != "loadable":      # build's check: no swap yet
+            return fd
+        os.replace(plant.with_name(plant.name + ".sha256"), module.with_name(
+            module.name + ".sha256"))
+        os.replace(plant, module)
+        return fd
+
+    monkeypatch.setattr(cache_module, "open_verified", checked_then_swapped)
+    rendered = run(load_scene("n_link_cart", n=1), build=False).rendered
+    mod = load(rendered)
+    assert not marker.exists(), "the library swapped in after the check was loaded"
+    assert hasattr(mod.lib, f"{rendered.prefix}_rhs")
+    monkeypatch.undo()
+    assert verified(path), "the plant would have passed a check by name"
+    assert not list(root.glob("_mbgen_load-*")), "the private copy stayed"

@@ -1,15 +1,18 @@
 """The extension's flags (mbgen.build.extension.cflags): optimisation level by source size and its
-override, built for this machine's CPU (cache key included) with the portable build's results."""
+override, built for this machine's CPU (cache key included) with the portable build's results;
+every argument of the compiler in the cache key, IEEE-breaking flags and open quotes refused."""
 
 import dataclasses
+import re
+import shutil
 
 import pytest
 
 import numpy as np
 
 from mbgen.build import extension
-from mbgen.build.extension import (LARGE_FUNCTION_CHARS, NATIVE, cflags, compiled_path, compiler,
-                                   load, module_name, native_target)
+from mbgen.build.extension import (IEEE_BREAKERS, LARGE_FUNCTION_CHARS, NATIVE, cflags,
+                                   compiled_path, compiler, load, module_name, native_target)
 from mbgen.run.compiled import CompiledModel
 from mbgen.studies.ensemble import worker_module
 from mbgen.errors import BuildError
@@ -109,3 +112,46 @@ def test_ensemble_workers_build_portable_modules(tmp_path, monkeypatch):
     assert compiled_path(r, True).exists() == native
     monkeypatch.delenv("MBGEN_NATIVE")
     assert worker_module(r.sources(), native=True)[0] is load(r)   # a serial run's: this CPU's
+
+
+# ------------------------------------------------------------------ the user's own flags
+def test_every_argument_of_the_compiler_is_in_the_cache_key(rendered, monkeypatch):
+    """Issue 28: a module built once with CFLAGS=-ffast-math was loaded later without it."""
+    for var in ("CFLAGS", "LDFLAGS", "CC"):
+        monkeypatch.delenv(var, raising=False)
+    names = {module_name(rendered)}
+    for var, value in (("CFLAGS", "-DMBGEN_X=1"), ("LDFLAGS", "-Wl,-O1"),
+                       ("CC", shutil.which(compiler()))):
+        monkeypatch.setenv(var, value)
+        names.add(module_name(rendered))
+        monkeypatch.delenv(var)
+    assert len(names) == 4
+
+
+@pytest.mark.parametrize("flag, var", [(row[0], "CFLAGS") for row in IEEE_BREAKERS]
+                         + [("-Ofast", "LDFLAGS"), ("-ffast-math", "LDFLAGS")])
+def test_flags_that_break_ieee_arithmetic_are_refused_with_the_reason(rendered, monkeypatch,
+                                                                      flag, var):
+    monkeypatch.delenv("CFLAGS", raising=False)
+    monkeypatch.setenv(var, f"-g {flag} -DX=1")
+    with pytest.raises(BuildError, match=rf"\${var} holds {re.escape(flag)}, .*: it .*"
+                                         rf"remove it from {var}"):
+        module_name(rendered)
+
+
+def test_a_flag_taken_back_later_on_the_line_is_accepted(rendered, monkeypatch):
+    monkeypatch.setenv("CFLAGS", "-ffast-math -ffinite-math-only -fno-fast-math "
+                                 "-fno-finite-math-only")
+    assert module_name(rendered).startswith("_mbgen_")
+    monkeypatch.setenv("CFLAGS", "-fno-fast-math -ffast-math")
+    with pytest.raises(BuildError, match="-ffast-math"):
+        module_name(rendered)
+
+
+@pytest.mark.parametrize("var", ["CFLAGS", "LDFLAGS"])
+def test_a_quote_left_open_is_a_named_error(rendered, monkeypatch, var):
+    monkeypatch.setenv(var, "-DNAME='a b")
+    with pytest.raises(BuildError, match=rf"\${var}=.*no closing quotation.*close the quote "
+                                         rf"or unset {var}") as info:
+        module_name(rendered)
+    assert "\n" not in str(info.value)

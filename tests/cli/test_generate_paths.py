@@ -136,3 +136,12 @@ def test_golden_update_removes_stale_files(tmp_path):
     assert any("unexpected" in d for d in golden.differences(root, ["disc_pendulum"]))
     golden.update(root, ["disc_pendulum"])
     assert not golden.differences(root, ["disc_pendulum"])
+
+
+def test_generate_refuses_a_lock_that_is_a_link(tmp_path, capsys):
+    """Issue 28: whoever could write the parent folder made mbgen create a file anywhere."""
+    (tmp_path / ".out.lock").symlink_to(tmp_path / "victim")
+    assert main(["generate", "disc_pendulum", "-o", str(tmp_path / "out")]) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert "symbolic link" in err and "Traceback" not in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "victim").exists() and not (tmp_path / "out").exists()
