@@ -5,7 +5,8 @@ A subcommand module (:mod:`mbgen.cli`) builds its arguments from
 :func:`add_integrator_argument` (``--integrator``) and :func:`add_number_arguments`
 (``-p``, ``-x``, ``-r`` by name; ``-r NAME=FILE.csv`` a table of the input against time,
 :func:`mbgen.run.named.read_input_csv`), then turns them into a scene with
-:func:`scene_from` and :func:`with_numbers`.  Output paths and counts are refused before
+:func:`scene_from` and :func:`with_numbers`.  A scene path that is a folder or a pipe is named
+for what it is (:func:`~mbgen.model.scene.load_scene`).  Output paths and counts are refused before
 any work (:func:`check_folder`, :func:`check_output_folder`, :func:`check_file`,
 :func:`check_count`: at most :data:`MAX_POINTS` output times); :func:`progress` prints a
 stage on stderr, :func:`stage_lines` the pipeline's stages when stderr is a terminal.
@@ -159,6 +160,7 @@ def options(pairs) -> dict:
     return out
 
 
+#: What a scene path names, by its suffix (as :func:`~mbgen.model.scene.load_scene` reads it).
 def scene_from(args):
     """The scene of :func:`add_scene_arguments`' arguments (its ``--derivation`` applied)."""
     scene = load_scene(args.scene, force=getattr(args, "force", False), **options(args.option))

@@ -32,6 +32,7 @@ import importlib.util
 import inspect
 import math
 import numbers
+import os
 import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +47,7 @@ from ..errors import ModelError, SceneError
 from ..names import check_name
 from ..symbolic.equations import Equations
 from .builder import Model
+from .files import require_regular_file
 from .limits import allow_large_models, check_size
 from .mjcf import compile_mjcf, from_mujoco, scene_values
 from .urdf import build_model, read_urdf
@@ -284,13 +286,20 @@ def builtin_names() -> list[str]:
     return sorted(m.name for m in pkgutil.iter_modules(scenes.__path__) if not m.name.startswith("_"))
 
 
+def _require_file(path: Path, what: str) -> None:
+    """``SceneError`` unless ``path`` is a regular file: missing, or what it is instead
+    (a folder, a pipe, a device), never read."""
+    if not os.path.lexists(path):
+        raise SceneError(f"{what} {str(path)!r} does not exist")
+    require_regular_file(path, what, SceneError)
+
+
 def _module_for(name_or_path: str):
     path = Path(name_or_path)
     if name_or_path in builtin_names():
         return importlib.import_module(f"mbgen.scenes.{name_or_path}"), f"mbgen/scenes/{name_or_path}.py"
     if path.suffix == ".py":
-        if not path.is_file():
-            raise SceneError(f"scene file {str(path)!r} does not exist")
+        _require_file(path, "scene file")
         spec = importlib.util.spec_from_file_location(f"mbgen_user_scene_{path.stem}", path)
         module = importlib.util.module_from_spec(spec)
         try:
@@ -300,15 +309,13 @@ def _module_for(name_or_path: str):
                              f"{type(exc).__name__}: {exc}") from exc
         return module, str(path.resolve())
     if path.suffix.lower() == ".urdf":
-        if not path.is_file():
-            raise SceneError(f"URDF file {str(path)!r} does not exist")
+        _require_file(path, "URDF file")
 
         def scene(floating: bool = False) -> Scene:
             return urdf_scene(path, floating=floating)
         return SimpleNamespace(scene=scene), str(path.resolve())
     if path.suffix.lower() == ".xml":
-        if not path.is_file():
-            raise SceneError(f"MJCF file {str(path)!r} does not exist")
+        _require_file(path, "MJCF file")
         return SimpleNamespace(scene=lambda: mjcf_scene(path)), str(path.resolve())
     raise SceneError(f"no scene {name_or_path!r}: built-in scenes are "
                      f"{', '.join(builtin_names())}; or give the path of a .py scene file "

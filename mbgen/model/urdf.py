@@ -56,9 +56,11 @@ import re
 import numpy as np
 import sympy as sm
 
-from ..errors import UrdfStructureError
+from ..errors import UrdfInertiaError, UrdfStructureError
 from ..names import C_KEYWORDS, MAX_NAME_LENGTH
+from . import free_base
 from .builder import Model
+from .limits import allow_large_models, check_size
 from .urdf_xml import Robot, read_urdf
 
 #: Free-flyer coordinate and speed names, in Pinocchio's order.
@@ -68,17 +70,25 @@ FLOATING_U = ("root_vx", "root_vy", "root_vz", "root_wx", "root_wy", "root_wz")
 _SNAP = 1e-12
 
 
-def from_urdf(path, *, floating: bool = False) -> Model:
-    """The robot of the URDF file at ``path`` as a :class:`Model` (see the module docstring).
+def from_urdf(path, *, floating: bool = False, force: bool = False) -> Model:
+    """The robot of the URDF file at ``path`` as a :class:`Model` (see the module docstring);
+    ``force`` reads and builds it past the size guard (:mod:`mbgen.model.limits`).
 
     Raises
     ------
     UrdfError
-        Naming the file, the link or joint and the fix: unsafe or malformed XML,
-        a file over 100 MiB, a missing or negative mass, an impossible inertia, an
-        unknown joint type, a mimic joint, a link with two parents, a cycle, no
-        root, names that collide.  Nothing is built when one is raised.
+        Naming the file, the link or joint and the fix: a path that is no regular
+        file, unsafe or malformed XML, a file over 100 MiB, a number out of range, a
+        missing or negative mass, an impossible inertia, a floating root that moves no
+        mass some way (:mod:`mbgen.model.free_base`), an unknown joint type, a mimic
+        joint, a link with two parents, a cycle, no root, names that collide.  Nothing
+        is built when one is raised.
+    ModelSizeError
+        More than :data:`~mbgen.model.limits.MAX_SPEEDS` speeds (unless forced).
     """
+    if force:
+        with allow_large_models():
+            return build_model(read_urdf(path), floating=floating)
     return build_model(read_urdf(path), floating=floating)
 
 
@@ -218,8 +228,14 @@ def frame_vector(frame, comps) -> object:
 
 
 def build_model(robot: Robot, *, floating: bool = False) -> Model:
-    """The :class:`Model` of a checked :class:`~mbgen.model.urdf_xml.Robot`."""
+    """The :class:`Model` of a checked :class:`~mbgen.model.urdf_xml.Robot`: its size and
+    (``floating``) its root are checked before anything is made."""
     joints = [j for j in robot.ordered_joints() if j.type != "fixed"]
+    check_size(len(joints) + 6 * floating,
+               f"URDF file {robot.source!r} with {len(joints)} moving joints"
+               f"{' on a floating base' if floating else ''}")
+    if floating:
+        check_floating_root(robot)
     names = _Names(robot)
     names.visible("g", "the gravity constant")
     for j in joints:
@@ -296,6 +312,57 @@ def _add_body(m: Model, names: _Names, group: Group) -> None:
         m.point(names.internal(f"{group.name}_G"), group.point, frame_vector(group.frame, centre))
     m.body(group.name, group.frame, float(mass), [[float(v) for v in row] for row in inertia],
            point)
+
+
+# ------------------------------------------------------------------------------ floating root
+def check_floating_root(robot: Robot, samples: int = 2) -> None:
+    """Refuse a floating root that some motion moves without moving mass
+    (:mod:`mbgen.model.free_base`): a singular mass matrix at every state.  Tried at
+    ``samples`` pseudo-random joint angles; refused only where every one lacks."""
+    rng = np.random.default_rng(0)
+    found = [free_base.lack(robot_parts(robot, rng.uniform(-np.pi, np.pi, len(robot.joints))))
+             for _ in range(samples)]
+    if all(found):
+        raise UrdfInertiaError(
+            f"URDF file {robot.source!r}: the floating root link {robot.root!r} with all it "
+            f"carries has {found[0]} (some motion of the root the joints below undo, so that "
+            f"nothing with mass moves): the mass matrix is singular at every state; give "
+            f"link {robot.root!r} an <inertial> with a positive mass and inertia, or fix "
+            f"the base (floating=False)")
+
+
+def robot_parts(robot: Robot, angles) -> list:
+    """The links as :class:`~mbgen.model.free_base.Part` rows, the joints (in order) at
+    ``angles``, the root at the world's origin."""
+    pose = {robot.root: (np.eye(3), np.zeros(3))}
+    index = {robot.root: 0}
+    parts = [_part(robot, robot.root, -1, free_base.NO_MOTION, *pose[robot.root])]
+    for j, q in zip(robot.ordered_joints(), angles):
+        R, p = pose[j.parent]
+        R, p = R @ rpy_matrix(j.rpy), p + R @ np.array(j.xyz)
+        a = R @ np.array(j.axis)
+        if j.type == "fixed":
+            motion = free_base.NO_MOTION
+        elif j.type == "prismatic":
+            motion, p = free_base.prismatic_motion(a), p + q * a
+        else:
+            motion = free_base.revolute_motion(a, p)
+            turn = free_base.skew(a)
+            R = (np.eye(3) + math.sin(q) * turn + (1 - math.cos(q)) * turn @ turn) @ R
+        pose[j.child], index[j.child] = (R, p), len(parts)
+        parts.append(_part(robot, j.child, index[j.parent], motion, R, p))
+    return parts
+
+
+def _part(robot: Robot, link: str, parent: int, motion, R, p):
+    inertial = robot.links[link].inertial
+    if inertial is None:
+        return free_base.Part(parent, motion, np.zeros((6, 6)), 0.0, p)
+    Ri = R @ rpy_matrix(inertial.rpy)
+    centre = p + R @ np.array(inertial.xyz)
+    inertia = free_base.body_inertia(inertial.mass, centre,
+                                     Ri @ np.array(inertial.inertia) @ Ri.T)
+    return free_base.Part(parent, motion, inertia, inertial.mass, centre)
 
 
 def _floating_root(m: Model, names: _Names, link: str) -> Group:

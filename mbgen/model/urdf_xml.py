@@ -8,30 +8,66 @@ with the joints in Pinocchio's order (:meth:`Robot.ordered_joints`).  Only
 collisions, meshes, transmissions, ``package://`` names, Gazebo tags and limits
 are never read or resolved.
 
-Safety: a file over :data:`MAX_URDF_BYTES` is refused before it is read; any
-``<!DOCTYPE`` (and so any entity declaration: internal, external or a billion
-laughs) is refused by a first pass of expat that stops at the declaration, so
-nothing is ever expanded or fetched (the standard library parser, no new
-dependency).  Every refusal is a :class:`~mbgen.errors.UrdfError` subclass that
-names the file, the link or joint, and the fix.
+Safety: a path that is not a regular file (a folder, a named pipe, a device) is
+refused by what it is and never read (:mod:`mbgen.model.files`); a file over
+:data:`MAX_URDF_BYTES` is refused before it is read; any ``<!DOCTYPE`` (and so any
+entity declaration: internal, external or a billion laughs) is refused by a first
+pass of expat that stops at the declaration, so nothing is ever expanded or fetched
+(the standard library parser, no new dependency).  Every refusal is a
+:class:`~mbgen.errors.UrdfError` subclass that names the file, the link or joint, and
+the fix.
+
+Numbers: every one must be finite.  Lengths, masses and moments of inertia are
+refused above :data:`MAX_MAGNITUDE` and angles above :data:`MAX_ANGLE` (named by
+element and attribute): no robot comes near, and products of such numbers in the
+equations stay far inside the double range, where ``1e300`` would overflow to
+``inf``.  An ``<axis>`` is a direction, of any finite scale: it is divided by its
+largest component before it is normalised, so ``1e200 0 0`` is ``1 0 0`` (its square
+would overflow) and ``1e-200 0 0`` too (its square would be 0).
+
+Size: a file with more than :data:`~mbgen.model.limits.MAX_SPEEDS` moving joints or
+:data:`MAX_URDF_LINKS` links is refused (:class:`~mbgen.errors.ModelSizeError`, unless
+forced) as soon as it is parsed, before its elements are checked: such a model cannot be
+derived in reasonable time.  Work is linear in the links: the joints below each link
+are indexed once (:attr:`Robot.kids`), and the root, the order and the mass check walk
+that index.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
 
 import numpy as np
 
-from ..errors import (UrdfInertiaError, UrdfStructureError, UrdfSyntaxError,
+from ..errors import (ModelSizeError, UrdfInertiaError, UrdfStructureError, UrdfSyntaxError,
                       UrdfUnsupportedError)
+from .files import read_regular_file
+from .limits import MAX_BODIES, check_size, size_forced
 
 #: Largest URDF file read (bytes); a larger one is refused before it is opened for reading.
 MAX_URDF_BYTES = 100 * 1024 * 1024
+
+#: Most links read (unless forced, :func:`~mbgen.model.limits.allow_large_models`): fixed
+#: links merge into the bodies they are welded to, so ten times
+#: :data:`~mbgen.model.limits.MAX_BODIES` leaves room for frames; reading takes some 0.1 ms
+#: a link.
+MAX_URDF_LINKS = 10 * MAX_BODIES
+
+#: Largest length (m), mass (kg) or moment of inertia (kg m^2) read: far past any robot,
+#: and a product of a few such numbers stays far inside the double range (1.8e308).
+MAX_MAGNITUDE = 1e15
+
+#: Largest ``rpy`` angle (rad) read: beyond it the angle's own rounding (its last digit,
+#: 1.8e-12 rad at 1e4) passes the 1e-12 rad the frames are built to.
+MAX_ANGLE = 1e4
+
+#: What a number may be, by what it measures: (largest magnitude or None, its unit).
+RANGES = {"size": (MAX_MAGNITUDE, "m, kg, kg m^2"), "angle": (MAX_ANGLE, "rad"),
+          "direction": (None, "")}
 
 #: Joint types mbgen models.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
@@ -79,11 +115,15 @@ class Robot:
     links: dict        # name -> Link, file order
     joints: dict       # child link name -> JointSpec
     root: str
+    kids: dict = field(default=None, repr=False)   # link -> its joints (children), by name
+
+    def __post_init__(self):
+        if self.kids is None:
+            object.__setattr__(self, "kids", index_children(self.joints))
 
     def children(self, link: str) -> list[JointSpec]:
         """Joints whose parent is ``link``, sorted by joint name (as urdfdom stores them)."""
-        return sorted((j for j in self.joints.values() if j.parent == link),
-                      key=lambda j: j.name.encode("utf-8"))
+        return self.kids.get(link, [])
 
     def ordered_joints(self) -> list[JointSpec]:
         """Every joint, depth first from the root, children by name: Pinocchio's order."""
@@ -95,22 +135,21 @@ class Robot:
         return out
 
 
+def index_children(joints: dict) -> dict[str, list[JointSpec]]:
+    """``{link: the joints whose parent it is, sorted by name}``, in one pass."""
+    kids: dict[str, list[JointSpec]] = {}
+    for j in joints.values():
+        kids.setdefault(j.parent, []).append(j)
+    for below in kids.values():
+        below.sort(key=lambda j: j.name.encode("utf-8"))
+    return kids
+
+
 def read_urdf(path) -> Robot:
     """Read and check the URDF file at ``path`` (see the module docstring)."""
-    path = Path(path)
-    try:
-        size = os.stat(path).st_size
-    except OSError as exc:
-        raise UrdfSyntaxError(f"URDF file {str(path)!r} cannot be read: {exc.strerror}; "
-                              f"give the path of a .urdf file") from None
-    if size > MAX_URDF_BYTES:
-        raise UrdfSyntaxError(f"URDF file {str(path)!r} is {size / 2**20:.0f} MiB, over the "
-                              f"{MAX_URDF_BYTES // 2**20} MiB limit; a robot's URDF is a few "
-                              f"hundred kB (meshes stay in their own files)")
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise UrdfSyntaxError(f"URDF file {str(path)!r} cannot be read: {exc.strerror}") from None
+    data = read_regular_file(path, "URDF file", UrdfSyntaxError, MAX_URDF_BYTES,
+                             "; a robot's URDF is a few hundred kB (meshes stay in their "
+                             "own files)")
     return parse_urdf(data, str(path))
 
 
@@ -120,7 +159,7 @@ def parse_urdf(data: bytes | str, source: str = "<string>") -> Robot:
         data = data.encode("utf-8")
     if len(data) > MAX_URDF_BYTES:
         raise UrdfSyntaxError(f"URDF {source!r} is over the {MAX_URDF_BYTES // 2**20} MiB limit")
-    _refuse_doctype(data, source)
+    _first_pass(data, source)
     try:
         root = ET.fromstring(data)
     except ET.ParseError as exc:
@@ -155,7 +194,8 @@ def parse_urdf(data: bytes | str, source: str = "<string>") -> Robot:
                 f"{other.name!r} and {joint.name!r}; closed chains are not supported: remove "
                 f"one joint (and close the loop with a constraint in a Model if you need it)")
         joints[joint.child] = joint
-    robot = Robot(name, source, links, joints, _root(source, links, joints))
+    kids = index_children(joints)
+    robot = Robot(name, source, links, joints, _root(source, links, joints, kids), kids)
     _check_moving_mass(robot)
     return robot
 
@@ -175,24 +215,48 @@ def _check_moving_mass(robot: Robot) -> None:
                 f"<inertial> with a positive mass, or make the joint fixed")
 
 
-def _refuse_doctype(data: bytes, source: str) -> None:
-    """Stop at any DOCTYPE (where entities are declared) before the real parse."""
+def _first_pass(data: bytes, source: str) -> None:
+    """One expat pass before the tree is built: stop at any DOCTYPE (where entities are
+    declared), and count the links and moving joints (children of the top element) for
+    the size guard, so a huge file is refused before its tree takes memory."""
     def refuse(*_args):
         raise UrdfSyntaxError(f"URDF file {source!r} has a <!DOCTYPE> or <!ENTITY> "
                               f"declaration; mbgen refuses them (entity expansion can be "
                               f"used to attack a parser), and URDF needs none: delete it")
 
+    depth, count = [0], {"link": 0, "joint": 0}
+
+    def start(tag, attrs):
+        if depth[0] == 1 and tag in count and attrs.get("type") != "fixed":
+            count[tag] += 1
+        depth[0] += 1
+
+    def end(_tag):
+        depth[0] -= 1
+
     parser = expat.ParserCreate()
     parser.StartDoctypeDeclHandler = refuse
     parser.EntityDeclHandler = refuse
+    parser.StartElementHandler, parser.EndElementHandler = start, end
     try:
         parser.Parse(data, True)
     except expat.ExpatError as exc:
         raise UrdfSyntaxError(f"URDF file {source!r} is not well-formed XML ({exc}); fix the "
                               f"file at that line") from None
+    _check_counts(source, count["link"], count["joint"])
 
 
-def _root(source: str, links: dict, joints: dict) -> str:
+def _check_counts(source: str, links: int, moving: int) -> None:
+    """Refuse (unless forced) more moving joints or links than can be derived in time."""
+    check_size(moving, f"URDF file {source!r} with {moving} moving joints")
+    if links > MAX_URDF_LINKS and not size_forced():
+        raise ModelSizeError(
+            f"URDF file {source!r} has {links} links, more than {MAX_URDF_LINKS}: far past "
+            f"any robot's, and each takes time to read and check. If you really mean it, pass "
+            f"force=True to from_urdf or load_scene, or --force on the command line.")
+
+
+def _root(source: str, links: dict, joints: dict, kids: dict) -> str:
     roots = [n for n in links if n not in joints]
     if len(roots) > 1:
         raise UrdfStructureError(
@@ -200,9 +264,8 @@ def _root(source: str, links: dict, joints: dict) -> str:
             f"that are no joint's child; connect every link to one tree with joints")
     reached, stack = set(roots), list(roots)
     while stack:
-        parent = stack.pop()
-        for j in joints.values():
-            if j.parent == parent and j.child not in reached:
+        for j in kids.get(stack.pop(), ()):
+            if j.child not in reached:
                 reached.add(j.child)
                 stack.append(j.child)
     cycle = [n for n in links if n not in reached]
@@ -224,7 +287,12 @@ class _Reader:
     def fail(self, where: str, message: str, cls=UrdfSyntaxError):
         raise cls(f"URDF file {self.source!r}, {where}: {message}")
 
-    def numbers(self, el, attr: str, where: str, default: str | None, count: int = 3) -> tuple:
+    def numbers(self, el, attr: str, where: str, default: str | None, count: int = 3,
+                measure: str = "size", tag: str = "") -> tuple:
+        """``count`` finite numbers of ``el``'s ``attr`` (``default`` when ``el`` or the
+        attribute is absent), each within the range of its ``measure`` (:data:`RANGES`)."""
+        limit, unit = RANGES[measure]
+        named = f"<{el.tag if el is not None else tag}> {attr}"
         text = el.get(attr, default) if el is not None else default
         if text is None:
             self.fail(where, f"<{el.tag}> has no {attr}=\"...\"; add it")
@@ -233,12 +301,17 @@ class _Reader:
         except ValueError:
             values = ()
         if len(values) != count or not all(math.isfinite(v) for v in values):
-            self.fail(where, f"{attr}=\"{text}\" must be {count} finite number(s)")
+            self.fail(where, f"{named}=\"{text}\" must be {count} finite number(s)")
+        if limit is not None and any(abs(v) > limit for v in values):
+            self.fail(where, f"{named}=\"{text}\" is out of range: a magnitude over {limit:g} "
+                      f"({unit}) is no robot's, and would overflow the equations' arithmetic; "
+                      f"check the number and its unit")
         return values
 
     def origin(self, el, where: str) -> tuple[tuple, tuple]:
         o = el.find("origin")
-        return (self.numbers(o, "xyz", where, "0 0 0"), self.numbers(o, "rpy", where, "0 0 0"))
+        return (self.numbers(o, "xyz", where, "0 0 0", tag="origin"),
+                self.numbers(o, "rpy", where, "0 0 0", measure="angle", tag="origin"))
 
     def link(self, el) -> Link:
         name = el.get("name")
@@ -314,9 +387,19 @@ class _Reader:
         if ends[0] == ends[1]:
             self.fail(where, f"it joins link {ends[0]!r} to itself", UrdfStructureError)
         xyz, rpy = self.origin(el, where)
-        axis = self.numbers(el.find("axis"), "xyz", where, "1 0 0")
-        norm = math.sqrt(sum(a * a for a in axis))
-        if kind != "fixed" and norm < 1e-12:
+        axis = unit_vector(self.numbers(el.find("axis"), "xyz", where, "1 0 0",
+                                        measure="direction", tag="axis"))
+        if axis is None and kind != "fixed":
             self.fail(where, "its <axis xyz> is zero; give the joint's axis")
-        axis = tuple(a / norm for a in axis) if norm >= 1e-12 else (1.0, 0.0, 0.0)
-        return JointSpec(name, kind, ends[0], ends[1], xyz, rpy, axis)
+        return JointSpec(name, kind, ends[0], ends[1], xyz, rpy, axis or (1.0, 0.0, 0.0))
+
+
+def unit_vector(vector: tuple) -> tuple | None:
+    """``vector / |vector|`` at any finite scale (None for zero): divided by its largest
+    component first, its norm lies in [1, sqrt(3)] and neither overflows nor underflows."""
+    largest = max(abs(v) for v in vector)
+    if largest == 0:
+        return None
+    scaled = [v / largest for v in vector]
+    norm = math.sqrt(sum(v * v for v in scaled))
+    return tuple(v / norm for v in scaled)

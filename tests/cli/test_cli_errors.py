@@ -1,6 +1,8 @@
 """User mistakes on the command line: `mbgen: error: ...`, exit code 2, no traceback; a
 scene file naming what its model lacks stops every command at load (exit code 3)."""
 
+import os
+
 import pytest
 
 from mbgen import pipeline
@@ -115,3 +117,19 @@ def test_huge_or_empty_counts_are_refused_before_any_work(argv, message, tmp_pat
                                                                     str(tmp_path / "out")]
     fails(argv + out, capsys, message)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name", ["robot.urdf", "robot.xml", "scene.py"])
+def test_a_scene_path_that_is_no_file_is_named_for_what_it_is(name, tmp_path, capsys):
+    """A folder or a named pipe given as the scene was said not to exist (exit 3 stays: the
+    scene named is what is wrong); now the message says what the path is."""
+    folder = tmp_path / name
+    folder.mkdir()
+    paths = [(folder, "is a folder, not a file")]
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(tmp_path / f"pipe-{name}")
+        paths.append((tmp_path / f"pipe-{name}", "is a named pipe (FIFO), not a file"))
+    for path, message in paths:
+        assert main(["check", str(path)]) == EXIT_MODEL
+        err = capsys.readouterr().err
+        assert message in err and "does not exist" not in err and "Traceback" not in err, err

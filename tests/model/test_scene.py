@@ -27,3 +27,15 @@ def test_targets_must_be_a_targets(targets):
     with pytest.raises(SceneError, match=r"targets must be mbgen.Targets\(\.\.\.\), e.g. "
                                          r"targets=mbgen.Targets\(step=True\)"):
         Scene("pend", pendulum("pend"), parameters=PARAMETERS, targets=targets)
+
+
+@pytest.mark.parametrize("suffix", [".py", ".urdf", ".xml"])
+def test_a_scene_path_that_is_a_folder_is_named_for_what_it_is(tmp_path, suffix):
+    """load_scene (what `mbgen bench SCENE` and the library call) says what the path is,
+    as the CLI does: not "does not exist" (issue 28, item 5)."""
+    folder = tmp_path / f"robot{suffix}"
+    folder.mkdir()
+    with pytest.raises(SceneError, match=r"is a folder, not a file"):
+        mbgen.load_scene(str(folder))
+    with pytest.raises(SceneError, match="does not exist"):
+        mbgen.load_scene(str(tmp_path / f"missing{suffix}"))

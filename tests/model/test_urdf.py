@@ -11,6 +11,7 @@ from __future__ import annotations
 import glob
 import os
 import sysconfig
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -23,9 +24,10 @@ from mbgen.derive import Method, choose_method
 from mbgen.derive.articulated import speed_owners
 from mbgen.derive.prepare import prepare
 from mbgen.derive.recursion import NewtonEuler
-from mbgen.errors import (UrdfError, UrdfInertiaError, UrdfStructureError, UrdfSyntaxError,
-                          UrdfUnsupportedError)
-from mbgen.model import urdf_xml
+from mbgen.errors import (ModelSizeError, UrdfError, UrdfInertiaError, UrdfStructureError,
+                          UrdfSyntaxError, UrdfUnsupportedError)
+from mbgen.model import limits, urdf_xml
+from mbgen.model import urdf as urdf_model
 from mbgen.model.scene import load_scene, urdf_scene
 
 pin = pytest.importorskip("pinocchio")
@@ -49,6 +51,9 @@ def joint(name, kind, parent, child, xyz="0 0 0", rpy="0 0 0", axis=None, extra=
     return (f'<joint name="{name}" type="{kind}"><parent link="{parent}"/><child link="{child}"/>'
             f'<origin xyz="{xyz}" rpy="{rpy}"/>{ax}{extra}</joint>')
 
+
+#: Pinocchio reads a revolute or prismatic joint only with its limits
+LIMIT = '<limit lower="-3" upper="3" effort="10" velocity="5"/>'
 
 #: a branch (fore has two children, listed against name order), rpy origins everywhere,
 #: a tilted revolute axis, a prismatic axis off the coordinate axes, a continuous joint,
@@ -371,6 +376,205 @@ def test_a_missing_file_is_a_scene_error_and_a_urdf_error(tmp_path):
         load_scene(str(tmp_path / "none.urdf"))
     with pytest.raises(UrdfSyntaxError, match="cannot be read"):
         mbgen.from_urdf(tmp_path / "none.urdf")
+
+
+def test_a_path_that_is_no_file_is_named_for_what_it_is(tmp_path):
+    """A folder and a device are refused by what they are, before anything is read."""
+    folder = tmp_path / "robot.urdf"
+    folder.mkdir()
+    with pytest.raises(UrdfSyntaxError, match="is a folder, not a file"):
+        mbgen.from_urdf(folder)
+    with pytest.raises(UrdfSyntaxError, match="is a character device, not a file"):
+        mbgen.from_urdf(os.devnull)
+
+
+def read_in_thread(path) -> BaseException | None:
+    """``from_urdf(path)``'s exception; a read still blocked after 60 s (a hang guard, not a
+    budget) is released by a writer that opens and closes the pipe, and fails the test."""
+    caught = []
+
+    def read():
+        try:
+            mbgen.from_urdf(path)
+        except BaseException as exc:   # noqa: BLE001 - handed to the test
+            caught.append(exc)
+    thread = threading.Thread(target=read, daemon=True)
+    thread.start()
+    thread.join(60)
+    if thread.is_alive():
+        os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join()
+        pytest.fail(f"from_urdf blocked reading {path} (then: {caught})")
+    return caught[0] if caught else None
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+def test_a_named_pipe_is_refused_without_blocking(tmp_path):
+    """Was: the size stat'ed as 0, then a read that waited for a writer for ever."""
+    fifo = tmp_path / "robot.urdf"
+    os.mkfifo(fifo)
+    error = read_in_thread(fifo)
+    assert isinstance(error, UrdfSyntaxError) and "is a named pipe (FIFO), not a file" in \
+        str(error), error
+
+
+# ----------------------------------------------------------------------------- sizes
+def chain(n: int) -> str:
+    """A chain of ``n`` links joined by ``n - 1`` revolute joints."""
+    links = [link(f"l{i}", inertial(1.0, "0 0 0.05")) for i in range(n)]
+    joints = [joint(f"j{i}", "revolute", f"l{i - 1}", f"l{i}", "0 0 0.1", axis="0 1 0")
+              for i in range(1, n)]
+    return urdf(links + joints, "chain")
+
+
+def test_reading_is_linear_in_the_links(monkeypatch):
+    """Reading looks at each joint's parent a few times, not once per link (quadratic: a
+    50 MB file of 170,000 links took hours to read); counted, not timed."""
+    class Counted(urdf_xml.JointSpec):
+        reads = 0
+
+        def __getattribute__(self, name):
+            if name == "parent":
+                type(self).reads += 1
+            return object.__getattribute__(self, name)
+
+    monkeypatch.setattr(urdf_xml, "JointSpec", Counted)
+    n = 1000
+    with limits.allow_large_models():     # past the size guard, to be read
+        robot = urdf_xml.parse_urdf(chain(n))
+    assert [j.child for j in robot.ordered_joints()] == [f"l{i}" for i in range(1, n)]
+    assert Counted.reads <= 4 * n, Counted.reads
+
+
+def test_a_robot_past_the_size_guard_is_refused_as_soon_as_it_is_parsed(tmp_path, monkeypatch):
+    """A 20,000-link chain is refused by the size guard (ModelSizeError, with the fix) before
+    its elements are checked; the links are counted too, and a floating base's six speeds."""
+    path = write(tmp_path, chain(20_000), "chain.urdf")
+    monkeypatch.setattr(urdf_xml._Reader, "link", lambda *a: pytest.fail("a link was read"))
+    with pytest.raises(ModelSizeError, match="chain.urdf' with 19999 moving joints.*--force"):
+        mbgen.from_urdf(path)
+    monkeypatch.undo()
+    monkeypatch.setattr(urdf_xml, "MAX_URDF_LINKS", 5)
+    with pytest.raises(ModelSizeError, match="has 6 links, more than 5.*force=True"):
+        mbgen.from_urdf(arm_file(tmp_path))
+    assert mbgen.from_urdf(arm_file(tmp_path), force=True).bodies
+    monkeypatch.undo()
+    monkeypatch.setattr(limits, "MAX_SPEEDS", 4)
+    assert mbgen.from_urdf(arm_file(tmp_path)).speeds_
+    with pytest.raises(ModelSizeError, match="4 moving joints on a floating base has 10 speeds"):
+        mbgen.from_urdf(arm_file(tmp_path), floating=True, force=False)
+
+
+def arm_file(tmp_path):
+    return write(tmp_path, urdf(ARM_PARTS), "arm.urdf")
+
+
+# ----------------------------------------------------------------------------- numbers
+def centres(model, values: dict) -> list[np.ndarray]:
+    """Each body's mass centre in the world at the coordinates ``values`` (by name)."""
+    at = {q: values[str(q.func)] for q in model.coordinates_}
+    return [np.array(b.center.pos_from(model.origin).to_matrix(model.N).subs(at),
+                     dtype=float).ravel() for b in model.bodies]
+
+
+def pinocchio_centres(path, q) -> list[np.ndarray]:
+    """The same from Pinocchio's forward kinematics (its joints' bodies, in the same order)."""
+    model = pinocchio_model(path)
+    data = model.createData()
+    pin.forwardKinematics(model, data, pinocchio_q(model, q))
+    return [data.oMi[i].act(model.inertias[i].lever) for i in range(1, model.njoints)]
+
+
+@pytest.mark.parametrize("kind", ["revolute", "continuous", "prismatic"])
+@pytest.mark.parametrize("axis", ["0 0 -1", "-1 0 0", "0 -1 0", "0 0 1", "0 -0.6 -0.8"])
+def test_a_joint_turns_the_way_its_axis_points(kind, axis, tmp_path):
+    """The child's mass centre at q = 0.7 where Pinocchio puts it, for axes along the
+    negative coordinate axes too (an axis -e_k is e_k with the angle's sign flipped)."""
+    path = write(tmp_path, urdf([
+        link("base_link", inertial(2.0)), link("arm", inertial(1.0, "0.3 0.1 0.2")),
+        joint("j", kind, "base_link", "arm", "0.1 0 0.2", "0 0 0", axis, LIMIT)]))
+    ours = centres(mbgen.from_urdf(path), {"q_j": 0.7})
+    theirs = pinocchio_centres(path, np.array([0.7]))
+    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("axis, unit", [("1e200 0 0", (1.0, 0.0, 0.0)),
+                                        ("1e-200 0 0", (1.0, 0.0, 0.0)),
+                                        ("3e307 -4e307 0", (0.6, -0.8, 0.0)),
+                                        ("0 0 -5e-324", (0.0, 0.0, -1.0))])
+def test_an_axis_of_any_scale_is_its_direction(axis, unit):
+    """|axis|^2 of 1e200 overflowed to inf and the axis became (0, 0, 0): the joint
+    turned about y (u' 28.78 for 16.93); one of 1e-200 was refused as zero."""
+    robot = urdf_xml.parse_urdf(replaced('<axis xyz="1 0 0"/>', f'<axis xyz="{axis}"/>'))
+    assert robot.joints["hand"].axis == pytest.approx(unit, abs=1e-15)
+
+
+OUT_OF_RANGE = {
+    "joint origin": ('xyz="0 0 0.3"', 'xyz="0 0 1e300"', "joint 'shoulder'.*<origin> xyz"),
+    "joint rpy": ('rpy="0.3 -0.2 0.5"', 'rpy="0.3 -2e20 0.5"', "joint 'shoulder'.*<origin> rpy"),
+    "axis": ('<axis xyz="1 0 0"/>', '<axis xyz="1 inf 0"/>', "joint 'wrist'.*<axis> xyz"),
+    "mass": ('<mass value="2.0"/>', '<mass value="1e300"/>', "link 'upper'.*<mass> value"),
+    "inertia": ('ixx="0.002" iyy="0.003" izz="0.0025"', 'ixx="2e290" iyy="3e290" izz="2e290"',
+                "link 'hand'.*<inertia> ixx"),
+    "centre": ('xyz="0.05 0.01 0.2"', 'xyz="0.05 1e200 0.2"', "link 'upper'.*<origin> xyz"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OUT_OF_RANGE))
+def test_a_number_that_would_overflow_is_refused_by_name(case, tmp_path):
+    old, new, match = OUT_OF_RANGE[case]
+    path = write(tmp_path, replaced(old, new))
+    with pytest.raises(UrdfSyntaxError, match=match):
+        mbgen.from_urdf(path)
+
+
+# ----------------------------------------------------------------------------- floating base
+def hip(name, child, xyz, axis):
+    return joint(name, "revolute", "trunk", child, xyz, "0 0 0", axis, LIMIT)
+
+
+#: (parts, singular): a floating root's mass matrix is singular when some motion of the root
+#: moves no mass: the root's articulated inertia (what it carries, each joint free) is singular
+FLOATING_CASES = {
+    "massless trunk, one leg": ([link("trunk")] + FLOATING_PARTS[1:], True),
+    "massless trunk, hips on one line": ([
+        link("trunk"), link("left", inertial(0.4, "0 0 -0.1")),
+        link("right", inertial(0.4, "0 0 -0.1")),
+        hip("hl", "left", "0 0.1 0", "0 1 0"), hip("hr", "right", "0 -0.1 0", "0 1 0")], True),
+    "point-mass trunk": ([link("trunk", inertial(3.0, i=(0, 0, 0, 0, 0, 0)))], True),
+    "massless trunk, two hips across": ([
+        link("trunk"), link("left", inertial(0.4, "0 0 -0.1")),
+        link("right", inertial(0.4, "0 0 -0.1")),
+        hip("hl", "left", "0 0.1 0", "0 1 0"), hip("hr", "right", "0 -0.1 0", "1 0 0")], False),
+    "massless trunk, a fixed body": ([
+        link("trunk"), link("box", inertial(1.0, "0 0 0.1")), link("leg", inertial(0.4)),
+        joint("weld", "fixed", "trunk", "box", "0.1 0 0"),
+        hip("hip", "leg", "0 0 -0.1", "0 1 0")], False),
+    "hopper": (FLOATING_PARTS, False),
+}
+
+
+@pytest.mark.parametrize("case", sorted(FLOATING_CASES))
+def test_a_floating_root_that_moves_no_mass_is_refused(case, tmp_path):
+    """Refused exactly where Pinocchio's free-flyer mass matrix is singular (at any state):
+    a massless trunk with one leg is, though the leg's composite inertia is full rank (the
+    trunk turns about the hip while the hip turns back); it gave finite garbage at half the
+    states and SingularMassMatrixError at the rest."""
+    parts, singular = FLOATING_CASES[case]
+    path = write(tmp_path, urdf(parts, "flyer"))
+    model = pinocchio_model(path, floating=True)
+    data = model.createData()
+    rng = np.random.default_rng(2)
+    for _ in range(2):
+        q, _, _ = random_state(rng, model, True)
+        moments = np.linalg.eigvalsh(pin.crba(model, data, q))
+        assert (moments[0] < 1e-12 * moments[-1]) == singular, moments
+    if singular:
+        with pytest.raises(UrdfInertiaError, match="floating root link 'trunk'"):
+            mbgen.from_urdf(path, floating=True)
+    else:
+        assert mbgen.from_urdf(path, floating=True).coordinates_
+    mbgen.from_urdf(path)   # a fixed root holds the trunk: fine
 
 
 # ----------------------------------------------------------------------------- real robots
