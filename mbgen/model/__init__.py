@@ -17,7 +17,12 @@
   ``Model`` (Pinocchio's conventions), read and checked by :mod:`~mbgen.model.urdf_xml`;
 * :mod:`~mbgen.model.mjcf` -- :func:`~mbgen.model.mjcf.from_mjcf` and
   :func:`~mbgen.model.mjcf.from_mujoco`, a MuJoCo model (compiled by MuJoCo, the
-  ``mujoco`` extra) as a ``Model`` (MuJoCo's ``qpos``/``qvel`` conventions).
+  ``mujoco`` extra) as a ``Model`` (MuJoCo's ``qpos``/``qvel`` conventions); what MuJoCo
+  would read is checked first by :mod:`~mbgen.model.mjcf_xml` (pipes, numbers, sizes);
+* :mod:`~mbgen.model.files` -- a path read only if it is a regular file (else named for
+  what it is: a folder, a pipe, a device);
+* :mod:`~mbgen.model.free_base` -- a floating base must move mass whichever way it moves
+  (its articulated-body inertia), checked by both robot readers.
 
 Nothing here derives, generates or runs anything: this package imports only
 the layers below it (``symbolic``, ``names``, ``abi``, ``summary``, ``errors``).

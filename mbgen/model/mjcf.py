@@ -51,16 +51,26 @@ or a model without them): contacts, joint limits, equality constraints, friction
 actuators (apply their forces through the inputs).  Refused with
 :class:`~mbgen.errors.MjcfError`: gravity compensation, fluid forces (``density`` or
 ``viscosity``), tendons with stiffness or damping, and springs on ball or free joints.
+
+Before MuJoCo reads a file, :func:`compile_mjcf` reads it and what it brings in
+(:mod:`~mbgen.model.mjcf_xml`): a path that is not a regular file, a number that is not
+finite or whose square overflows, a file that multiplies into a huge model are refused by
+name.  A compiled model (:func:`from_mujoco`) is checked by MuJoCo's fields the same way,
+and its axes and quaternions are normalised dividing by the largest component first.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import sympy as sm
 
 from ..errors import MissingExtraError, MjcfError
 from ..names import C_KEYWORDS, MAX_NAME_LENGTH
+from . import free_base
 from .builder import Model
+from .mjcf_xml import MAX_MAGNITUDE, scan_mjcf
 from .urdf import Group, axis_rotation, frame_vector, identifier, quaternion_matrix, simple
 
 HINGE, SLIDE, BALL, FREE = 3, 2, 1, 0   # mjtJoint
@@ -77,16 +87,26 @@ def import_mujoco():
 
 
 def compile_mjcf(path):
-    """The ``mujoco.MjModel`` of the file at ``path`` (MJCF, or URDF as MuJoCo reads it)."""
+    """The ``mujoco.MjModel`` of the file at ``path`` (MJCF, or URDF as MuJoCo reads it).
+
+    The files are read first (:func:`~mbgen.model.mjcf_xml.scan_mjcf`), so that what would make MuJoCo wait
+    forever, grow without bound or compile a different model is refused by name before it
+    reads a byte; MuJoCo's own complaints come back as :class:`MjcfError` naming the file."""
     mujoco = import_mujoco()
+    scan_mjcf(path)
     try:
         return mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        raise MjcfError(f"MuJoCo could not compile {str(path)!r}: {exc}") from None
+        raise MjcfError(f"MuJoCo could not compile {str(path)!r}: "
+                        f"{' '.join(str(exc).split())}") from None
 
 
 def from_mjcf(path) -> Model:
-    """The model of the MJCF file at ``path``, compiled by MuJoCo (module docstring)."""
+    """The model of the MJCF file at ``path``, compiled by MuJoCo (module docstring).
+
+    :class:`MjcfError` for a file that is not safe to hand to MuJoCo or that MuJoCo cannot
+    compile; :class:`~mbgen.errors.ModelSizeError` for more than
+    :data:`~mbgen.model.limits.MAX_BODIES` bodies (unless forced)."""
     return from_mujoco(compile_mjcf(path))
 
 
@@ -95,8 +115,32 @@ def from_mujoco(mj) -> Model:
     return _Builder(mj).build()
 
 
-def _quat(wxyz) -> np.ndarray:
-    w, x, y, z = (float(v) for v in wxyz)
+# ------------------------------------------------------------------ the compiled model
+#: The numbers read from a compiled model, and what a row of each belongs to.
+_FIELDS = (("body_pos", "body"), ("body_quat", "body"), ("body_ipos", "body"),
+           ("body_iquat", "body"), ("body_mass", "body"), ("body_inertia", "body"),
+           ("jnt_pos", "joint"), ("jnt_axis", "joint"), ("jnt_stiffness", "joint"),
+           ("qpos0", "qpos"), ("qpos_spring", "qpos"), ("dof_damping", "dof"),
+           ("dof_armature", "dof"))
+
+
+def _unit(values, what: str) -> np.ndarray:
+    """``values / |values|``, divided by the largest component first: the square of
+    ``1e200`` overflows and that of ``1e-200`` underflows, either way to a zero vector (an
+    axis about which a joint would not turn); :class:`MjcfError` if it is zero or not finite."""
+    v = np.asarray(values, dtype=float)
+    top = float(np.abs(v).max(initial=0.0))
+    if not math.isfinite(top) or top == 0:
+        raise MjcfError(f"MuJoCo model: {what} is {v.tolist()}, no direction (zero or not "
+                        f"finite: MuJoCo's own normalisation overflows past about 1e154); "
+                        f"give it with components of ordinary size, e.g. '1 0 0'")
+    v = v / top
+    return v / np.linalg.norm(v)
+
+
+def _quat(wxyz, what: str) -> np.ndarray:
+    """The rotation matrix of MuJoCo's quaternion ``(w, x, y, z)``, normalised scale-safely."""
+    w, x, y, z = (float(c) for c in _unit(wxyz, what))
     return np.array(quaternion_matrix(x, y, z, w), dtype=float)
 
 
@@ -157,7 +201,39 @@ class _Builder:
         self.taken.add(name)
         return name
 
+    def owner(self, kind: str, i: int) -> str:
+        """The body or joint that row ``i`` of a ``kind`` field (:data:`_FIELDS`) belongs to."""
+        mj = self.mj
+        if kind == "body":
+            return f"body {self.body_names[i] or i!r}"
+        j = int(mj.dof_jntid[i]) if kind == "dof" else \
+            int(np.searchsorted(mj.jnt_qposadr, i, side="right")) - 1 if kind == "qpos" else i
+        return f"joint {self.joints[j][1]!r}"
+
+    def check_numbers(self) -> None:
+        """Every number read is finite and within :data:`MAX_MAGNITUDE` (a NaN damping
+        would otherwise surface deep in the derivation); hinge and slide axes have a
+        direction.  The error names the body or joint and MuJoCo's field."""
+        mj = self.mj
+        for field, kind in _FIELDS:
+            values = np.asarray(getattr(mj, field), dtype=float)
+            values = values.reshape(len(values), -1)
+            bad = (~np.isfinite(values) | (np.abs(values) > MAX_MAGNITUDE)).any(axis=1)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise MjcfError(f"MuJoCo model: {self.owner(kind, i)}: {field} holds "
+                                f"{values[i].tolist()}, not finite numbers within "
+                                f"{MAX_MAGNITUDE:g}; fix the file it came from")
+        gravity = np.asarray(mj.opt.gravity, dtype=float)
+        if not np.isfinite(gravity).all() or np.abs(gravity).max() > MAX_MAGNITUDE:
+            raise MjcfError(f"MuJoCo model: opt.gravity is {gravity.tolist()}, not finite "
+                            f"numbers within {MAX_MAGNITUDE:g}; fix <option gravity>")
+        for j, (kind, base, *_) in enumerate(self.joints):
+            if kind in (HINGE, SLIDE):
+                _unit(mj.jnt_axis[j], f"joint {base!r}: jnt_axis")
+
     def check(self) -> None:
+        self.check_numbers()
         mj = self.mj
         problems = []
         if np.any(mj.body_gravcomp):
@@ -172,6 +248,77 @@ class _Builder:
         if problems:
             raise MjcfError("MuJoCo model: mbgen does not model " + "; ".join(problems)
                             + "; remove them from the file")
+        for j, (kind, base, *_) in enumerate(self.joints):
+            if kind == FREE:
+                self.check_free_body(int(mj.jnt_bodyid[j]), j, base)
+
+    def check_free_body(self, body: int, joint: int, base: str, samples: int = 2) -> None:
+        """Refuse a free body whose subtree some motion moves without moving mass
+        (:mod:`~mbgen.model.free_base`; a singular mass matrix at every state), tried at
+        ``samples`` pseudo-random configurations.  Armature on the free joint itself
+        keeps its block of the mass matrix positive: nothing to refuse then."""
+        mj = self.mj
+        dof = int(mj.jnt_dofadr[joint])
+        if np.all(mj.dof_armature[dof:dof + 6] > 0):
+            return
+        found = [free_base.lack(self.free_parts(body, rng_state))
+                 for rng_state in range(samples)]
+        if all(found):
+            name = self.body_names[body] or f"body{body}"
+            raise MjcfError(
+                f"MuJoCo model: the free body {name!r} (joint {base!r}) with all it carries "
+                f"has {found[0]} (some motion of it the joints below undo, so that nothing "
+                f"with mass moves): the mass matrix is singular at every state; give body "
+                f"{name!r} a positive mass and inertia (<inertial>, or a geom with density)")
+
+    def free_parts(self, body: int, seed: int) -> list:
+        """The subtree of ``body`` as :class:`~mbgen.model.free_base.Part` rows in world
+        coordinates, at a pseudo-random configuration (``mj_kinematics``)."""
+        mujoco = import_mujoco()
+        mj = self.mj
+        data = mujoco.MjData(mj)
+        rng = np.random.default_rng(seed)
+        qpos = rng.uniform(-math.pi, math.pi, mj.nq)
+        for j in range(mj.njnt):
+            a, kind = int(mj.jnt_qposadr[j]), int(mj.jnt_type[j])
+            if kind in (BALL, FREE):
+                at = a + (3 if kind == FREE else 0)
+                quat = rng.normal(size=4)
+                qpos[at:at + 4] = quat / np.linalg.norm(quat)
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(mj, data)
+        index, parts = {body: 0}, []
+        for b in range(body, mj.nbody):
+            parent = int(mj.body_parentid[b])
+            if b != body and parent not in index:
+                continue
+            index[b] = len(parts)
+            columns, armature = [], []
+            if b != body:
+                for j in range(int(mj.body_jntadr[b]), int(mj.body_jntadr[b] + mj.body_jntnum[b])):
+                    columns.append(self.joint_motion(data, j))
+                    dof = int(mj.jnt_dofadr[j])
+                    armature.extend(mj.dof_armature[dof:dof + columns[-1].shape[1]])
+            motion = np.hstack(columns) if columns else free_base.NO_MOTION
+            R = np.array(data.ximat[b]).reshape(3, 3)
+            centre = np.array(data.xipos[b], dtype=float)
+            mass = float(mj.body_mass[b])
+            inertia = free_base.body_inertia(
+                mass, centre, R @ np.diag(np.array(mj.body_inertia[b], dtype=float)) @ R.T)
+            parts.append(free_base.Part(-1 if b == body else index[parent], motion, inertia,
+                                        mass, centre, np.array(armature) if armature else None))
+        return parts
+
+    def joint_motion(self, data, j: int) -> np.ndarray:
+        """The 6 x k motion subspace (world, about the origin) of joint ``j`` now."""
+        mj, kind = self.mj, int(self.mj.jnt_type[j])
+        axis, anchor = np.array(data.xaxis[j]), np.array(data.xanchor[j])
+        if kind == HINGE:
+            return free_base.revolute_motion(axis, anchor)
+        if kind == SLIDE:
+            return free_base.prismatic_motion(axis)
+        R = np.array(data.xmat[int(mj.jnt_bodyid[j])]).reshape(3, 3)   # a ball
+        return np.hstack([free_base.revolute_motion(R[:, k], anchor) for k in range(3)])
 
     def build(self) -> Model:
         self.check()
@@ -194,7 +341,7 @@ class _Builder:
             parent = int(mj.body_parentid[b])
             group = groups[parent]
             A0, d0 = place[parent]
-            A = A0 @ _quat(mj.body_quat[b])
+            A = A0 @ _quat(mj.body_quat[b], f"body {self.body_names[b] or b!r}: body_quat")
             d = d0 + A0 @ np.array(mj.body_pos[b], dtype=float)
             label = self.body_names[b] or f"body{b}"
             label = label if label[:1].isalpha() else f"body_{label}"
@@ -203,7 +350,7 @@ class _Builder:
                 group, A, d = self.joint(m, j, group, A, d, label, rotors)
             groups[b], place[b] = group, (A, d)
             if mj.body_mass[b] > 0 or np.any(mj.body_inertia[b]):
-                R = A @ _quat(mj.body_iquat[b])
+                R = A @ _quat(mj.body_iquat[b], f"body {label!r}: body_iquat")
                 group.parts.append((float(mj.body_mass[b]),
                                     d + A @ np.array(mj.body_ipos[b], dtype=float),
                                     R @ np.diag(np.array(mj.body_inertia[b], dtype=float)) @ R.T))
@@ -239,7 +386,8 @@ class _Builder:
         for k, s in enumerate(u):
             if mj.dof_armature[dof + k]:
                 rotors.append((f"{base}{k}", s, float(mj.dof_armature[dof + k])))
-        axis = A @ np.array(mj.jnt_axis[j], dtype=float)
+        axis = A @ _unit(mj.jnt_axis[j], f"joint {base!r}: jnt_axis") \
+            if kind in (HINGE, SLIDE) else None
         jpos = np.array(mj.jnt_pos[j], dtype=float)
         anchor = d + A @ jpos
         parent = group
@@ -277,8 +425,13 @@ class _Builder:
                qz: half * (qw * w[2] + qx * w[1] - qy * w[0]),
                qw: -half * (qx * w[0] + qy * w[1] + qz * w[2])}
         if kind == BALL:
-            frame = m.orient(parent.frame, self.internal(f"{label}_frame"),
-                             sm.Matrix(A.tolist()) * R, w, relative=True)
+            # A R: the joint turns the body from its reference orientation A, a constant
+            # frame of its own (sympy differentiates a frame's matrix: A R in one would cost
+            # seconds per joint, R alone a fraction)
+            turned = parent.frame if np.array_equal(A, np.eye(3)) else \
+                m.orient(parent.frame, self.internal(f"{label}_ref"), A.tolist(), (0, 0, 0),
+                         relative=True)
+            frame = m.orient(turned, self.internal(f"{label}_frame"), R, w, relative=True)
             torque = [r[i] - damping[i] * w[i] for i in range(3)]
             m.torque(frame, frame_vector_sym(frame, torque), reaction=parent.frame)
             m.kinematics(kin)

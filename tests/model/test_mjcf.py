@@ -6,19 +6,24 @@ off its anchor with armature and damping, a welded tool, inertia from geoms and 
 off the z axis.  ``slow``: the same with that last hinge a ball joint and a floating body
 (free joint) with a hinge below it; and real robots (Solo-12 floating, Panda) compiled by MuJoCo from their URDF.
 Contacts, limits, equality constraints, friction loss and actuators are switched off in
-MuJoCo: mbgen does not model them.
+MuJoCo: mbgen does not model them.  Also by default: a ball joint in a turned body under a
+turned parent and a turned free body (through lambdify, no C compiler), and what is refused
+before MuJoCo reads a file (pipes and devices, numbers that are not finite or whose square
+overflows, files that multiply into huge models) or once it has compiled one.
 """
 
 from __future__ import annotations
 
+import os
 import sys
+import threading
 
 import numpy as np
 import pytest
 
 import mbgen
 from mbgen.abi import Output
-from mbgen.errors import MissingExtraError, MjcfError
+from mbgen.errors import MissingExtraError, MjcfError, ModelSizeError
 from mbgen.model.mjcf import scene_values
 from mbgen.model.scene import Scene, load_scene
 
@@ -207,3 +212,242 @@ def test_real_robot_compiled_by_mujoco_matches_mj_forward(robot, floating, tmp_p
                                    initial_state=initial, t_span=(0.0, 1.0),
                                    outputs=(Output.RHS,)))
     compare(mj, [compiled], samples=10)
+
+
+# ------------------------------------------- turned ball and free joints, through lambdify
+TURNS = """
+<mujoco model="turns">
+  <option gravity="0.5 -0.3 -9.81"/>
+  <worldbody>
+    <body name="arm" pos="0.1 0.2 0.3" euler="20 -30 50">
+      <geom type="box" size="0.2 0.05 0.03" pos="0.1 0 0"/>
+      <body name="hand" pos="0.3 0.05 0" euler="-40 15 70">
+        <joint name="ball" type="ball" pos="0.02 0 0.01" damping="0.05"/>
+        <geom type="ellipsoid" size="0.08 0.04 0.02" pos="0.05 0.01 0" euler="10 0 20"/>
+      </body>
+    </body>
+    <body name="drone" pos="1 0 2" euler="35 -20 60">
+      <freejoint name="float"/>
+      <geom type="box" size="0.1 0.2 0.3" pos="0.03 -0.02 0.05" euler="0 15 5"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+class _Lambdified:
+    """The right-hand side through sympy.lambdify: no C compiler, a second for a small model."""
+
+    def __init__(self, mj):
+        self.model = mbgen.LambdifiedModel(mbgen.equations_of(mbgen.from_mujoco(mj)),
+                                           outputs=(Output.RHS,))
+        self.p = np.array([scene_values(mj)[0]["g"]])
+
+    def rhs(self, t, x, p, r):
+        return self.model.rhs(t, x, self.p, r)
+
+
+def test_ball_under_a_turned_parent_and_a_turned_free_body_match_mj_forward():
+    """A ball joint's rotation composes after its body's reference orientation (``A R``, not
+    ``R A``: the body and its parent are turned) and a free joint's ``v`` is in world
+    components (the body is turned): at random states every speed's derivative and every
+    coordinate's matches MuJoCo's."""
+    mj = mujoco.MjModel.from_xml_string(TURNS)
+    backend = _Lambdified(mj)
+    assert list(backend.model.layout.state_names)[:4] == ["q_ball_qw", "q_ball_qx",
+                                                          "q_ball_qy", "q_ball_qz"]
+    compare(mj, [backend], samples=4, seed=11)
+
+
+# ------------------------------------------------------------- files MuJoCo must not read
+ONE_BODY = """<mujoco model="one"><worldbody><body name="b" pos="0 0 1"><joint name="j"/>
+<geom type="sphere" size="0.1"/></body></worldbody></mujoco>"""
+
+
+def _refused_without_hanging(pipe, read, match):
+    """``read()`` must refuse the named pipe ``pipe`` by its kind.  A writer feeds the pipe a
+    valid model meanwhile, so code that opens the pipe reads a model and fails the test
+    instead of waiting forever; the writer is let go afterwards by opening the read end."""
+    def feed():
+        try:
+            with open(pipe, "w", encoding="utf-8") as f:
+                f.write(ONE_BODY)
+        except OSError:
+            pass
+    writer = threading.Thread(target=feed, daemon=True)
+    writer.start()
+    try:
+        with pytest.raises(MjcfError, match=match):
+            read()
+    finally:
+        fd = os.open(pipe, os.O_RDONLY | os.O_NONBLOCK)
+        writer.join()
+        os.close(fd)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_a_named_pipe_is_refused_by_its_kind_before_mujoco_opens_it(tmp_path):
+    pipe = tmp_path / "robot.xml"
+    os.mkfifo(pipe)
+    _refused_without_hanging(pipe, lambda: mbgen.from_mjcf(pipe), r"robot\.xml.*named pipe")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="named pipes are POSIX")
+def test_an_included_named_pipe_is_refused_before_mujoco_opens_it(tmp_path):
+    os.mkfifo(tmp_path / "part.xml")
+    main = tmp_path / "main.xml"
+    main.write_text('<mujoco><worldbody><include file="part.xml"/></worldbody></mujoco>')
+    _refused_without_hanging(tmp_path / "part.xml", lambda: mbgen.from_mjcf(main),
+                             r"included by .*main\.xml', line 1.*part\.xml' is a named pipe")
+
+
+@pytest.mark.parametrize("kind, match", [("folder", "a folder"),
+                                         ("device", "a character device"),
+                                         ("missing", "does not exist")])
+def test_a_path_that_is_no_file_is_named_for_what_it_is(tmp_path, kind, match):
+    path = {"folder": tmp_path, "device": os.devnull, "missing": tmp_path / "no.xml"}[kind]
+    with pytest.raises(MjcfError, match=match):
+        mbgen.from_mjcf(path)
+
+
+def test_a_mesh_file_that_is_a_device_is_refused(tmp_path):
+    main = tmp_path / "main.xml"
+    main.write_text(f'<mujoco><asset><mesh name="m" file="{os.devnull}"/></asset></mujoco>')
+    with pytest.raises(MjcfError, match="mesh.*character device"):
+        mbgen.from_mjcf(main)
+
+
+# ------------------------------------------------------------------------ numbers in the file
+@pytest.mark.parametrize("tag, attribute, value", [
+    ("body", "pos", "nan 0 1"), ("joint", "damping", "nan"), ("joint", "stiffness", "inf"),
+    ("joint", "axis", "0 NaN 1"), ("option", "gravity", "0 0 -inf")])
+def test_a_number_that_is_not_finite_is_named_by_element_and_attribute(tmp_path, tag,
+                                                                         attribute, value):
+    attrs = {"option": {"gravity": "0 0 -9.81"}, "body": {"name": "b", "pos": "0 0 1"},
+             "joint": {"name": "j", "axis": "0 1 0", "damping": "0.1", "stiffness": "0"}}
+    attrs[tag][attribute] = value
+    text = " ".join(f'{a}="{v}"' for a, v in attrs["option"].items()), \
+        " ".join(f'{a}="{v}"' for a, v in attrs["body"].items()), \
+        " ".join(f'{a}="{v}"' for a, v in attrs["joint"].items())
+    path = tmp_path / "m.xml"
+    path.write_text(f'<mujoco model="m"><option {text[0]}/><worldbody>\n<body {text[1]}>\n'
+                    f'<joint {text[2]}/><geom type="sphere" size="0.1"/></body>'
+                    f'</worldbody></mujoco>')
+    with pytest.raises(MjcfError, match=rf"m\.xml.*<{tag}\b.*{attribute}=.*not a finite"):
+        mbgen.from_mjcf(path)
+
+
+@pytest.mark.parametrize("where", ['axis="1e200 0 0"', 'pos="1e200 0 0"'])
+def test_a_vector_whose_square_overflows_is_refused_not_turned(tmp_path, where):
+    """MuJoCo turns ``axis="1e200 0 0"`` into (0, 0, 0): the joint would turn about another
+    axis.  The file is refused, naming the joint and the attribute."""
+    path = tmp_path / "big.xml"
+    path.write_text(ONE_BODY.replace('<joint name="j"', f'<joint name="j" {where}'))
+    with pytest.raises(MjcfError, match=rf"<joint name='j'>.*{where.split('=')[0]}=.*1e\+?200"):
+        mbgen.from_mjcf(path)
+
+
+def test_a_compiled_model_with_a_zero_axis_or_a_nan_is_refused_by_name(tmp_path, monkeypatch):
+    """``from_mujoco`` reads a compiled model with no file to point at: the joint, the body
+    and MuJoCo's field are named instead."""
+    monkeypatch.chdir(tmp_path)                   # MuJoCo's warning log goes there
+    mj = mujoco.MjModel.from_xml_string(ONE_BODY.replace('<joint name="j"',
+                                                         '<joint name="j" axis="1e200 0 0"'))
+    assert not mj.jnt_axis[0].any()               # what MuJoCo made of it
+    with pytest.raises(MjcfError, match=r"joint 'j'.*jnt_axis.*zero"):
+        mbgen.from_mujoco(mj)
+    mj = mujoco.MjModel.from_xml_string(ONE_BODY)
+    mj.dof_damping[0] = np.nan
+    with pytest.raises(MjcfError, match=r"joint 'j'.*dof_damping.*nan"):
+        mbgen.from_mujoco(mj)
+    mj = mujoco.MjModel.from_xml_string(ONE_BODY)
+    mj.body_quat[1] = [1e-200, 0, 0, 1e-200]       # scaled before it is squared: 90 deg about z
+    assert mbgen.from_mujoco(mj).frames is not None
+
+
+# -------------------------------------------------------------------- sizes before compiling
+@pytest.mark.parametrize("nest", [
+    '<replicate count="1000" offset="0 0 1"><replicate count="1000000" offset="1 0 0">{b}'
+    '</replicate></replicate>',
+    '<frame><replicate count="100000" offset="1 0 0"><frame>{b}</frame></replicate></frame>',
+    '<body name="c"><composite type="cable" count="1000000 1 1" size="1"/></body>',
+    '<body name="h"><replicate count="100000000" offset="1 0 0"><geom size="0.1"/>'
+    '</replicate></body>'])
+def test_a_file_that_multiplies_into_a_huge_model_is_refused_before_compiling(
+        tmp_path, nest, monkeypatch):
+    """300 bytes that make 10^9 bodies (or a million cable segments, or 10^8 geoms) are
+    refused before MuJoCo's compiler sees them: handing them over fails the test at once
+    (MuJoCo would grow its memory without an answer)."""
+    def compiled(*_args, **_kwargs):
+        raise AssertionError("the file went to MuJoCo's compiler")
+    monkeypatch.setattr(mujoco.MjModel, "from_xml_path", staticmethod(compiled))
+    body = '<body><joint/><geom size="0.1"/></body>'
+    path = tmp_path / "bomb.xml"
+    path.write_text(f'<mujoco><worldbody>{nest.format(b=body)}</worldbody></mujoco>')
+    with pytest.raises(MjcfError, match=r"bomb\.xml.*would make at least [0-9]{6,} elem"):
+        mbgen.from_mjcf(path)
+
+
+def test_more_bodies_than_mbgen_derives_are_refused_before_compiling(tmp_path, monkeypatch):
+    """2,500 replicated bodies: few enough for MuJoCo, too many for mbgen; the size guard's
+    own error (which ``--force`` lifts) comes before MuJoCo's compiler runs."""
+    def compiled(*_args, **_kwargs):
+        raise AssertionError("the file went to MuJoCo's compiler")
+    monkeypatch.setattr(mujoco.MjModel, "from_xml_path", staticmethod(compiled))
+    path = tmp_path / "crowd.xml"
+    path.write_text('<mujoco><worldbody><replicate count="50" offset="1 0 0">'
+                    '<replicate count="50" offset="0 1 0"><body><joint/><geom size="0.1"/>'
+                    '</body></replicate></replicate></worldbody></mujoco>')
+    with pytest.raises(ModelSizeError, match=r"crowd\.xml' would have 2500 bodies"):
+        mbgen.from_mjcf(path)
+
+
+def test_replicated_bodies_are_counted_as_mujoco_makes_them(tmp_path):
+    """Below the bound a replicated model compiles: 2 x 3 bodies, each a hinge."""
+    path = tmp_path / "rows.xml"
+    path.write_text('<mujoco><worldbody><replicate count="2" offset="0 1 0">'
+                    '<replicate count="3" offset="1 0 0"><body><joint axis="1 0 0"/>'
+                    '<geom size="0.1"/></body></replicate></replicate></worldbody></mujoco>')
+    assert len(mbgen.from_mjcf(path).coordinates_) == 6
+
+
+# --- a free body whose subtree some motion leaves still (issue 28, item 10)
+FREE_TRUNK = """<mujoco><worldbody><body name="trunk"><freejoint name="root"/>
+<inertial pos="0 0 0" mass="2" diaginertia="0.1 0.2 0.3"/>
+<body name="leg" pos="0 0 -0.3"><joint name="hip" type="hinge" axis="0 1 0"{armature}/>
+<inertial pos="0 0 -0.2" mass="1" diaginertia="0.01 0.01 0.001"/></body></body></worldbody>
+</mujoco>"""
+
+
+@pytest.mark.parametrize("armature, refused", [("", True), (' armature="0.05"', False)])
+def test_a_massless_free_body_on_one_hinge_is_refused_unless_its_rotor_holds_it(
+        armature, refused, tmp_path, monkeypatch):
+    """MuJoCo's compiler refuses a massless moving body in a file, but a compiled model's
+    fields can be set: with the trunk's mass and inertia zeroed, the trunk can turn about
+    the hip while the hip turns back, and M is singular at every state; armature on the
+    hip (a rotor) makes that motion cost energy again."""
+    mj = mujoco.MjModel.from_xml_string(FREE_TRUNK.format(armature=armature))
+    mj.body_mass[1], mj.body_inertia[1] = 0.0, 0.0
+    if refused:
+        with pytest.raises(MjcfError, match=r"free body 'trunk' \(joint 'root'\).*no inertia "
+                                            r"against a rotation.*singular at every state"):
+            mbgen.from_mujoco(mj)
+    else:
+        mbgen.from_mujoco(mj)
+    monkeypatch.chdir(tmp_path)          # MuJoCo logs its warning to ./MUJOCO_LOG.TXT
+    data = mujoco.MjData(mj)             # MuJoCo's own mass matrix agrees on the rank
+    data.qpos[3:7] = [0.8, 0.2, -0.3, 0.4]
+    data.qpos[3:7] /= np.linalg.norm(data.qpos[3:7])
+    data.qpos[7] = 0.7
+    mujoco.mj_forward(mj, data)
+    M = np.zeros((mj.nv, mj.nv))
+    try:                                 # MuJoCo 3.3+: (model, data, dst); before: qM
+        mujoco.mj_fullM(mj, data, M)
+    except TypeError:
+        mujoco.mj_fullM(mj, M, data.qM)
+    eig = np.linalg.eigvalsh(M)
+    assert (eig[0] < 1e-12 * eig[-1]) == refused
+
+
+def test_a_free_body_that_carries_mass_is_accepted():
+    mbgen.from_mujoco(mujoco.MjModel.from_xml_string(FREE_TRUNK.format(armature="")))
