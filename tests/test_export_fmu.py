@@ -11,12 +11,17 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+import sympy as sm
 
 import mbgen
+import models
 from mbgen.model.scene import load_scene
 from mbgen.build.fmu import write_fmu
 from mbgen.export import export_fmu
+from mbgen.codegen.targets import Targets
 from mbgen.codegen.targets.fmu import FMI2_ALLOWED, FMI2_STATES
+from mbgen.integrators import DEFAULT_ATOL, DEFAULT_RTOL
+from mbgen.run.stepper import Stepper
 
 fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra: pip install -e '.[test]'")
 from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402
@@ -354,3 +359,93 @@ def test_the_fmu_follows_the_umask_like_every_other_output(fmus, tmp_path):
     finally:
         os.umask(old)
     assert sorted(p.name for p in (tmp_path / "other").iterdir()) == ["disc_pendulum.fmu"]
+
+
+# ------------------------------------------------------------------ issue 28: behaviour
+@pytest.mark.parametrize("kind", ["CoSimulation", "ModelExchange"])
+def test_terminate_before_the_simulation_has_started_is_refused(probe, kind):
+    """The standard (FMI 2.0, 3.2.3 and 4.2.4, as typed here, not read from FMI2_ALLOWED):
+    fmi2Terminate follows a running simulation (event or continuous-time mode, a completed
+    step); right after instantiation, or in initialization mode, it is an illegal call."""
+    refused(probe(kind).terminate, says="fmi2Terminate: illegal call sequence (the instance "
+                                        "is in state 'instantiated')")
+    fmu = probe(kind)
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    refused(fmu.terminate, says="fmi2Terminate: illegal call sequence (the instance is in "
+                                "state 'initialization mode')")
+
+
+@pytest.fixture(scope="module")
+def driven(tmp_path_factory):
+    """A pendulum driven by ``a sin(w t)`` (its RHS depends on t): (scene, model with the
+    step API, model description, unpacked FMU folder)."""
+    m = models.pendulum("driven_pendulum")
+    a, w = m.constants("a w")
+    m.torque(m.frame("B"), a * sm.sin(w * mbgen.t) * m.frame("N").z)
+    scene = mbgen.Scene("driven_pendulum", m, parameters={"l": 1.0, "g": 9.81, "m": 1.0,
+                                                         "a": 2.0, "w": 3.0},
+                        initial_state={"q": 0.5, "u": 0.0}, t_span=(0.0, 2.0))
+    path = export_fmu(scene, tmp_path_factory.mktemp("driven"))
+    folder = extract(str(path), str(tmp_path_factory.mktemp("driven_unpacked")))
+    model = mbgen.compile(scene, ("rhs", "dopri5"), targets=Targets(step=True))
+    return scene, model, read_model_description(str(path)), folder
+
+
+@pytest.fixture
+def driven_probe(driven):
+    """``driven_probe(kind)``: a fresh instance of the driven pendulum's FMU, freed after."""
+    made = []
+
+    def make(kind="CoSimulation"):
+        _, _, md, folder = driven
+        cls = FMU2Slave if kind == "CoSimulation" else FMU2Model
+        made.append(cls(guid=md.guid, unzipDirectory=folder, instanceName="driven",
+                        modelIdentifier=md.coSimulation.modelIdentifier))
+        made[-1].instantiate(callbacks=CALLBACKS)
+        return made[-1]
+
+    yield make
+    for fmu in made:
+        fmu.freeInstance()
+
+
+def test_set_time_alone_gives_the_derivatives_at_the_new_time(driven, driven_probe):
+    """fmi2SetTime with the states unchanged: der(x) (fmi2GetDerivatives and fmi2GetReal)
+    is the RHS at the new time, not the one cached at the old time."""
+    _, model, md, _ = driven
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    derivatives = [vr[f"der({n})"] for n in model.state_names]
+    x, p = np.array([0.3, -0.2]), model.default_parameters
+    me = initialized(driven_probe("ModelExchange"))
+    me.newDiscreteStates()
+    me.enterContinuousTimeMode()
+    me.setTime(0.1)
+    buf = (c_double * 2)(*x)
+    me.setContinuousStates(buf, 2)
+    assert np.array_equal(me.getReal(derivatives), model.rhs(0.1, x, p))
+    me.setTime(0.6)
+    assert not np.array_equal(model.rhs(0.6, x, p), model.rhs(0.1, x, p))
+    assert np.array_equal(me.getReal(derivatives), model.rhs(0.6, x, p))
+    me.setTime(0.9)
+    me.getDerivatives(buf, 2)
+    assert np.array_equal(np.array(buf), model.rhs(0.9, x, p))
+
+
+def test_do_step_from_states_set_by_the_master_starts_afresh(driven, driven_probe):
+    """Between steps the master sets new states: the next step's first stage is the RHS at
+    them, not the FSAL derivative kept from the old ones.  Bit for bit the step API told
+    the same (its memory's states replaced and its derivative invalidated)."""
+    scene, model, md, _ = driven
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    states = [vr[n] for n in model.state_names]
+    cs = initialized(driven_probe())
+    stepper = Stepper(model, "dopri5", 0.0, scene.x0(model.layout), rtol=DEFAULT_RTOL,
+                      atol=DEFAULT_ATOL)
+    cs.doStep(0.0, 0.25)
+    assert np.array_equal(cs.getReal(states), stepper.step(0.25))
+    x = [1.2, -3.0]
+    cs.setReal(states, x)
+    cs.doStep(0.25, 0.25)
+    stepper.memory.x[0:2], stepper.memory.f_valid = x, 0
+    assert np.array_equal(cs.getReal(states), stepper.step(0.25))

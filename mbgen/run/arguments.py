@@ -97,6 +97,26 @@ def times(t_eval) -> np.ndarray:
     return t
 
 
+def whole_number(value, name: str, low: int = 1, high: int | None = None) -> int:
+    """``value`` as a whole number in ``[low, high]``, or an error naming ``name``.
+
+    Raises
+    ------
+    ArgumentTypeError
+        Not an integer (a float such as 2.5 or 2.0, a string, a bool).
+    ArgumentError
+        Out of range.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise ArgumentTypeError(f"{name} must be a whole number (int); got "
+                                f"{type(value).__name__} {value!r:.40}")
+    if value < low:
+        raise ArgumentError(f"{name}={value} must be at least {low}")
+    if high is not None and value > high:
+        raise ArgumentError(f"{name}={value:,} is more than {high:,}; ask for fewer")
+    return int(value)
+
+
 def step_count(value, what: str = "max_steps", limit: int = LONG_MAX) -> int:
     """A step limit: an integer (or integral float) in ``[0, limit]``."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
@@ -114,4 +134,5 @@ def step_count(value, what: str = "max_steps", limit: int = LONG_MAX) -> int:
     return v
 
 
-__all__ = ["F64", "LONG_MAX", "real_number", "real_vector", "times", "step_count", "tolerance"]
+__all__ = ["F64", "LONG_MAX", "real_number", "real_vector", "times", "step_count", "tolerance",
+           "whole_number"]

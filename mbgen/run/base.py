@@ -28,6 +28,36 @@ from . import named
 from .arguments import F64, real_number, real_vector, step_count, tolerance
 
 
+#: Rounding allowance of a constraint residual, in units of the double epsilon (see
+#: :func:`on_loop_bound`): the few roundings of a sum, a sine and a product in each term.
+ROUNDING = 8.0
+
+
+def on_loop_bound(J, q, tol: float) -> np.ndarray:
+    """Largest residual of each configuration constraint ``f_h(q) = 0`` still taken as zero
+    at coordinates ``q`` (``(..., n_q)``), from ``J = df_h/dq`` there (``(..., m, n_q)``)::
+
+        bound_i = tol * s_i + ROUNDING * eps * sum_j |J_ij| |q_j|,   s_i = sum_j |J_ij|
+
+    A residual is in its constraint's own units -- a length for a loop closed by coincident
+    points -- and ``q`` is not: an angle's size says nothing of the mechanism's.  The row
+    sum ``s_i`` is: the change of ``f_i`` when every coordinate moves by one unit, for an
+    angle the lever arms (the links' lengths at this configuration), for a length 1.  So
+    ``tol`` is relative to the mechanism's size.  The second term is the floor that
+    rounding allows: ``q_j`` is known to ``eps |q_j|`` (and so is ``sin q_j`` or ``q_1 +
+    q_2``), which moves ``f_i`` by ``|J_ij| eps |q_j|`` -- a dependent angle of 1e13 rad
+    on links of length 2 cannot close the loop better than about 1e-2, and no start with
+    a residual of 3.2 is taken for closed.  (The former ``tol (1 + max|q|)`` took that
+    one: an angle's size was read as a length.)  A row that does not move at all here (a
+    locked configuration) is held to the largest row's scale; a NaN anywhere refuses.
+    """
+    A = np.abs(np.asarray(J, dtype=float))
+    s = A.sum(axis=-1)
+    s = np.where(s > 0, s, s.max(axis=-1, keepdims=True))
+    q = np.abs(np.asarray(q, dtype=float))
+    return tol * s + ROUNDING * np.finfo(float).eps * (A @ q[..., None])[..., 0]
+
+
 class ModelBase:
     """Shared validation, parameter defaults and binding.
 
@@ -137,10 +167,12 @@ class ModelBase:
         Speeds need nothing: only the independent speeds are states; the
         dependent ones always come from the velocity constraints.
 
-        The result's residual is at most ``tol (1 + max|q|)``, with ``q`` the
-        coordinates of the given ``x`` (a scale fixed before the first step: near a
-        dead point Newton's steps are huge, and a tolerance that grew with the
-        iterate once accepted a state far off the loop).
+        The result's residual is at most :func:`on_loop_bound` ``(J, q, tol)`` per
+        constraint: ``tol`` times the constraint's own scale (the row sums of
+        ``J = df_h/dq``: lengths for a loop of links) plus the floor rounding allows at
+        ``q``, both taken at the given ``x`` (fixed before the first step: near a dead
+        point Newton's steps are huge, and a tolerance that grew with the iterate once
+        accepted a state far off the loop).
 
         Raises
         ------
@@ -160,13 +192,15 @@ class ModelBase:
             self._require(o)
         idx = [self.state_names.index(n) for n in self.dependent_coordinates]
         n_q = self.layout.n_q
-        bound = tol * (1.0 + float(np.max(np.abs(x[:n_q])))) if n_q else tol
-        res = np.inf
+        bound = on_loop_bound(self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r),
+                              x[:n_q], tol)
+        res = allowed = np.inf
         for iteration in range(max_iterations + 1):
             f = self._evaluate(Output.HOLONOMIC, t, x, p, r)
-            res = float(np.max(np.abs(f)))
-            if res <= bound:        # the residual of the very state returned
+            if np.all(np.abs(f) <= bound):        # the residual of the very state returned
                 return x
+            worst = int(np.argmax(np.abs(f) - bound))  # a NaN's row, if any
+            res, allowed = float(np.max(np.abs(f))), float(bound[worst])
             if iteration == max_iterations or not np.isfinite(res):
                 break
             J = self._evaluate(Output.HOLONOMIC_JACOBIAN, t, x, p, r)[:, idx]
@@ -180,7 +214,7 @@ class ModelBase:
                 ) from None
         raise ConstraintError(
             f"{self.name}: Newton on the configuration constraints did not converge for "
-            f"{list(self.dependent_coordinates)} (residual {res:.3g} > {bound:.3g} after "
+            f"{list(self.dependent_coordinates)} (residual {res:.3g} > {allowed:.3g} after "
             f"{iteration} iterations); give initial values of the dependent coordinates "
             f"closer to a solution")
 

@@ -25,7 +25,7 @@ from ..integrators import method as integrator
 from ..symbolic.layout import Layout
 from . import crossing, named
 from .arguments import F64, real_number, step_count, times
-from .base import GeneratedModel
+from .base import GeneratedModel, on_loop_bound
 from .batch import evaluate, is_batch, options
 from .batch import integrate as batch_integrate
 from .integration import SUCCESS, Trajectory
@@ -171,23 +171,33 @@ class CompiledModel(GeneratedModel):
                              f"input tables (an older mbgen); regenerate the code")
         return table.for_model(self)
 
-    #: Largest configuration-constraint residual ``max|f_h(x0)|`` (relative to
-    #: ``1 + max|q|``) that :meth:`integrate` accepts at the start.
+    #: Relative tolerance of the configuration-constraint residual that :meth:`integrate`
+    #: accepts at the start: per constraint, this times its own scale plus the rounding
+    #: floor at the start's coordinates (:func:`mbgen.run.base.on_loop_bound`).
     START_RESIDUAL_TOL = 1e-8
 
     def _check_consistent_start(self, t0, x0, p, r) -> None:
         """Refuse an initial state off the configuration constraints (ConstraintError); a
-        batch (any of ``x0``, ``p``, ``r`` 2-D) names its first such member."""
-        res = np.max(np.abs(np.atleast_2d(self.holonomic(float(t0), x0, p, r))), axis=1)
-        n_q = self.layout.n_q
-        scale = 1.0 + np.max(np.abs(np.atleast_2d(x0)[:, :n_q]), axis=1) if n_q else 1.0
-        bad = np.flatnonzero(~(res <= self.START_RESIDUAL_TOL * scale))
+        batch (any of ``x0``, ``p``, ``r`` 2-D) names its first such member.
+
+        The residual, in the constraint's own units, is compared with
+        :func:`~mbgen.run.base.on_loop_bound` at the start: its scale comes from the
+        constraint Jacobian's rows, not from the size of the coordinates (an angle of
+        1e13 rad is no licence for a loop open by 3.2 length units).
+        """
+        f = np.atleast_2d(self.holonomic(float(t0), x0, p, r))
+        J = self.holonomic_jacobian(float(t0), x0, p, r)
+        q = np.atleast_2d(x0)[:, :self.layout.n_q]
+        bound = on_loop_bound(J, q, self.START_RESIDUAL_TOL).reshape(f.shape)
+        bad = np.flatnonzero(~np.all(np.abs(f) <= bound, axis=1))
         if bad.size:
             i = int(bad[0])
-            member = f"batch member {i} of {res.size}: " if is_batch(x0, p, r) else ""
+            member = f"batch member {i} of {len(f)}: " if is_batch(x0, p, r) else ""
+            j = int(np.argmax(np.abs(f[i]) - bound[i]))  # the row most off (a NaN's, if any)
             raise ConstraintError(
                 f"{self.name}: {member}the initial state violates the configuration "
-                f"constraints (residual {res[i]:.3g}); complete its dependent coordinates "
+                f"constraints (residual {abs(f[i, j]):.3g}, at most {bound[i, j]:.3g} "
+                f"allowed); complete its dependent coordinates "
                 f"({', '.join(self.dependent_coordinates)}) with model.consistent(x0) first "
                 f"(mbgen.run.simulate.simulate does this), or pass project=False to integrate "
                 f"from it as given")
@@ -279,7 +289,7 @@ class CompiledModel(GeneratedModel):
         max_steps = step_count(max_steps, limit=2**(8 * self.ffi.sizeof("long") - 1) - 1)
 
         checks_start = bool(project and self.dependent_coordinates
-                            and Output.HOLONOMIC in self.outputs)
+                            and {Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN} <= set(self.outputs))
         if xa is None:
             if table is not None:
                 raise ValueError("an InputTable drives one trajectory; integrate the batch "

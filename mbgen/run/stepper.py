@@ -2,6 +2,12 @@ r"""The step API of a compiled model, driven from Python (for tests and prototyp
 
 The C side (``<prefix>_<method>_init`` / ``_step`` and the memory struct) is
 rendered by :mod:`mbgen.codegen.targets.step`; see there for what a step does.
+
+The numbers ``t0``, ``rtol``, ``atol`` and ``h`` are checked for their type here, as by
+the rest of the runtime (:func:`mbgen.run.arguments.real_number`: a string, ``None`` or a
+complex is an :class:`~mbgen.errors.ArgumentTypeError` naming the argument, never parsed
+or passed on); their values (finite, positive) are the C functions' to check, so the C
+checks are what a value error exercises (``IntegrationError``, ``BAD_ARGUMENT``).
 """
 
 from __future__ import annotations
@@ -11,6 +17,7 @@ import numpy as np
 from ..abi import status_name
 from ..errors import IntegrationError, MbgenError
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL
+from .arguments import real_number
 
 
 class Stepper:
@@ -28,13 +35,15 @@ class Stepper:
             raise MbgenError(f"{model.name!r} has no {method!r} step function (step methods: "
                              f"{list(rendered.step_methods) or 'none'}); compile with "
                              f"targets=Targets(step=True)")
+        t0, rtol, atol = (real_number(v, name) for v, name in ((t0, "t0"), (rtol, "rtol"),
+                                                                (atol, "atol")))
         self.model, self.method = model, method
         ffi, lib = model.ffi, model.lib
         self.memory = ffi.new(f"{rendered.prefix}_{method}_memory *")
         self._step = getattr(lib, f"{rendered.prefix}_{method}_step")
         x0 = model._x(x0)
         status = getattr(lib, f"{rendered.prefix}_{method}_init")(
-            self.memory, float(t0), ffi.from_buffer("double[]", x0), float(rtol), float(atol))
+            self.memory, t0, ffi.from_buffer("double[]", x0), rtol, atol)
         self._check(status, "init")
 
     def _check(self, status: int, what: str) -> None:
@@ -62,9 +71,10 @@ class Stepper:
         return float(getattr(self.memory, "h", 0.0))
 
     def step(self, h: float, p=None, r=None):
-        """Advance by ``h`` with parameters ``p`` and inputs ``r`` (held over the step); returns ``x``."""
+        """Advance by ``h`` with parameters ``p`` and inputs ``r`` (held over the step);
+        returns ``x``."""
         buf = self.model.ffi.from_buffer
-        args = [self.memory, float(h)]
+        args = [self.memory, real_number(h, "h")]
         if self.model.n_p:
             args.append(buf("double[]", self.model._p(p)))
         if self.model.n_r:

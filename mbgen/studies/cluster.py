@@ -10,9 +10,9 @@ is followed:
 * ``shared`` (a study's sources) is held by a *task*, not scattered: scattered data dies
   with the workers that hold it (every task that needs it is then cancelled), a task's
   result is computed again.
-* Results are taken as they complete (``as_completed``), each in its own ``try``: a
-  :class:`~distributed.KilledWorker`, a ``CommClosedError`` or the task's own exception
-  is that chunk's failure, and finished chunks are kept.
+* Results are taken as they complete (each future's done callback), each in its own
+  ``try``: a :class:`~distributed.KilledWorker`, a ``CommClosedError`` or the task's own
+  exception is that chunk's failure, and finished chunks are kept.
 * Retries are bounded (:data:`RETRIES`): a chunk whose task raised runs once more
   (Dask's ``retries``), and on a ``LocalCluster`` started here a chunk whose worker died
   runs once more (the scheduler's ``allowed_failures``); its second death is a
@@ -26,22 +26,87 @@ is followed:
 * A scheduler address is tried first, within :data:`CONNECT_TIMEOUT` (the connection and
   Dask's handshake): a bad address is a :class:`~mbgen.errors.UsageError` naming it, not
   a 30 s wait or a hang on a server that is not a Dask scheduler.
+* The wait is bounded (:class:`Patience`).  Dask counts a worker's death against the
+  tasks it was running, so a worker that dies *before* it runs anything (a plugin or
+  start-up that crashes it, its nanny restarting it for ever) fails no task, and
+  ``as_completed`` waited for ever.  Here the study gives up on every unfinished chunk
+  (:class:`Abandoned`, their members marked failed; finished chunks are kept) when
+
+  - no chunk has finished for ``chunk_timeout`` seconds (:data:`CHUNK_TIMEOUT`): the
+    per-chunk timeout, counted from the last chunk that finished (or the start), so
+    chunks queued behind others are not charged for their wait, or
+  - more than ``max_restarts`` workers have died (the scheduler's ``remove-worker``
+    events) since the last chunk finished: by default :data:`RESTARTS_PER_WORKER` per
+    worker, enough for Dask's default ``allowed_failures`` (3: the 4th death a task
+    causes marks it failed) on every worker at once, so a chunk that kills its worker
+    still ends as that chunk's ``KilledWorker``.
+
+  - the scheduler has had no worker at all for :data:`NO_WORKER_TIMEOUT` seconds (the
+    nanny of a worker that dies as it starts may stop restarting it).
+
+  These are checked every :data:`POLL` seconds while nothing finishes.
 """
 
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
+import math
+import queue
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
-from ..errors import MissingExtraError, UsageError
+from ..errors import ArgumentError, MbgenError, MissingExtraError, UsageError
+from ..run.arguments import real_number, whole_number
 
 #: Seconds to reach a scheduler given by address (connection and handshake).
 CONNECT_TIMEOUT = 5.0
 #: Extra runs of a chunk whose task raised (Dask's ``retries``), and on a LocalCluster started
 #: here, of a chunk whose worker died (``allowed_failures``): each chunk runs at most twice.
 RETRIES = 1
+#: Seconds a study waits for the next chunk to finish before it abandons every unfinished
+#: chunk (the per-chunk timeout, ``chunk_timeout``; ``math.inf``: no limit).
+CHUNK_TIMEOUT = 3600.0
+#: Worker deaths per worker of the cluster tolerated while no chunk finishes (``max_restarts``
+#: is this times the workers, at least one, found at the start).
+RESTARTS_PER_WORKER = 4
+#: Seconds a study waits while the scheduler has no worker at all (a crash at start that
+#: its nanny stops restarting leaves none, and no death is logged any more).
+NO_WORKER_TIMEOUT = 60.0
+#: Seconds between checks of those bounds while nothing finishes.
+POLL = 0.5
+
+
+class Abandoned(MbgenError, TimeoutError):
+    """A chunk given up on: no chunk finished within the timeout, workers kept dying, or
+    none was left."""
+
+
+@dataclass(frozen=True)
+class Patience:
+    """How long a study waits: ``timeout`` seconds without a chunk finishing, ``restarts``
+    worker deaths without a chunk finishing (None: :data:`RESTARTS_PER_WORKER` per worker),
+    ``no_workers`` seconds without a worker at all; checked every ``poll`` seconds."""
+
+    timeout: float = CHUNK_TIMEOUT
+    restarts: int | None = None
+    no_workers: float = NO_WORKER_TIMEOUT
+    poll: float = POLL
+
+    def __post_init__(self):
+        for name, what in (("timeout", "chunk_timeout"), ("no_workers", "no_workers"),
+                           ("poll", "poll")):
+            value = real_number(getattr(self, name), what)
+            if not (value > 0 and (name != "poll" or value < math.inf)):
+                raise ArgumentError(f"{what} must be a number of seconds > 0"
+                                    f"{'' if name == 'poll' else ' (math.inf: no limit)'}; got "
+                                    f"{getattr(self, name)!r:.40}")
+            object.__setattr__(self, name, value)
+        if self.restarts is not None:
+            object.__setattr__(self, "restarts", whole_number(self.restarts, "max_restarts", 0))
 
 
 def _distributed():
@@ -97,7 +162,8 @@ def lost_worker(exc: BaseException) -> bool:
 
 def run_chunks(task: Callable, shared: Any, chunks: Sequence[tuple], *,
                address: str | None = None, n_workers: int = 2, client: Any = None,
-               done: Callable[[int], None] = lambda i: None):
+               done: Callable[[int], None] = lambda i: None,
+               patience: Patience = Patience()):
     """Run ``task(shared, *chunks[i])`` for every chunk on Dask.
 
     Parameters
@@ -113,6 +179,9 @@ def run_chunks(task: Callable, shared: Any, chunks: Sequence[tuple], *,
         of ``n_workers`` single-threaded processes (closed afterwards).
     done : callable
         Called with each chunk's index as it completes (a progress bar).
+    patience : Patience
+        The bounds on the wait (the module docstring); an unfinished chunk past them is
+        an :class:`Abandoned`.
 
     Returns
     -------
@@ -137,19 +206,21 @@ def run_chunks(task: Callable, shared: Any, chunks: Sequence[tuple], *,
     startup = time.perf_counter() - t_start
     try:
         n_used = len(client.scheduler_info().get("workers", {})) or n_workers
+        watch = _Watch(client, patience, n_used)
         held = client.submit(_hold, shared, pure=True)
         results: list = [None] * len(chunks)
         lost = []
-        for i, result in _completed(client, distributed, task, held, chunks,
-                                    range(len(chunks))):
+        for i, result in _completed(client, task, held, chunks, range(len(chunks)), watch):
             results[i] = result
             if isinstance(result, Exception) and lost_worker(result):
                 lost.append(i)
             else:
                 done(i)
         for i in sorted(lost):  # alone now: a worker's death implicates this chunk only
-            for _, results[i] in _completed(client, distributed, task, held, chunks, [i]):
-                done(i)
+            if watch.abandoned is None:  # else the cluster was given up on: KilledWorker stays
+                for _, results[i] in _completed(client, task, held, chunks, [i], watch):
+                    pass
+            done(i)
         return results, n_used, startup
     finally:
         if own_client is not None:
@@ -158,16 +229,121 @@ def run_chunks(task: Callable, shared: Any, chunks: Sequence[tuple], *,
             own_cluster.close()
 
 
-def _completed(client, distributed, task, held, chunks, indices):
-    """``(i, result or exception)`` of the chunks ``indices``, in the order they complete."""
+def _completed(client, task, held, chunks, indices, watch: "_Watch"):
+    """``(i, result or exception)`` of the chunks ``indices``, in the order they complete
+    (within ``watch``'s bounds)."""
     futures = {client.submit(task, held, *chunks[i], pure=False, retries=RETRIES): i
                for i in indices}
-    for future in distributed.as_completed(list(futures)):
-        i = futures.pop(future)
+    yield from watch.results(futures)
+
+
+#: What a finished future's ``result()`` may raise: the task's exception, or a cancellation
+#: (``asyncio.CancelledError`` is no ``Exception``).
+_ENDED = (Exception, asyncio.CancelledError, concurrent.futures.CancelledError)
+
+
+class _Watch:
+    """The wait of one study within its :class:`Patience`, kept across its rounds (the
+    chunks lost with a worker, run again alone): once it has given up, nothing more is
+    waited for.  ``since``, ``base`` and ``empty_since`` describe the stall since the last
+    chunk finished: when, the worker deaths counted then (None: not counted yet), since
+    when the cluster has had no worker."""
+
+    def __init__(self, client, patience: Patience, n_workers: int, clock=time.monotonic):
+        self.client, self.clock, self.patience = client, clock, patience
+        self.restarts = (RESTARTS_PER_WORKER * max(n_workers, 1) if patience.restarts is None
+                         else patience.restarts)
+        self.abandoned: Abandoned | None = None
+        self._progress()
+
+    def _progress(self) -> None:
+        self.since, self.base, self.empty_since = self.clock(), None, None
+
+    def deaths(self) -> int | None:
+        """Workers the scheduler has removed so far (None: it keeps no such log)."""
         try:
-            yield i, future.result()
-        except Exception as exc:  # that chunk's failure; the others go on
-            yield i, exc
+            events = self.client.get_events("all")
+        except Exception:  # an old or foreign scheduler: the other bounds remain
+            return None
+        return sum(1 for _, msg in events
+                   if isinstance(msg, dict) and msg.get("action") == "remove-worker")
+
+    def workers(self) -> int | None:
+        """Workers connected to the scheduler now (None: it does not say)."""
+        try:
+            return len(self.client.scheduler_info().get("workers", {}))
+        except Exception:
+            return None
+
+    def verdict(self) -> str:
+        """Why to give up now ("" to go on waiting): asked every :data:`POLL` seconds while
+        no chunk finishes."""
+        now, died = self.clock(), self.deaths()
+        if self.base is None:  # counted from the first check after the last chunk finished
+            self.base = died
+        if died is not None and self.base is not None and died - self.base > self.restarts:
+            return (f"workers keep dying: {died - self.base} deaths while no chunk finished "
+                    f"(more than max_restarts={self.restarts})")
+        if self.workers() == 0:
+            self.empty_since = now if self.empty_since is None else self.empty_since
+            if now - self.empty_since > self.patience.no_workers:
+                return (f"no worker for {self.patience.no_workers:g} s (they die as they "
+                        f"start, or none was started)")
+        else:
+            self.empty_since = None
+        if now - self.since > self.patience.timeout:
+            return f"no chunk finished within chunk_timeout={self.patience.timeout:g} s"
+        return ""
+
+    def results(self, futures: dict):
+        """``(i, result or exception)`` as the ``futures`` (future -> i) finish; past the
+        bounds, every unfinished one's is an :class:`Abandoned` (its future cancelled).
+
+        The results are fetched in a thread of their own: a finished chunk's data may
+        have died with its worker, and ``result()`` then waits for Dask to compute it
+        again (for ever, on a cluster whose workers keep dying), while a large result
+        must not be cut off by a timeout.  Cancelling the future ends that wait.
+        """
+        done: queue.SimpleQueue = queue.SimpleQueue()
+        fetched: queue.SimpleQueue = queue.SimpleQueue()
+        stop = threading.Event()
+        for future in futures:
+            future.add_done_callback(done.put)
+
+        def fetch():
+            while not stop.is_set():
+                try:
+                    future = done.get(timeout=self.patience.poll)
+                except queue.Empty:
+                    continue
+                try:
+                    result = future.result()
+                except _ENDED as exc:  # that chunk's failure; the others go on
+                    result = exc
+                fetched.put((future, result))
+
+        threading.Thread(target=fetch, name="mbgen-chunk-results", daemon=True).start()
+        pending = dict(futures)
+        self._progress()
+        try:
+            while pending:
+                try:
+                    future, result = fetched.get(timeout=self.patience.poll)
+                except queue.Empty:
+                    reason = self.verdict()
+                    if reason:
+                        self.abandoned = Abandoned(reason)
+                        for future, i in list(pending.items()):
+                            del pending[future]
+                            future.cancel()
+                            yield i, self.abandoned
+                    continue
+                i = pending.pop(future, None)
+                if i is not None:
+                    self._progress()
+                    yield i, result
+        finally:
+            stop.set()
 
 
 def _hold(value):
@@ -175,4 +351,5 @@ def _hold(value):
     return value
 
 
-__all__ = ["CONNECT_TIMEOUT", "RETRIES", "connect", "lost_worker", "reach", "run_chunks"]
+__all__ = ["CHUNK_TIMEOUT", "CONNECT_TIMEOUT", "NO_WORKER_TIMEOUT", "POLL", "RESTARTS_PER_WORKER",
+           "RETRIES", "Abandoned", "Patience", "connect", "lost_worker", "reach", "run_chunks"]

@@ -18,7 +18,9 @@ keeps its row with its C status and message and ``NaN`` results; a failed
 task (a compiler error, a worker that died running it) marks its members with
 status ``-1`` and the reason.  Neither stops the ensemble, and no finished
 chunk is lost (:mod:`mbgen.studies.cluster`: what Dask advises, with bounded
-retries: each chunk runs at most twice).
+retries: each chunk runs at most twice).  Nor is the wait unbounded (``chunk_timeout``,
+``max_restarts``: workers that crash as they start fail no task): past it the unfinished
+chunks' members are marked ``-1``, "task abandoned", and the rest is returned.
 
 Counts are checked before any work (``chunk``, ``n``, ``n_workers`` >= 1; at most
 :data:`MAX_POINTS` output times, :data:`MAX_MEMBERS` members, a table that fits in
@@ -37,7 +39,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import numbers
 import os
 import time
 from dataclasses import dataclass, field
@@ -47,12 +48,13 @@ import numpy as np
 
 from ..abi import Output, Rendered
 from ..build.extension import compiled_path, load, wants_native
-from ..errors import ArgumentError, ArgumentTypeError, MbgenError, SceneError
+from ..errors import ArgumentError, MbgenError, SceneError
 from ..fileio import write_atomic
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from ..pipeline import run
 from ..run import batch
-from .cluster import lost_worker, reach, run_chunks
+from ..run.arguments import whole_number
+from .cluster import CHUNK_TIMEOUT, Abandoned, Patience, lost_worker, reach, run_chunks
 
 #: Members per task when ``chunk`` is not given: about 4 tasks per worker, at most this.
 MAX_CHUNK = 2000
@@ -62,26 +64,6 @@ CHUNK_BYTES = 2**28
 MAX_POINTS = 1_000_000
 #: Most members of an ensemble (the grids' product times ``n``).
 MAX_MEMBERS = 10_000_000
-
-
-def whole_number(value, name: str, low: int = 1, high: int | None = None) -> int:
-    """``value`` as a whole number in ``[low, high]``, or an error naming ``name``.
-
-    Raises
-    ------
-    ArgumentTypeError
-        Not an integer (a float such as 2.5 or 2.0, a string, a bool).
-    ArgumentError
-        Out of range.
-    """
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise ArgumentTypeError(f"{name} must be a whole number (int); got "
-                                f"{type(value).__name__} {value!r:.40}")
-    if value < low:
-        raise ArgumentError(f"{name}={value} must be at least {low}")
-    if high is not None and value > high:
-        raise ArgumentError(f"{name}={value:,} is more than {high:,}; ask for fewer")
-    return int(value)
 
 
 # ------------------------------------------------------------------ members
@@ -354,13 +336,20 @@ def _table(row, varied, values, state_names, chunks, k, trajectories, extra) -> 
     return table
 
 
+def _why(exc: Exception) -> str:
+    """A failed task's reason, as its members' message."""
+    if isinstance(exc, Abandoned):
+        return f"task abandoned: {exc}"
+    if lost_worker(exc):
+        return (f"task failed: worker lost ({type(exc).__name__}): its worker died running "
+                f"this chunk, also alone; not run")
+    return f"task failed: {type(exc).__name__}: {exc}"
+
+
 def _failed_chunk(lo, hi, n_x, n_t, exc, trajectories, extra=()) -> dict:
     k = hi - lo
     nan = np.full((k, n_x), np.nan)
-    why = (f"task failed: worker lost ({type(exc).__name__}): its worker died running this "
-           f"chunk, also alone; not run" if lost_worker(exc)
-           else f"task failed: {type(exc).__name__}: {exc}")
-    out = dict(status=np.full(k, -1), messages=[why] * k,
+    out = dict(status=np.full(k, -1), messages=[_why(exc)] * k,
                t_reached=np.full(k, np.nan), n_steps=np.zeros(k, dtype=int), final=nan,
                min=nan, max=nan, worker=None, compiled=False)
     if trajectories:
@@ -377,7 +366,8 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
              atol: float = DEFAULT_ATOL, h: float | None = None, max_steps: int = 0,
              trajectories: bool = False, outputs=(), address: str | None = None, n_workers: int = 2,
              client: Any = None, chunk: int | None = None, serial: bool = False,
-             progress: bool = True) -> EnsembleResult:
+             progress: bool = True, chunk_timeout: float = CHUNK_TIMEOUT,
+             max_restarts: int | None = None) -> EnsembleResult:
     """Run a parameter study or Monte Carlo ensemble of ``scene``.
 
     Parameters
@@ -417,9 +407,18 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
         Run in this process, no Dask.
     progress : bool
         Show a progress bar (tqdm, on stderr).
+    chunk_timeout : float
+        On Dask, seconds to wait for the next chunk to finish (the per-chunk timeout, from
+        the last chunk that finished; default :data:`~mbgen.studies.cluster.CHUNK_TIMEOUT`,
+        ``math.inf``: none); then the unfinished chunks are abandoned, members failed.
+    max_restarts : int, optional
+        On Dask, worker deaths tolerated while no chunk finishes (default
+        :data:`~mbgen.studies.cluster.RESTARTS_PER_WORKER` per worker); one more abandons
+        the unfinished chunks likewise.
     """
     if chunk is not None:
         whole_number(chunk, "chunk")
+    patience = Patience(chunk_timeout, max_restarts)
     if not serial and client is None:
         if address:
             reach(address)  # a bad address fails now, not after the derivation
@@ -479,13 +478,13 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     else:
         results, n_workers_used, startup = run_chunks(
             run_chunk, sources, [(spec, x0[lo:hi], p[lo:hi]) for lo, hi in bounds],
-            address=address, n_workers=n_workers, client=client,
+            address=address, n_workers=n_workers, client=client, patience=patience,
             done=lambda i: bar.update(bounds[i][1] - bounds[i][0]))
         mode = "dask"
     wall = time.perf_counter() - start - startup
     bar.close()
     chunks = [((lo, hi), _failed_chunk(lo, hi, L.n_x, t.size, out, trajectories, extra)
-               if isinstance(out, Exception) else out)
+               if isinstance(out, BaseException) else out)
               for (lo, hi), out in zip(bounds, results)]
     compiles: dict = {}
     for _, out in chunks:

@@ -85,3 +85,54 @@ def test_the_integrators_projection_ends_on_the_loop_or_fails(q):
     for row in x_out[1:]:
         scale = 1.0 + np.max(np.abs(x0[:3]))
         assert np.max(np.abs(model.holonomic(0.0, row))) <= 1e-11 * scale, row
+
+
+# ------------------------------------------------------------------ issue 28: residual units
+@pytest.fixture(scope="module")
+def crank_rocker():
+    scene = load_scene("four_bar")
+    return scene, mbgen.compile(scene, ("rhs", "holonomic", "holonomic_jacobian", "dopri5"))
+
+
+def _huge_angles(x0):
+    """The crank-rocker's start with dependent angles ~1e13 rad: the loop is open by 2.9."""
+    x = x0.copy()
+    x[1:3] = 1e13, -7e12
+    return x
+
+
+def test_a_start_with_huge_angles_off_the_loop_is_refused(crank_rocker):
+    """Issue 28: the start tolerance was 1e-8 (1 + max|q|) = 1e5 here, so a loop open by
+    2.9 length units was integrated (and ended open by 3.3).  A residual is a length: it
+    is compared with the links' scale plus the rounding floor at 1e13 rad (~0.04)."""
+    scene, model = crank_rocker
+    x = _huge_angles(scene.x0(model.layout))
+    assert np.max(np.abs(model.holonomic(0.0, x))) > 2.5
+    t = [0.0, 0.5]
+    with pytest.raises(mbgen.ConstraintError, match=r"residual 2\.88, at most 0\.0\d+ allowed"):
+        model.integrate("dopri5", t, x)
+    with pytest.raises(mbgen.ConstraintError, match="member 1 of 2"):
+        model.integrate("dopri5", t, np.array([scene.x0(model.layout), x]))
+    # consistent() projects it instead (it took it as given: bound 1e-12 (1 + 1e13) = 10),
+    # to the loop as closely as angles of 1e13 rad can be rounded (|q| eps lever arms)
+    y = model.consistent(x)
+    floor = 8 * np.finfo(float).eps * np.abs(model.holonomic_jacobian(0.0, y)) @ np.abs(y[:3])
+    assert np.all(np.abs(model.holonomic(0.0, y)) <= floor) and np.max(floor) < 0.1
+    model.integrate("dopri5", t, y)                     # on the loop: accepted
+
+
+def test_the_start_tolerance_is_the_mechanisms_not_the_angles(crank_rocker):
+    """The same loop, scaled: lengths x 1000 allow a 1000 times larger residual (3e-6 is
+    closed for links of 2000, open for links of 2), and whole turns of the angles change
+    nothing but the rounding floor."""
+    scene, model = crank_rocker
+    x0 = scene.x0(model.layout)
+    p = model.default_parameters.copy()
+    big = p.copy()
+    big[:4] *= 1000.0                                     # la, lb, lc, ld
+    off = x0 + np.array([0.0, 3e-6 / 2000.0, 0.0, 0.0])   # coupler turned: ~3e-6 at 2000
+    model.integrate("dopri5", [0.0, 0.1], off, big)
+    with pytest.raises(mbgen.ConstraintError):
+        model.integrate("dopri5", [0.0, 0.1], x0 + np.array([0.0, 3e-6, 0.0, 0.0]), p)
+    turned = x0 + np.array([0.0, 2 * np.pi * 1000, -2 * np.pi * 1000, 0.0])
+    model.integrate("dopri5", [0.0, 0.1], model.consistent(turned))

@@ -10,6 +10,7 @@ import sympy as sm
 
 import mbgen
 from mbgen.abi import INTEGRATOR_STATUS_CODES
+from mbgen.errors import ArgumentTypeError
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
 from mbgen.codegen.targets import Targets
@@ -253,3 +254,30 @@ def test_null_pointers_are_bad_arguments(cart, chain, method):
         assert step(mem, 0.1, *args[:i], ffi.NULL, *args[i + 1:]) == bad
     assert mem.t == 0.0 and mem.n_rhs == 0
     assert step(mem, 0.1, *args) == 0 and mem.t == 0.1
+
+
+# ------------------------------------------------------------------ issue 28: t0 and types
+@pytest.mark.parametrize("method", ["rk4", "dopri5", "rosenbrock"])
+def test_init_refuses_a_start_time_that_is_not_finite(pendulum, chain, method):
+    """The C init checks t0 as it checks x0: NaN or an infinite t0 is BAD_ARGUMENT (a NaN
+    time would make every later step's span check pass or fail by accident)."""
+    scene, model = chain if method == "rosenbrock" else pendulum
+    x0 = scene.x0(model.layout)
+    for t0 in (float("nan"), float("inf"), -float("inf")):
+        with pytest.raises(mbgen.IntegrationError, match="init failed .*BAD_ARGUMENT"):
+            Stepper(model, method, t0, x0)
+
+
+@pytest.mark.parametrize("value", [None, 0.01j, "0.01", "5"])
+@pytest.mark.parametrize("name", ["t0", "rtol", "atol", "h"])
+def test_numbers_of_the_wrong_type_are_refused_naming_the_argument(pendulum, name, value):
+    """Issue 28: None and complex numbers gave raw TypeErrors from float(); the strings '0.01'
+    and '5' were parsed and silently used.  Each is an ArgumentTypeError naming the argument
+    (a numpy real is still taken)."""
+    scene, model = pendulum
+    x0 = scene.x0(model.layout)
+    kw = {"t0": 0.0, "rtol": 1e-6, "atol": 1e-9, "h": 0.01, name: value}
+    with pytest.raises(ArgumentTypeError, match=f"^{name} must be a real number"):
+        Stepper(model, "dopri5", kw["t0"], x0, rtol=kw["rtol"], atol=kw["atol"]).step(kw["h"])
+    s = Stepper(model, "dopri5", np.float64(0.0), x0, rtol=np.float32(1e-6), atol=np.int64(1))
+    assert s.step(np.float64(0.01)).shape == x0.shape and s.t == 0.01

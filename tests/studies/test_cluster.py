@@ -1,6 +1,7 @@
 """Chunks on Dask: a bad scheduler address is refused within the connect timeout, a chunk
-that raises runs exactly twice and costs that chunk only (the worker deaths are in
-tests/studies/test_ensemble.py)."""
+that raises runs exactly twice and costs that chunk only, the wait on a cluster whose
+workers keep dying or stall is bounded (a fake client: tests/support/fake_dask.py; the
+worker deaths on a real cluster are in tests/studies/test_ensemble.py)."""
 
 import os
 import socket
@@ -8,7 +9,8 @@ import threading
 
 import pytest
 
-from mbgen.errors import UsageError
+import fake_dask
+from mbgen.errors import ArgumentError, UsageError
 from mbgen.studies import cluster
 
 pytest.importorskip("dask.distributed", reason="dask[distributed] is in the test extra")
@@ -69,3 +71,64 @@ def test_a_chunk_that_raises_runs_twice_and_costs_that_chunk_only(tmp_path):
     assert isinstance(results[1], ValueError) and "chunk 1 is bad" in str(results[1])
     runs = {i: (tmp_path / f"chunk{i}").read_text().count("ran") for i in range(4)}
     assert runs == {0: 1, 1: 1 + cluster.RETRIES, 2: 1, 3: 1}
+
+
+# ------------------------------------------------------------------ issue 28: bounded waits
+def _add(shared, i):
+    return shared + i
+
+
+FAST = dict(poll=0.01)                          # the bounds checked every 10 ms, not 0.5 s
+
+
+def test_workers_that_keep_dying_cost_the_unfinished_chunks_only():
+    """Workers that die as they start fail no task, and the wait for chunk 2 was endless.
+    Now more than max_restarts (4 per worker: 8) deaths with no chunk finishing abandon
+    it (its future cancelled); the finished chunks are kept and every chunk is reported."""
+    client = fake_dask.DyingClient(hangs=lambda args: args[0] == 2)
+    done = []
+    results, n_workers, _ = cluster.run_chunks(_add, 10, [(i,) for i in range(4)],
+                                               client=client, done=done.append,
+                                               patience=cluster.Patience(**FAST))
+    assert n_workers == 2 and sorted(done) == [0, 1, 2, 3]
+    assert results[0] == 10 and results[1] == 11 and results[3] == 13
+    assert isinstance(results[2], cluster.Abandoned)
+    assert str(results[2]) == ("workers keep dying: 9 deaths while no chunk finished (more "
+                               "than max_restarts=8)")
+    assert client.hung[0].cancelled
+
+
+@pytest.mark.parametrize("client, patience, says", [
+    (fake_dask.DyingClient(lambda args: True, deaths_per_look=0), dict(timeout=0.05),
+     "no chunk finished within chunk_timeout=0.05 s"),
+    (fake_dask.DyingClient(lambda args: True, n_workers=0, deaths_per_look=0),
+     dict(no_workers=0.05), "no worker for 0.05 s"),
+], ids=["hung", "no worker"])
+def test_a_stalled_cluster_is_given_up_on_after_the_timeout(client, patience, says):
+    """No deaths to count: a chunk that never finishes, and a cluster with no worker left
+    (a nanny that stopped restarting), end at their timeouts."""
+    results, _, _ = cluster.run_chunks(_add, 10, [(0,), (1,)], client=client,
+                                       patience=cluster.Patience(**FAST, **patience))
+    assert all(isinstance(r, cluster.Abandoned) and str(r).startswith(says) for r in results)
+
+
+def test_deaths_count_from_the_last_chunk_that_finished():
+    """Workers dying while chunks still finish is a cluster at work (a chunk that kills its
+    worker, Dask retrying it): 12 deaths in all, never more than 3 between two chunks
+    finishing, with max_restarts=4, abandon nothing."""
+    client = fake_dask.DyingClient(hangs=lambda args: True, release_every=3)
+    results, _, _ = cluster.run_chunks(_add, 10, [(i,) for i in range(4)], client=client,
+                                       patience=cluster.Patience(restarts=4, **FAST))
+    assert results == [10, 11, 12, 13] and client.deaths >= 12
+
+
+@pytest.mark.parametrize("kw, error", [
+    (dict(timeout=0.0), "chunk_timeout must be a number of seconds > 0"),
+    (dict(timeout="60"), "chunk_timeout must be a real number"),
+    (dict(restarts=-1), "max_restarts=-1 must be at least 0"),
+    (dict(restarts=2.0), "max_restarts must be a whole number"),
+    (dict(poll=float("inf")), "poll must be a number of seconds > 0; got inf"),
+])
+def test_bounds_that_are_not_numbers_of_the_right_kind_are_refused(kw, error):
+    with pytest.raises(ArgumentError, match=error):
+        cluster.Patience(**kw)

@@ -1,14 +1,17 @@
 """Ensembles: members built reproducibly, a LocalCluster of two worker processes gives the
 serial results bit for bit, failures are recorded and never fatal, each worker compiles once."""
 
+import functools
 import os
 
 import numpy as np
 import pytest
 
+import fake_dask
 import mbgen
 from mbgen.cli import main
 from mbgen.studies import ensemble as ensemble_module
+from mbgen.studies.cluster import Patience
 from mbgen.studies.ensemble import ensemble, members, run_chunk
 from mbgen.errors import ArgumentError, MbgenError, SceneError
 from mbgen.pipeline import run
@@ -178,3 +181,83 @@ def test_huge_counts_are_refused_before_any_work(kw, message):
     """Each of these allocated terabytes (a MemoryError) or waited for ever."""
     with pytest.raises(ArgumentError, match=message):
         ensemble(load_scene("disc_pendulum"), **{"serial": True, "progress": False, **kw})
+
+
+# ------------------------------------------------------------------ issue 28: failed chunks
+def test_a_serial_chunk_whose_task_raises_costs_that_chunk_only(monkeypatch):
+    """In a serial ensemble a task that raises (a compiler error, a bug) marks its chunk's
+    members failed with the reason; the other chunks' results are kept."""
+    run_chunk_here = ensemble_module.run_chunk
+
+    def refusing_chunk(sources, spec, x0, p):
+        if np.any(p == DEADLY_L):
+            raise RuntimeError("this chunk is refused")
+        return run_chunk_here(sources, spec, x0, p)
+
+    monkeypatch.setattr(ensemble_module, "run_chunk", refusing_chunk)
+    res = ensemble(load_scene("disc_pendulum"), grid={"l": [2.0, DEADLY_L, 5.0]}, n=2,
+                   t_end=0.5, chunk=2, serial=True, progress=False)
+    bad = res.table["l"] == DEADLY_L
+    assert res.tasks == 3 and bad.sum() == 2 and res.n_failed == 2
+    assert set(res.table["message"][bad]) == {"task failed: RuntimeError: this chunk is refused"}
+    assert np.all(res.table["status"][bad] == -1) and np.all(np.isnan(res.table["final_q1"][bad]))
+    assert np.all(res.table["status"][~bad] == 0)
+    assert np.all(np.isfinite(res.table["final_q1"][~bad]))
+
+
+def test_an_ensemble_on_workers_that_keep_dying_returns_what_finished(monkeypatch):
+    """Issue 28: on a client whose workers keep dying (a plugin that crashes them as they
+    start) the ensemble waited for ever.  A fake client (tests/support/fake_dask.py) runs
+    the healthy chunks and never the one of ``l = DEADLY_L``, while its workers die: past
+    max_restarts that chunk's members are marked abandoned, the rest returned."""
+    monkeypatch.setattr(ensemble_module, "Patience", functools.partial(Patience, poll=0.01))
+    client = fake_dask.DyingClient(hangs=lambda args: np.any(args[2] == DEADLY_L))
+    res = ensemble(load_scene("disc_pendulum"), grid={"l": [2.0, DEADLY_L, 5.0]}, n=2,
+                   t_end=0.5, chunk=2, client=client, max_restarts=3, progress=False)
+    bad = res.table["l"] == DEADLY_L
+    assert res.mode == "dask" and res.n_failed == 2 and client.hung[0].cancelled
+    assert set(res.table["message"][bad]) == {
+        "task abandoned: workers keep dying: 4 deaths while no chunk finished (more than "
+        "max_restarts=3)"}
+    assert np.all(res.table["status"][~bad] == 0)
+    assert np.all(np.isfinite(res.table["final_q1"][~bad]))
+
+
+@pytest.mark.slow
+def test_a_real_cluster_whose_workers_die_as_they_start_is_given_up_on(monkeypatch, tmp_path):
+    """The real thing (10 to 20 s): a worker plugin crashes every worker that starts once
+    the chunk of ``l = DEADLY_L`` has killed its worker.  The ensemble returns: that chunk's
+    members and those of every chunk left unfinished are marked failed, and every member
+    that finished has the serial result bit for bit.  (Before: waited for ever.)"""
+    marker = tmp_path / "poisoned"
+
+    class CrashAtStart(distributed.WorkerPlugin):  # pickled by value: it runs on the workers
+        name = "crash-at-start"
+
+        def setup(self, worker):
+            if os.path.exists(marker):
+                os._exit(71)
+
+    run_chunk_on_worker = ensemble_module.run_chunk
+
+    def poisoning_chunk(sources, spec, x0, p):
+        if np.any(p == DEADLY_L):
+            open(marker, "w").close()
+            os._exit(70)
+        return run_chunk_on_worker(sources, spec, x0, p)
+
+    scene = load_scene("disc_pendulum")
+    kw = dict(grid={"l": [2.0, 3.0, DEADLY_L, 5.0, 6.0, 7.0]}, n=3, t_end=1.0, progress=False)
+    serial = ensemble(scene, serial=True, **kw)
+    monkeypatch.setattr(ensemble_module, "run_chunk", poisoning_chunk)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as local, \
+            distributed.Client(local) as client:
+        client.register_plugin(CrashAtStart())
+        res = ensemble(scene, client=client, chunk=3, **kw)
+    ok = res.table["status"] == 0
+    assert not np.any(ok[res.table["l"] == DEADLY_L]) and res.n_failed >= 3
+    assert all(m.startswith(("task abandoned: ", "task failed: worker lost"))
+               for m in res.table["message"][~ok])
+    for name in ("n_steps", "final_q1", "final_u2"):
+        assert np.array_equal(res.table[name][ok], serial.table[name][ok]), name
