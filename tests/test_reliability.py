@@ -4,8 +4,17 @@ each failing on the code before its fix; the thorough tests sit in the area's ow
 Sections follow the issue's numbering: files (1, 2, 5), building and the cache (3, 4),
 numbers (6, 7, 9, 10), time in the step API and the FMU (8), ensembles and the check
 (11, 12), the clear errors and the injected faults the suite must catch.
+
+Issue 28 (hardening 3, the new doors) follows, by its numbering: the cache and the lock
+(1-4), robot files (5-10: URDF, then MJCF), ensembles (11), the step API (12), output folders
+(13) and constraints (14).  The thorough tests sit in the area's files (tests/build/,
+tests/test_fileio.py, tests/model/test_urdf.py, tests/model/test_mjcf.py, tests/studies/,
+tests/run/test_step.py, tests/run/test_consistent.py), as do those of the injected faults.
 """
 
+import errno
+import hashlib
+import json
 import math
 import os
 import shutil
@@ -21,22 +30,28 @@ import numpy as np
 import pytest
 
 import mbgen
+from mbgen import fileio
 from mbgen.abi import Output, status_name
-from mbgen.build.cache import verified
-from mbgen.build.extension import build, load
+from mbgen.build import extension
+from mbgen.build.cache import cache_dir, verified
+from mbgen.build.extension import build, load, module_name
 from mbgen.build.fmu import write_fmu
-from mbgen.cli import EXIT_OK, EXIT_USAGE, main
+from mbgen.cli import EXIT_MODEL, EXIT_OK, EXIT_USAGE, main
 from mbgen.codegen.optimize import Form
 from mbgen.codegen.targets import Targets
-from mbgen.errors import (ArgumentError, ArgumentTypeError, CacheError, ConstraintError,
-                          SingularMassMatrixError)
+from mbgen.errors import (ArgumentError, ArgumentTypeError, BuildError, CacheError,
+                          ConstraintError, MjcfError, OutputPathError, SingularMassMatrixError,
+                          UrdfInertiaError, UrdfSyntaxError)
 from mbgen.export import export_fmu
+from mbgen.model import urdf_xml
+from mbgen.model.limits import allow_large_models
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.run.stepper import Stepper
 from mbgen.scenes import four_bar
 from mbgen.studies import cluster
 from mbgen.verify.check import CheckReport, check, compare, reference_model
+import fake_dask
 from models import massless_link_scene, pendulum, scene_file, two_input_cart
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -377,3 +392,387 @@ def test_the_recursion_keeps_the_loads_on_massless_parts():
     np.testing.assert_allclose(rec.compiled.rhs(0.0, x), kane.rhs(0.0, x), rtol=1e-11,
                                atol=1e-11)
 
+
+# ==================== Issue 28: the cache, the lock, compiler flags, output folders (1-4, 13)
+
+OTHER_UID = 65534      # "nobody": another user (root gives files to it; others pretend)
+
+PLANTED = r"""
+#include <stdio.h>
+__attribute__((constructor)) static void planted(void) {
+    FILE *f = fopen("%s", "w");
+    if (f) fclose(f);
+}
+"""
+
+
+def _as_someone_elses(path, monkeypatch):
+    """Make ``path`` (a link or a file) look owned by another user: ``lchown`` as root, else
+    an ``os.lstat``/``os.fstat`` that says so for this inode."""
+    if os.geteuid() == 0:
+        os.lchown(path, OTHER_UID, OTHER_UID)
+        return
+    ino = os.lstat(path).st_ino
+
+    def other(real):
+        def stat_(*args, **kwargs):
+            st = real(*args, **kwargs)
+            if st.st_ino != ino:
+                return st
+            fields = list(st[:10])
+            fields[4] = st.st_uid + 1
+            return os.stat_result(fields)
+        return stat_
+
+    monkeypatch.setattr(os, "lstat", other(os.lstat))
+    monkeypatch.setattr(os, "fstat", other(os.fstat))
+
+
+# --- 1. A cache reached through another user's link; the checked bytes are the loaded bytes
+def test_a_cache_reached_through_another_users_link_is_refused(tmp_path, monkeypatch):
+    real = tmp_path / "real"
+    real.mkdir(mode=0o700)
+    link = tmp_path / "cache"
+    link.symlink_to(real)
+    _as_someone_elses(link, monkeypatch)
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(link))
+    with pytest.raises(CacheError, match=f"{link}.*link.*owned by.*MBGEN_CACHE_DIR"):
+        cache_dir()
+
+
+def test_a_module_swapped_after_its_check_is_not_loaded(tmp_path, monkeypatch):
+    """The issue's race, made certain: the module is swapped for a planted library (with a
+    matching record) after the build checked it; the load must not run the plant."""
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path / "cache"))
+    rendered = run(pendulum("swapped"), build=False).rendered
+    marker, real_build = tmp_path / "constructor-ran", extension.build
+
+    def build_then_swap(*args, **kwargs):
+        path = real_build(*args, **kwargs)
+        if not marker.with_suffix(".planted").exists():            # once
+            (tmp_path / "p.c").write_text(PLANTED % marker)
+            plant = tmp_path / "p.so"
+            subprocess.run([extension.compiler(), "-shared", "-fPIC", "-o", str(plant),
+                            str(tmp_path / "p.c")], check=True)
+            data = plant.read_bytes()
+            record = path.with_name(path.name + ".sha256")
+            record.write_text(f"{len(data)} {hashlib.sha256(data).hexdigest()}\n")
+            plant.chmod(0o666)                                     # others could write it
+            _as_someone_elses(plant, monkeypatch)
+            os.replace(plant, path)
+            marker.with_suffix(".planted").touch()
+        return path
+
+    monkeypatch.setattr(extension, "build", build_then_swap)
+    mod = load(rendered)
+    assert not marker.exists(), "the planted library's constructor ran"
+    assert hasattr(mod.lib, "swapped_rhs")
+
+
+# --- 2. The output lock never follows a link
+def test_the_output_lock_does_not_follow_a_link(tmp_path):
+    (tmp_path / "elsewhere").mkdir()
+    victim = tmp_path / "elsewhere" / "victim"
+    (tmp_path / ".out.lock").symlink_to(victim)
+    with pytest.raises(OutputPathError, match=r"\.out\.lock.*link"):
+        fileio.write_generated(tmp_path / "out", {"a.c": "int a;\n"})
+    assert not victim.exists()
+
+
+# --- 3. Every flag that reaches the compiler is in the cache key; fast math is refused
+def test_cflags_are_in_the_cache_key_and_fast_math_is_refused(monkeypatch):
+    rendered = run(pendulum("flags"), build=False).rendered
+    monkeypatch.delenv("CFLAGS", raising=False)
+    plain = module_name(rendered)
+    monkeypatch.setenv("CFLAGS", "-DMBGEN_SOME_FLAG=1")
+    assert module_name(rendered) != plain
+    monkeypatch.setenv("CFLAGS", "-O2 -ffast-math")
+    with pytest.raises(BuildError, match=r"CFLAGS.*-ffast-math.*NaN"):
+        module_name(rendered)
+
+
+# --- 4. Quotes in $CFLAGS, an output folder that is a mount point, a long folder name
+def test_an_unbalanced_quote_in_cflags_is_a_named_error(tmp_path, monkeypatch):
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("CFLAGS", "-DNAME='x")
+    with pytest.raises(BuildError, match=r"CFLAGS.*quotation"):
+        build(run(pendulum("quote"), build=False).rendered)
+
+
+def test_an_output_folder_that_cannot_be_renamed_is_generated_into(tmp_path, monkeypatch):
+    """A mount point (a Docker volume, a tmpfs) cannot be renamed: EBUSY, simulated here."""
+    out = tmp_path / "out"
+    out.mkdir()
+    real_rename = os.rename
+
+    def busy(fn):
+        def call(a, b, *rest):
+            if str(out) in (os.fsdecode(a), os.fsdecode(b)):
+                raise OSError(errno.EBUSY, os.strerror(errno.EBUSY), str(out))
+            return fn(a, b, *rest)
+        return call
+
+    monkeypatch.setattr(os, "rename", busy(real_rename))
+    monkeypatch.setattr(fileio.generations, "_exchange", busy(lambda a, b: False))
+    fileio.write_generated(out, {"a.c": "int a;\n"})
+    fileio.write_generated(out, {"a.c": "int a2;\n"})
+    assert (out / "a.c").read_text() == "int a2;\n"
+    assert sorted(os.listdir(out)) == [fileio.MANIFEST, "a.c"]
+
+
+def test_a_long_legal_folder_name_is_generated_into(tmp_path):
+    out = tmp_path / ("x" * 250)
+    fileio.write_generated(out, {"a.c": "int a;\n"})
+    fileio.write_generated(out, {"a.c": "int a2;\n"})
+    assert (out / "a.c").read_text() == "int a2;\n"
+    assert sorted(os.listdir(tmp_path)) == [out.name]
+
+
+# --- 13. A killed generation leaves nothing that the next run keeps
+KILLED = textwrap.dedent("""
+    import os, signal, sys
+    from mbgen import fileio
+    unlinks = []
+    def unlink(*args, **kwargs):
+        unlinks.append(args)
+        if len(unlinks) == 2:                    # the old folder's manifest is gone
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(*args, **kwargs)
+    real, os.unlink = os.unlink, unlink
+    fileio.write_generated(sys.argv[1], {f"f{i}.c": f"int two{i};\\n" for i in range(3)})
+""")
+
+
+def test_a_generation_killed_while_discarding_leaves_no_stale_folder(tmp_path):
+    out = tmp_path / "out"
+    fileio.write_generated(out, {f"f{i}.c": f"int one{i};\n" for i in range(3)})
+    proc = subprocess.run([sys.executable, "-c", KILLED, str(out)], capture_output=True)
+    assert proc.returncode == -signal.SIGKILL, proc.stderr
+    done = fileio.write_generated(out, {f"f{i}.c": f"int three{i};\n" for i in range(3)})
+    assert not [line for line in done.remarks() if "kept" in line], done.remarks()
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+    assert json.loads((out / fileio.MANIFEST).read_text())["files"].keys() == {
+        "f0.c", "f1.c", "f2.c"}
+
+
+# ==================== Issue 28: URDF files and floating bases (5-7, 10)
+
+INERTIAL = ('<inertial><origin xyz="{xyz}"/><mass value="1"/>'
+            '<inertia ixx="0.02" iyy="0.03" izz="0.025"/></inertial>')
+
+
+def robot(links: dict, joints: list) -> str:
+    """``links``: name -> mass centre (None: massless); ``joints``: (name, type, parent,
+    child, origin xyz, axis)."""
+    text = [f'<link name="{n}">{INERTIAL.format(xyz=c) if c else ""}</link>'
+            for n, c in links.items()]
+    text += [f'<joint name="{n}" type="{k}"><parent link="{p}"/><child link="{c}"/>'
+             f'<origin xyz="{o}"/><axis xyz="{a}"/></joint>' for n, k, p, c, o, a in joints]
+    return '<robot name="r">' + "".join(text) + "</robot>"
+
+
+def write_urdf(tmp_path, text, name="robot.urdf"):
+    (tmp_path / name).write_text(text)
+    return tmp_path / name
+
+
+# --- 5. A path that is not a regular file: named for what it is, never read, no hang
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+def test_a_urdf_path_that_is_a_named_pipe_is_refused_at_once(tmp_path, capsys):
+    fifo = tmp_path / "robot.urdf"
+    os.mkfifo(fifo)
+    caught = []
+
+    def read():
+        try:
+            mbgen.from_urdf(fifo)
+        except Exception as exc:   # noqa: BLE001 - handed to the test
+            caught.append(exc)
+    thread = threading.Thread(target=read, daemon=True)
+    thread.start()
+    thread.join(60)                                  # a hang guard, not a budget
+    if thread.is_alive():                            # release the read, then fail
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join()
+        pytest.fail("from_urdf blocked on a named pipe")
+    assert isinstance(caught[0], UrdfSyntaxError) and "named pipe" in str(caught[0])
+    assert main(["check", str(fifo)]) == EXIT_MODEL
+    err = capsys.readouterr().err
+    assert "is a named pipe (FIFO), not a file" in err and "does not exist" not in err
+
+
+# --- 6. Reading is linear in the links
+def test_reading_a_chain_looks_at_each_joint_a_few_times(monkeypatch):
+    class Counted(urdf_xml.JointSpec):
+        reads = 0
+
+        def __getattribute__(self, name):
+            if name == "parent":
+                type(self).reads += 1
+            return object.__getattribute__(self, name)
+
+    monkeypatch.setattr(urdf_xml, "JointSpec", Counted)
+    n = 1000
+    text = robot({f"l{i}": "0 0 0.05" for i in range(n)},
+                 [(f"j{i}", "revolute", f"l{i - 1}", f"l{i}", "0 0 0.1", "0 1 0")
+                  for i in range(1, n)])
+    with allow_large_models():                      # past the size guard, to be read
+        urdf_xml.parse_urdf(text)
+    assert Counted.reads <= 4 * n, Counted.reads    # was 1,500,500: once per link and joint
+
+
+# --- 7. Numbers read from a file: scale-safe axes, overflowing values refused by name
+def test_a_huge_axis_keeps_its_direction_and_a_huge_offset_is_refused(tmp_path):
+    links = {"base": "0 0 0", "arm": "0.3 0 0"}
+    text = robot(links, [("j", "revolute", "base", "arm", "0 0 0", "1e200 0 0")])
+    assert urdf_xml.parse_urdf(text).joints["arm"].axis == (1.0, 0.0, 0.0)   # was (0, 0, 0)
+    text = robot(links, [("j", "revolute", "base", "arm", "0 0 1e300", "1 0 0")])
+    with pytest.raises(UrdfSyntaxError, match="joint 'j'.*<origin> xyz"):
+        mbgen.from_urdf(write_urdf(tmp_path, text))
+
+
+# --- 10. A floating root whose motion moves no mass is refused when the file is read
+def test_a_massless_floating_root_on_one_joint_is_refused(tmp_path):
+    text = robot({"trunk": None, "leg": "0 0 -0.1"},
+                 [("hip", "revolute", "trunk", "leg", "0.1 0 0", "0 1 0")])
+    with pytest.raises(UrdfInertiaError, match="floating root link 'trunk'"):
+        mbgen.from_urdf(write_urdf(tmp_path, text), floating=True)
+
+
+# --- fault: a joint axis along a negative coordinate axis turns the joint the other way
+def test_an_axis_along_minus_z_turns_the_child_the_other_way(tmp_path):
+    text = robot({"base": "0 0 0", "arm": "0.3 0 0"},
+                 [("j", "revolute", "base", "arm", "0 0 0", "0 0 -1")])
+    model = mbgen.from_urdf(write_urdf(tmp_path, text))
+    q, = model.coordinates_
+    centre = model.bodies[0].center.pos_from(model.origin).to_matrix(model.N).subs(q, 0.5)
+    np.testing.assert_allclose(np.array(centre, dtype=float).ravel(),
+                               [0.3 * np.cos(0.5), -0.3 * np.sin(0.5), 0.0], atol=1e-15)
+
+
+# ==================== Issue 28: MJCF files (5, 7-10)
+
+def _mujoco():
+    return pytest.importorskip("mujoco", reason="MuJoCo is in the test extra")
+
+
+ONE_BODY = """<mujoco model="one"><worldbody><body name="b" pos="0 0 1">
+<joint name="j" {joint}/><geom type="sphere" size="0.1"/></body></worldbody></mujoco>"""
+
+
+def write_mjcf(tmp_path, text, name="robot.xml"):
+    (tmp_path / name).write_text(text)
+    return tmp_path / name
+
+
+# --- 5. A path that is not a regular file: named for what it is, never opened, no hang
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+def test_an_mjcf_path_that_is_a_named_pipe_is_refused_by_its_kind(tmp_path):
+    _mujoco()
+    pipe = tmp_path / "robot.xml"
+    os.mkfifo(pipe)
+
+    def feed():          # code that opens the pipe reads a model and fails, not hangs
+        try:
+            with open(pipe, "w", encoding="utf-8") as f:
+                f.write(ONE_BODY.format(joint=""))
+        except OSError:
+            pass
+    writer = threading.Thread(target=feed, daemon=True)
+    writer.start()
+    try:
+        with pytest.raises(MjcfError, match=r"robot\.xml' is a named pipe \(FIFO\)"):
+            mbgen.from_mjcf(pipe)
+    finally:
+        fd = os.open(pipe, os.O_RDONLY | os.O_NONBLOCK)     # lets the writer go
+        writer.join()
+        os.close(fd)
+
+
+# --- 7. An axis whose square overflows: refused, never a joint about another axis
+def test_an_mjcf_axis_of_1e200_is_refused_not_turned_about_another_axis(tmp_path, monkeypatch):
+    mujoco = _mujoco()
+    monkeypatch.chdir(tmp_path)                   # MuJoCo's warning log goes there
+    text = ONE_BODY.format(joint='axis="1e200 0 0"')
+    with pytest.raises(MjcfError, match=r"<joint name='j'> axis=\"1e200 0 0\""):
+        mbgen.from_mjcf(write_mjcf(tmp_path, text))
+    with pytest.raises(MjcfError, match=r"joint 'j': jnt_axis is \[0.0, 0.0, 0.0\]"):
+        mbgen.from_mujoco(mujoco.MjModel.from_xml_string(text))
+
+
+# --- 8. NaN in the file: MjcfError naming the element and attribute
+def test_an_mjcf_nan_damping_is_named_by_element_and_attribute(tmp_path):
+    _mujoco()
+    with pytest.raises(MjcfError, match=r"line 2: <joint name='j'> damping=\"nan\""):
+        mbgen.from_mjcf(write_mjcf(tmp_path, ONE_BODY.format(joint='damping="nan"')))
+
+
+# --- 9. 300 bytes that replicate a body 10^9 times: refused before MuJoCo compiles
+def test_an_mjcf_replicate_bomb_is_refused_before_compiling(tmp_path, monkeypatch):
+    mujoco = _mujoco()
+    def compiled(*_args, **_kwargs):
+        raise AssertionError("the file went to MuJoCo's compiler (no answer after 90 s)")
+    monkeypatch.setattr(mujoco.MjModel, "from_xml_path", staticmethod(compiled))
+    bomb = ('<mujoco><worldbody><replicate count="1000" offset="1 0 0">'
+            '<replicate count="1000" offset="0 1 0"><replicate count="1000" offset="0 0 1">'
+            '<body><joint/><geom size="0.1"/></body></replicate></replicate></replicate>'
+            '</worldbody></mujoco>')
+    with pytest.raises(MjcfError, match=r"bomb\.xml.*would make at least [0-9]{6,} elements"):
+        mbgen.from_mjcf(write_mjcf(tmp_path, bomb, "bomb.xml"))
+
+
+# --- 10. A free body that moves no mass whichever way it moves: refused when read
+def test_a_compiled_model_with_a_massless_free_body_is_refused():
+    mujoco = _mujoco()
+    mj = mujoco.MjModel.from_xml_string(
+        "<mujoco><worldbody><body name='trunk'><freejoint name='root'/><geom size='0.1'/>"
+        "<body name='leg' pos='0 0 -0.3'><joint name='hip' axis='0 1 0'/>"
+        "<geom type='capsule' fromto='0 0 0 0 0 -0.4' size='0.05'/></body></body>"
+        "</worldbody></mujoco>")
+    mj.body_mass[1], mj.body_inertia[1] = 0.0, 0.0
+    with pytest.raises(MjcfError, match="singular at every state"):
+        mbgen.from_mujoco(mj)
+
+
+# ==================== Issue 28: ensembles, the step API, constraints (11, 12, 14)
+
+# --- 11. An ensemble on workers that keep dying waits a bounded time
+def _add(shared, i):
+    return shared + i
+
+
+def test_a_cluster_whose_workers_keep_dying_is_given_up_on():
+    """Waited for ever (workers crashing as they start fail no task); now past max_restarts
+    deaths with no chunk finishing the unfinished chunk is abandoned, the rest kept."""
+    pytest.importorskip("dask.distributed", reason="dask[distributed] is in the test extra")
+    client = fake_dask.DyingClient(hangs=lambda args: args[0] == 1)
+    results, _, _ = cluster.run_chunks(_add, 10, [(0,), (1,), (2,)], client=client,
+                                       patience=cluster.Patience(poll=0.01))
+    assert results[0] == 10 and results[2] == 12 and client.hung[0].cancelled
+    assert isinstance(results[1], cluster.Abandoned) and "workers keep dying" in str(results[1])
+
+
+# --- 12. The step API's numbers of the wrong type
+@pytest.mark.parametrize("name, value", [("t0", "5"), ("rtol", None), ("atol", 1j),
+                                         ("h", "0.01")])
+def test_stepper_numbers_of_the_wrong_type_are_named(name, value):
+    """None and complex gave raw TypeErrors, '0.01' and '5' were silently parsed."""
+    scene = load_scene("disc_pendulum")
+    model = mbgen.compile(scene, ("rhs", "dopri5"), targets=Targets(step=True))
+    kw = {"t0": 0.0, "rtol": 1e-6, "atol": 1e-9, "h": 0.01, name: value}
+    with pytest.raises(ArgumentTypeError, match=f"^{name} must be a real number"):
+        Stepper(model, "dopri5", kw["t0"], scene.x0(model.layout), rtol=kw["rtol"],
+                atol=kw["atol"]).step(kw["h"])
+
+
+# --- 14. A start off the loop is judged in the constraint's units, not the angles'
+def test_a_four_bar_start_with_huge_angles_off_the_loop_is_refused():
+    """Dependent angles of ~1e13 rad made the start tolerance 1e5: a loop open by 2.9 was
+    integrated.  Now it is refused, and consistent() closes it to the rounding floor."""
+    scene = load_scene("four_bar")
+    model = mbgen.compile(scene, ("rhs", "holonomic", "holonomic_jacobian", "dopri5"))
+    x = scene.x0(model.layout)
+    x[1:3] = 1e13, -7e12
+    with pytest.raises(ConstraintError, match="violates the configuration constraints"):
+        model.integrate("dopri5", [0.0, 0.5], x)
+    assert np.max(np.abs(model.holonomic(0.0, model.consistent(x)))) < 0.05
