@@ -156,21 +156,27 @@ def unpacked(fmus, tmp_path_factory):
     return scene, mbgen.compile(scene), read_model_description(str(path)), folder
 
 
-@pytest.fixture
-def probe(unpacked):
-    """``probe(kind)``: a fresh instance (FMPy's FMU2Slave or FMU2Model), freed afterwards."""
+def instances(unpacked, name: str):
+    """``(make, made)``: ``make(kind)`` a fresh instance (FMPy's FMU2Slave or FMU2Model) of
+    the unpacked FMU, instantiated; ``made`` to free afterwards."""
     made = []
 
     def make(kind="CoSimulation"):
         _, _, md, folder = unpacked
         cls = FMU2Slave if kind == "CoSimulation" else FMU2Model
         fmu = cls(guid=md.guid, unzipDirectory=folder,
-                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="probe")
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
         fmu.instantiate(callbacks=CALLBACKS)
         made.append(fmu)
         LOG.clear()
         return fmu
+    return make, made
 
+
+@pytest.fixture
+def probe(unpacked):
+    """``probe(kind)``: a fresh instance of disc_pendulum's FMU, freed afterwards."""
+    make, made = instances(unpacked, "probe")
     yield make
     for fmu in made:
         fmu.freeInstance()
@@ -395,16 +401,7 @@ def driven(tmp_path_factory):
 @pytest.fixture
 def driven_probe(driven):
     """``driven_probe(kind)``: a fresh instance of the driven pendulum's FMU, freed after."""
-    made = []
-
-    def make(kind="CoSimulation"):
-        _, _, md, folder = driven
-        cls = FMU2Slave if kind == "CoSimulation" else FMU2Model
-        made.append(cls(guid=md.guid, unzipDirectory=folder, instanceName="driven",
-                        modelIdentifier=md.coSimulation.modelIdentifier))
-        made[-1].instantiate(callbacks=CALLBACKS)
-        return made[-1]
-
+    make, made = instances(driven, "driven")
     yield make
     for fmu in made:
         fmu.freeInstance()

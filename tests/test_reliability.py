@@ -52,7 +52,8 @@ from mbgen.scenes import four_bar
 from mbgen.studies import cluster
 from mbgen.verify.check import CheckReport, check, compare, reference_model
 import fake_dask
-from models import massless_link_scene, pendulum, scene_file, two_input_cart
+from models import (count_joint_parent_reads, massless_link_scene, pendulum, read_in_thread,
+                    scene_file, two_input_cart)
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -581,20 +582,7 @@ def write_urdf(tmp_path, text, name="robot.urdf"):
 def test_a_urdf_path_that_is_a_named_pipe_is_refused_at_once(tmp_path, capsys):
     fifo = tmp_path / "robot.urdf"
     os.mkfifo(fifo)
-    caught = []
-
-    def read():
-        try:
-            mbgen.from_urdf(fifo)
-        except Exception as exc:   # noqa: BLE001 - handed to the test
-            caught.append(exc)
-    thread = threading.Thread(target=read, daemon=True)
-    thread.start()
-    thread.join(60)                                  # a hang guard, not a budget
-    if thread.is_alive():                            # release the read, then fail
-        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-        thread.join()
-        pytest.fail("from_urdf blocked on a named pipe")
+    caught = [read_in_thread(mbgen.from_urdf, fifo)]
     assert isinstance(caught[0], UrdfSyntaxError) and "named pipe" in str(caught[0])
     assert main(["check", str(fifo)]) == EXIT_MODEL
     err = capsys.readouterr().err
@@ -603,15 +591,7 @@ def test_a_urdf_path_that_is_a_named_pipe_is_refused_at_once(tmp_path, capsys):
 
 # --- 6. Reading is linear in the links
 def test_reading_a_chain_looks_at_each_joint_a_few_times(monkeypatch):
-    class Counted(urdf_xml.JointSpec):
-        reads = 0
-
-        def __getattribute__(self, name):
-            if name == "parent":
-                type(self).reads += 1
-            return object.__getattribute__(self, name)
-
-    monkeypatch.setattr(urdf_xml, "JointSpec", Counted)
+    Counted = count_joint_parent_reads(monkeypatch)
     n = 1000
     text = robot({f"l{i}": "0 0 0.05" for i in range(n)},
                  [(f"j{i}", "revolute", f"l{i - 1}", f"l{i}", "0 0 0.1", "0 1 0")

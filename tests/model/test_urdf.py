@@ -11,7 +11,6 @@ from __future__ import annotations
 import glob
 import os
 import sysconfig
-import threading
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +26,8 @@ from mbgen.derive.recursion import NewtonEuler
 from mbgen.errors import (ModelSizeError, UrdfError, UrdfInertiaError, UrdfStructureError,
                           UrdfSyntaxError, UrdfUnsupportedError)
 from mbgen.model import limits, urdf_xml
-from mbgen.model import urdf as urdf_model
 from mbgen.model.scene import load_scene, urdf_scene
+from models import count_joint_parent_reads, read_in_thread
 
 pin = pytest.importorskip("pinocchio")
 
@@ -388,32 +387,12 @@ def test_a_path_that_is_no_file_is_named_for_what_it_is(tmp_path):
         mbgen.from_urdf(os.devnull)
 
 
-def read_in_thread(path) -> BaseException | None:
-    """``from_urdf(path)``'s exception; a read still blocked after 60 s (a hang guard, not a
-    budget) is released by a writer that opens and closes the pipe, and fails the test."""
-    caught = []
-
-    def read():
-        try:
-            mbgen.from_urdf(path)
-        except BaseException as exc:   # noqa: BLE001 - handed to the test
-            caught.append(exc)
-    thread = threading.Thread(target=read, daemon=True)
-    thread.start()
-    thread.join(60)
-    if thread.is_alive():
-        os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
-        thread.join()
-        pytest.fail(f"from_urdf blocked reading {path} (then: {caught})")
-    return caught[0] if caught else None
-
-
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
 def test_a_named_pipe_is_refused_without_blocking(tmp_path):
     """Was: the size stat'ed as 0, then a read that waited for a writer for ever."""
     fifo = tmp_path / "robot.urdf"
     os.mkfifo(fifo)
-    error = read_in_thread(fifo)
+    error = read_in_thread(mbgen.from_urdf, fifo)
     assert isinstance(error, UrdfSyntaxError) and "is a named pipe (FIFO), not a file" in \
         str(error), error
 
@@ -430,15 +409,7 @@ def chain(n: int) -> str:
 def test_reading_is_linear_in_the_links(monkeypatch):
     """Reading looks at each joint's parent a few times, not once per link (quadratic: a
     50 MB file of 170,000 links took hours to read); counted, not timed."""
-    class Counted(urdf_xml.JointSpec):
-        reads = 0
-
-        def __getattribute__(self, name):
-            if name == "parent":
-                type(self).reads += 1
-            return object.__getattribute__(self, name)
-
-    monkeypatch.setattr(urdf_xml, "JointSpec", Counted)
+    Counted = count_joint_parent_reads(monkeypatch)
     n = 1000
     with limits.allow_large_models():     # past the size guard, to be read
         robot = urdf_xml.parse_urdf(chain(n))

@@ -1,10 +1,15 @@
-"""Small models shared by several test files, and a scene file of the pendulum."""
+"""Small models shared by several test files, a scene file of the pendulum, and two helpers
+of the robot-file tests (a counter of joint reads, a read that must not block on a pipe)."""
 
+import os
+import threading
 from pathlib import Path
 
+import pytest
 import sympy as sm
 
 import mbgen
+from mbgen.model import urdf_xml
 
 
 def stiff_pair() -> mbgen.Scene:
@@ -148,3 +153,39 @@ def ambiguous_slider(name: str) -> mbgen.Model:
     m.body("b", B, 1, (1, 1, 1), m.point("Gb", P, B.x))
     m.particle("c", m.point("C", P, q3 * N.x), 1)
     return m
+
+
+def count_joint_parent_reads(monkeypatch):
+    """Make ``mbgen.model.urdf_xml`` count every read of a joint's ``parent`` (the class of
+    the returned counter holds ``reads``): how linear reading is shown without a clock."""
+    class Counted(urdf_xml.JointSpec):
+        reads = 0
+
+        def __getattribute__(self, name):
+            if name == "parent":
+                type(self).reads += 1
+            return object.__getattribute__(self, name)
+
+    monkeypatch.setattr(urdf_xml, "JointSpec", Counted)
+    return Counted
+
+
+def read_in_thread(read, path):
+    """``read(path)``'s exception (None if it returned), read in a thread: one still blocked
+    after 60 s (a hang guard, not a budget) is released by a writer that opens and closes
+    the named pipe ``path``, and fails the test."""
+    caught = []
+
+    def run():
+        try:
+            read(path)
+        except BaseException as exc:   # noqa: BLE001 - handed to the test
+            caught.append(exc)
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(60)
+    if thread.is_alive():
+        os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))
+        thread.join()
+        pytest.fail(f"{read.__name__} blocked reading {path} (then: {caught})")
+    return caught[0] if caught else None
