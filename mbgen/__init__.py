@@ -13,8 +13,8 @@ contract in ``pyproject.toml``, run by ``tests/test_layout.py``)::
     studies                  work-precision, ensembles
     verify | viz | export    check, golden, audit, stress | pictures | FMU
     pipeline                 derive -> bake -> optimize -> render -> build
-    derive | codegen         Model -> Equations | Equations -> Rendered
-    model | run              what the user states | the three back ends
+    derivation | codegen     Model -> Equations | Equations -> Rendered
+    model | runtime          what the user states | the three back ends
     symbolic | build | integrators
     abi | names | fileio | summary
     errors
@@ -32,50 +32,51 @@ import-linter contract; ``tests/test_layout.py`` fails until it is, and until
 its ``__init__`` says how to add one more of what it holds.
 """
 
-import importlib
+from importlib import import_module as _import_module
 
+from . import _moved
 from ._version import __version__
-from .derive import Method, derive
+from .derivation import Method, derive
 from .symbolic.equations import Equations
 from .errors import (BuildError, CheckFailed, ConstraintError, IntegrationError, MbgenError,
                      ModelError, NonFiniteResultError, SceneError, SingularConstraintError,
                      SingularMassMatrixError, UnknownNameError, UsageError)
-from .derive.from_sympy import from_sympy
+from .derivation.from_sympy import from_sympy
 from .symbolic.layout import Layout
-from .run.linearize import Linearization, linearize, tangent_jacobian
-from .run.named import InputTable
+from .runtime.linearize import Linearization, linearize, tangent_jacobian
+from .runtime.named import InputTable
 from .model.builder import Model, t
 from .codegen.optimize import CseBackend
 from .abi import Output
 from .pipeline import compile, equations_of, run
-from .run.lambdified import LambdifiedModel
-from .run.compiled import CompiledModel
-from .run.python import PythonModel, python_model
+from .runtime.lambdified import LambdifiedModel
+from .runtime.compiled import CompiledModel
+from .runtime.python import PythonModel, python_model
 from .model.scene import Scene, load_scene
 from .model.urdf import from_urdf
 from .model.mjcf import from_mjcf, from_mujoco
 from .codegen.targets import Targets
 from .export import export_fmu
 from .studies.ensemble import ensemble
-from .run.integration import Trajectory
-from .run.stepper import Stepper
+from .runtime.integration import Trajectory
+from .runtime.stepper import Stepper
 
 #: Public names imported on first use: ``simulate`` pulls in scipy.integrate (about 0.3 s)
 #: and the pictures need the ``plot`` extra, so ``import mbgen`` does not pay for them.
-_LAZY = {"simulate": "mbgen.run.simulate", "plot_simulation": "mbgen.viz.plots",
+_LAZY = {"simulate": "mbgen.runtime.simulate", "plot_simulation": "mbgen.viz.plots",
          "animate_scene": "mbgen.viz.animate"}
 
 
 def __getattr__(name: str):
     if name in _LAZY:
-        value = getattr(importlib.import_module(_LAZY[name]), name)
+        value = getattr(_import_module(_LAZY[name]), name)
         globals()[name] = value
         return value
     raise AttributeError(f"module 'mbgen' has no attribute {name!r}")
 
 
 def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(__all__) | {n for n in globals() if n.startswith("__")})
 
 
 __all__ = ["__version__", "linearize", "tangent_jacobian", "Linearization", "Model", "t", "derive", "from_sympy", "from_urdf", "from_mjcf", "from_mujoco", "Output", "CseBackend", "compile", "equations_of", "run",
@@ -85,3 +86,5 @@ __all__ = ["__version__", "linearize", "tangent_jacobian", "Linearization", "Mod
            "CheckFailed", "IntegrationError", "Targets", "export_fmu", "ensemble",
            "UnknownNameError", "UsageError", "InputTable", "simulate", "Trajectory", "Stepper",
            "plot_simulation", "animate_scene"]
+
+_moved.install()

@@ -1,7 +1,7 @@
 """What generated code promises its callers: the outputs, the status codes, the rendered bundle.
 
 This is the contract between the stage that writes code (:mod:`mbgen.codegen`)
-and the stages that build and run it (:mod:`mbgen.build.extension`, :mod:`mbgen.run`):
+and the stages that build and run it (:mod:`mbgen.build.extension`, :mod:`mbgen.runtime`):
 both read it, neither imports the other.
 
 :class:`Output`

@@ -10,7 +10,7 @@ inputs zero (:mod:`mbgen.codegen.slicing`); ``optimize`` keeps only the requeste
 outputs and the parameters they read (:mod:`mbgen.codegen.optimize`).
 
 Which derivation: a method named by ``method=`` or the scene is used; otherwise
-:func:`mbgen.derive.choose_method` decides from the model's joint tree where it
+:func:`mbgen.derivation.choose_method` decides from the model's joint tree where it
 can (Newton–Euler for long chains of joints, without deriving Kane), and where
 it leaves the choice open :func:`run` derives, bakes and optimises both and
 keeps the one whose right-hand side has fewer operations (:func:`operations`;
@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, Mapping, Sequence
 
 from .build.extension import compiled_path, load
-from .derive import NAMED, Method, choose_method, derive, method_of
+from .derivation import NAMED, Method, choose_method, derive, method_of
 from .symbolic.equations import Equations
 from .symbolic.graph import reachable
 from .errors import ModelError
@@ -37,7 +37,7 @@ from .abi import Output
 from .abi import Rendered
 from .codegen.render import render
 from .codegen.outputs import needs_jacobian
-from .run.compiled import CompiledModel
+from .runtime.compiled import CompiledModel
 from .model.scene import Scene, source_label
 from .codegen.slicing import bake
 from .codegen.solver import solve_ops
@@ -76,7 +76,7 @@ def equations_of(source: Model | Equations | Scene, method: Method | None = None
     ``points``: names of points whose position and velocity to carry (``None``:
     the scene's points, else none); ``jacobian``: the analytic residual Jacobian
     where the derivation has one.  ``method``: the derivation (default: the
-    scene's, else :func:`mbgen.derive.derive`'s default, which compares no
+    scene's, else :func:`mbgen.derivation.derive`'s default, which compares no
     operation counts: :func:`run` does).
     """
     if isinstance(source, Scene):

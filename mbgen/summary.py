@@ -4,7 +4,7 @@ A notebook cell that ends in a Model, Equations or a compiled model shows a smal
 table: sizes, the symbols in array order, operation counts, the outputs; never
 the matrices (``M`` of a 32-link model is pages of text).  Each summary lives
 beside its class (:mod:`mbgen.model.summary`, :func:`mbgen.symbolic.equations.equations_html`,
-:func:`mbgen.run.compiled.compiled_html`) and is built from :func:`table` and
+:func:`mbgen.runtime.compiled.compiled_html`) and is built from :func:`table` and
 :func:`names` here: long symbol lists are shortened to their first and last
 entries, and every name is HTML-escaped.
 """

@@ -21,7 +21,7 @@ from mbgen.export import export_fmu
 from mbgen.codegen.targets import Targets
 from mbgen.codegen.targets.fmu import FMI2_ALLOWED, FMI2_STATES
 from mbgen.integrators import DEFAULT_ATOL, DEFAULT_RTOL
-from mbgen.run.stepper import Stepper
+from mbgen.runtime.stepper import Stepper
 
 fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra: pip install -e '.[test]'")
 from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402

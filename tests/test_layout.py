@@ -178,3 +178,51 @@ def test_tests_mirror_the_package():
     assert folders <= packages, f"test folders that name no mbgen package: {folders - packages}"
     names = [p.name for p in tests.rglob("test_*.py")]
     assert len(names) == len(set(names)), "test file names must be unique across folders"
+
+
+# --- names (issue 29): a public name of mbgen is never a subpackage's name, every module
+# imports by its dotted path, and the paths that moved still import, with a warning
+OPTIONAL = {"mbgen.viz", "mbgen.bench"}     # pictures and peers: extras (skipped if absent)
+
+
+def test_no_public_name_shadows_a_module():
+    import mbgen
+    names = {m.split(".")[1] for m in modules() if m.count(".") >= 1}
+    shadowed = {n for n in set(mbgen.__all__) & names}
+    assert not shadowed, f"mbgen.{shadowed} are both public names and modules of mbgen"
+    assert all(not n.startswith("_") or n.startswith("__") for n in dir(mbgen))
+    assert "importlib" not in dir(mbgen)
+
+
+@pytest.mark.parametrize("name", sorted(m for m in modules() if m != "mbgen"))
+def test_every_module_imports_by_its_dotted_path(name):
+    """``import mbgen.X.Y as z`` binds z by attributes: it fails when a public name of a
+    package hides its subpackage (``mbgen.run`` the function, ``mbgen.run.batch``)."""
+    if name.endswith("__main__"):
+        pytest.skip(f"{name} runs the CLI when imported")
+    namespace: dict = {}
+    try:
+        exec(f"import {name} as module", namespace)
+    except ImportError as exc:
+        if any(name.startswith(o) for o in OPTIONAL) and exc.name and \
+                not exc.name.startswith("mbgen"):
+            pytest.skip(f"{name} needs {exc.name}, an extra")
+        raise
+    assert namespace["module"].__name__ == name
+
+
+def test_moved_paths_import_the_same_module_with_a_warning():
+    import importlib
+
+    from mbgen import _moved
+    for old, now in _moved.MOVED.items():
+        if old in _moved.PACKAGES_UNDER_FUNCTIONS:
+            old, now = old + ".named" if "run" in old else old + ".prepare", \
+                now + (".named" if "run" in old else ".prepare")
+        sys.modules.pop(old, None)
+        with pytest.warns(DeprecationWarning, match=f"{old} moved to {now}"):
+            module = importlib.import_module(old)
+        assert module is importlib.import_module(now)
+        assert module.__spec__.name == now
+    import mbgen
+    assert callable(mbgen.run) and callable(mbgen.derive)    # the functions stay functions

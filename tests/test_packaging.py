@@ -20,6 +20,6 @@ def test_wheel_contains_templates_and_scenes(tmp_path):
     for module in (ROOT / "mbgen").rglob("*.py"):  # every stage folder is a listed package
         assert module.relative_to(ROOT).as_posix() in names
     assert "mbgen/scenes/disc_pendulum.py" in names
-    assert "mbgen/derive/kane.py" in names
+    assert "mbgen/derivation/kane.py" in names
     assert "mbgen/py.typed" in names  # PEP 561 marker (package-data)
     assert "mbgen/build/crossing.c" in names  # compiled into every model's extension

@@ -9,7 +9,7 @@ Issue 28 (hardening 3, the new doors) follows, by its numbering: the cache and t
 (1-4), robot files (5-10: URDF, then MJCF), ensembles (11), the step API (12), output folders
 (13) and constraints (14).  The thorough tests sit in the area's files (tests/build/,
 tests/test_fileio.py, tests/model/test_urdf.py, tests/model/test_mjcf.py, tests/studies/,
-tests/run/test_step.py, tests/run/test_consistent.py), as do those of the injected faults.
+tests/runtime/test_step.py, tests/runtime/test_consistent.py), as do those of the injected faults.
 """
 
 import errno
@@ -47,7 +47,7 @@ from mbgen.model import urdf_xml
 from mbgen.model.limits import allow_large_models
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
-from mbgen.run.stepper import Stepper
+from mbgen.runtime.stepper import Stepper
 from mbgen.scenes import four_bar
 from mbgen.studies import cluster
 from mbgen.verify.check import CheckReport, check, compare, reference_model

@@ -59,10 +59,10 @@ from ..build.extension import load
 from ..codegen.optimize import optimize
 from ..codegen.render import render
 from ..codegen.slicing import bake
-from ..derive import Method
+from ..derivation import Method
 from ..errors import BenchmarkError
 from ..pipeline import equations_of
-from ..run.compiled import CompiledModel
+from ..runtime.compiled import CompiledModel
 from ..scenes.spatial_arm import axis, link_parameters
 from ..scenes.spatial_arm import scene as arm_scene
 from ..symbolic.graph import count_ops_dag

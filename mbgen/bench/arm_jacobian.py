@@ -39,9 +39,9 @@ from ..build.extension import load
 from ..codegen.optimize import optimize
 from ..codegen.render import render
 from ..codegen.slicing import bake
-from ..derive import Method
+from ..derivation import Method
 from ..pipeline import equations_of
-from ..run.compiled import CompiledModel
+from ..runtime.compiled import CompiledModel
 from ..scenes.spatial_arm import scene as arm_scene
 from . import children
 from .arm_casadi import have_casadi

@@ -60,8 +60,8 @@ from ..codegen.slicing import bake
 from ..model.scene import load_scene
 from ..pipeline import compile as compile_
 from ..pipeline import equations_of
-from ..run.compiled import CompiledModel
-from ..run.linearize import linearize
+from ..runtime.compiled import CompiledModel
+from ..runtime.linearize import linearize
 from ..scenes.whipple import PARAMETERS, upright_state
 from . import children
 from .timing import c_rhs_ns, per_call_ns, staged

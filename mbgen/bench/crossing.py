@@ -2,7 +2,7 @@
 and Pinocchio's ``pin.aba`` from Python, in one run (``python -m mbgen.bench.crossing``).
 
 For every number of links ``n`` the built-in scene ``spatial_arm`` is compiled twice:
-one model as it is (its RHS through the C entry, :mod:`mbgen.run.crossing`) and one
+one model as it is (its RHS through the C entry, :mod:`mbgen.runtime.crossing`) and one
 whose RHS is the Python path the entry falls back to (the cffi call of mbgen before the
 entry: two ``ffi.from_buffer``, ``np.empty``, the checks in Python).  Each is timed
 with ``p`` given and with the default ``p``, beside ``pin.aba(model, data, q, v, tau)``

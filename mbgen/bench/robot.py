@@ -45,7 +45,7 @@ from ..codegen.slicing import bake
 from ..model.mjcf import compile_mjcf, from_mujoco, scene_values
 from ..model.scene import Scene, urdf_scene
 from ..pipeline import equations_of
-from ..run.compiled import CompiledModel
+from ..runtime.compiled import CompiledModel
 from . import children, robot_peers as peers
 from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, staged
 

@@ -69,9 +69,9 @@ from ..abi import Output
 from ..build.extension import load
 from ..codegen.optimize import optimize
 from ..codegen.render import render
-from ..derive import derive
+from ..derivation import derive
 from ..fileio import write_atomic
-from ..run.compiled import CompiledModel
+from ..runtime.compiled import CompiledModel
 from ..scenes.n_link_cart import build_model
 from ..symbolic.graph import count_ops_dag, count_ops_tree
 from ..viz.plots import figure, save_png

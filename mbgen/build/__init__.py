@@ -7,7 +7,7 @@ compiler runs in child processes read through pipes, so that threads may build a
 which file may be loaded (owner, mode, SHA-256 record, checked on the open file that is
 then loaded); :mod:`~mbgen.build.fmu` compiles
 an FMU's sources into this platform's shared library and writes the ``.fmu`` zip.
-Nothing here renders code (:mod:`mbgen.codegen`) or calls a model (:mod:`mbgen.run`).
+Nothing here renders code (:mod:`mbgen.codegen`) or calls a model (:mod:`mbgen.runtime`).
 
 How to add a build
 ------------------

@@ -179,7 +179,7 @@ static PyTypeObject mbgen_entry_type = {
     .tp_call = PyVectorcall_Call,
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC | Py_TPFLAGS_HAVE_VECTORCALL,
     .tp_doc = "call(t, x, p=None, r=None): a generated function, the common case in C "
-              "(mbgen.run.crossing)",
+              "(mbgen.runtime.crossing)",
     .tp_traverse = mbgen_entry_traverse,
     .tp_clear = mbgen_entry_clear,
     .tp_members = mbgen_entry_members,

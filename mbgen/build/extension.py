@@ -23,7 +23,7 @@ key: :func:`module_name`), ``$CFLAGS`` and ``$LDFLAGS`` included; flags that bre
 arithmetic (:data:`IEEE_BREAKERS`) are refused.
 
 Besides the model (and its batch loops), every module holds the Python crossing
-(``crossing.c`` beside this file, :mod:`mbgen.run.crossing`): a CPython entry per
+(``crossing.c`` beside this file, :mod:`mbgen.runtime.crossing`): a CPython entry per
 generated function that takes the common call from Python to C without cffi's per-call
 work.  It is compiled once per cache (:func:`crossing_object`) and linked into each
 extension, never into the exported C.
@@ -172,7 +172,7 @@ _crossing_lock = threading.Lock()
 _building: dict[str, threading.Lock] = {}
 
 
-#: The Python crossing compiled into every model's extension (:mod:`mbgen.run.crossing`).
+#: The Python crossing compiled into every model's extension (:mod:`mbgen.runtime.crossing`).
 CROSSING_SOURCE = Path(__file__).with_name("crossing.c")
 #: Its cffi declaration: the one function that makes an entry (called with the GIL released).
 CROSSING_CDEF = "int mbgen_crossing(uintptr_t request);\n"

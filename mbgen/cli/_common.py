@@ -4,7 +4,7 @@ A subcommand module (:mod:`mbgen.cli`) builds its arguments from
 :func:`add_scene_arguments` (``SCENE``, ``-O``, ``--force``, ``--derivation``),
 :func:`add_integrator_argument` (``--integrator``) and :func:`add_number_arguments`
 (``-p``, ``-x``, ``-r`` by name; ``-r NAME=FILE.csv`` a table of the input against time,
-:func:`mbgen.run.named.read_input_csv`), then turns them into a scene with
+:func:`mbgen.runtime.named.read_input_csv`), then turns them into a scene with
 :func:`scene_from` and :func:`with_numbers`.  A scene path that is a folder or a pipe is named
 for what it is (:func:`~mbgen.model.scene.load_scene`).  Output paths and counts are refused before
 any work (:func:`check_folder`, :func:`check_output_folder`, :func:`check_file`,
@@ -30,11 +30,11 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from ..derive import Method
+from ..derivation import Method
 from ..symbolic.equations import METHOD_TITLES
 from ..errors import OutputPathError, SceneError, UsageError
 from ..model.scene import load_scene, model_names
-from ..run.named import InputTable, check_names, merge_inputs, read_input_csv, vector
+from ..runtime.named import InputTable, check_names, merge_inputs, read_input_csv, vector
 from ..studies.ensemble import MAX_POINTS
 from ..verify import golden
 
@@ -221,7 +221,7 @@ def initial_state(scene, model):
 
 def input_values(args, model):
     """``-r NAME=VALUE`` as the model's input vector (others 0); with a ``-r NAME=FILE.csv``
-    among them, an :class:`~mbgen.run.named.InputTable` in the model's input order.
+    among them, an :class:`~mbgen.runtime.named.InputTable` in the model's input order.
     ``model``: a compiled model, or a kernel's ``Layout`` (generate's example.c)."""
     return resolve_inputs(input_signals(args), model)
 

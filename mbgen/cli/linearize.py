@@ -12,7 +12,7 @@ from ..abi import Output
 from ..errors import EXIT_OK
 from ..fileio import write_atomic
 from ..pipeline import compile
-from ..run.linearize import linearize
+from ..runtime.linearize import linearize
 from ._common import (add_number_arguments, add_scene_arguments, check_folder,
                       constant_inputs, initial_state, scene_from, with_numbers)
 

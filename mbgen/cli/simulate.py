@@ -4,7 +4,7 @@ generated C integrator) and write the trajectory as CSV, optionally a PNG.
 ``--integrator`` names the method (``--method`` is its old spelling); ``--rtol`` and
 ``--atol`` default to mbgen's one default tolerance
 (:data:`mbgen.integrators.DEFAULT_RTOL`, ``DEFAULT_ATOL``).  ``-r NAME=FILE.csv`` drives
-an input by a table of time and values (:func:`mbgen.run.named.read_input_csv`: linear
+an input by a table of time and values (:func:`mbgen.runtime.named.read_input_csv`: linear
 between rows; the C integrators interpolate it with no Python in the loop), and the plot
 shows the inputs in a panel of their own.  On a terminal the pipeline's stages are
 printed on stderr as they start (``  .. derive``, ``  .. CSE``, ...)."""
@@ -18,7 +18,7 @@ from ..errors import EXIT_OK
 from ..fileio import plain_name
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from ..pipeline import compile
-from ..run.simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate
+from ..runtime.simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate
 from ..viz.plots import plot_simulation
 from ._common import (MAX_POINTS, add_integrator_argument, add_number_arguments,
                       add_scene_arguments, check_count, check_file, end_time, initial_state,

@@ -16,8 +16,8 @@ import argparse
 from ..errors import EXIT_NUMERIC, EXIT_OK, SceneError, UsageError
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from ..model.scene import model_names
-from ..run.named import check_names
-from ..run.simulate import C_METHODS, RK4_STEPS
+from ..runtime.named import check_names
+from ..runtime.simulate import C_METHODS, RK4_STEPS
 from ..studies.ensemble import MAX_MEMBERS, MAX_POINTS, ensemble, parse_grid, parse_samples
 from ._common import (add_integrator_argument, add_scene_arguments, check_count, check_file,
                       end_time, nonnegative_float, scene_from)

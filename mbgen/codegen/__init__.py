@@ -15,8 +15,8 @@ function into parts that share a work array (a compiler's time stays linear in t
 macros, content hash and stack bounds, :mod:`~mbgen.codegen.escape` escapes user text
 where it lands.
 
-Nothing here compiles or runs the code (:mod:`mbgen.build`, :mod:`mbgen.run`) or derives
-equations (:mod:`mbgen.derive`); the pipeline (:mod:`mbgen.pipeline`) calls the stages.
+Nothing here compiles or runs the code (:mod:`mbgen.build`, :mod:`mbgen.runtime`) or derives
+equations (:mod:`mbgen.derivation`); the pipeline (:mod:`mbgen.pipeline`) calls the stages.
 
 How to add a rendered part
 --------------------------

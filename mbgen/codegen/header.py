@@ -13,7 +13,7 @@ Stack bounds
     counts every automatic variable the function and its callees declare (8
     bytes a double or a long, 4 an int) plus :data:`FRAME_BYTES` per call level
     for the return address, saved registers, alignment and the compiler's own
-    spills; ``tests/run/test_step.py`` checks it against ``gcc -fstack-usage``.
+    spills; ``tests/runtime/test_step.py`` checks it against ``gcc -fstack-usage``.
     Work arrays that grow with ``n_x^2`` (Rosenbrock's Jacobian and iteration
     matrix) live in caller-owned structs: ``<prefix>_rosenbrock_work`` of the
     whole-trajectory integrator and the step API's memory; never on the stack.

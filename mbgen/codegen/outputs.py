@@ -59,9 +59,9 @@ How to add an output
    equations cannot give it (and of ``SENSITIVITIES`` for a ``df/dv``).
 3. Here: an :class:`OutputDef` row of :data:`OUTPUTS` and its builder, which
    returns the :class:`Spec` (blocks, ``solve``, labels, doc).
-4. ``mbgen/run/lambdified.py``: its row of ``REFERENCES``, how the reference
+4. ``mbgen/runtime/lambdified.py``: its row of ``REFERENCES``, how the reference
    computes it from the unoptimised equations.
-5. ``mbgen/run/base.py``: its accessor row (the method ``model.<value>(t, x, p, r)``
+5. ``mbgen/runtime/base.py``: its accessor row (the method ``model.<value>(t, x, p, r)``
    of every runtime model and its result's shape).
 6. ``tests/codegen/test_outputs.py`` fails while an output misses a row in any of these
    tables; ``tests/codegen/test_golden.py`` then shows what the generated code gained.
@@ -342,7 +342,7 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     (forward mode, :func:`mbgen.symbolic.program.derivatives`), so neither ``M`` nor the
     articulated inertias are differentiated; for ``df/dx``, the equations'
     ``residual_jacobian`` where the derivation wrote it analytically
-    (:mod:`mbgen.derive.rnea_partials`).  A recursion without a residual has its
+    (:mod:`mbgen.derivation.rnea_partials`).  A recursion without a residual has its
     accelerations differentiated through the program instead.
     """
     L = eq.layout
@@ -366,7 +366,7 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     rows = (list(eq.residual) if eq.residual is not None else
             [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)])
     if row.output is Output.JACOBIAN and eq.residual_jacobian is not None:
-        # analytic dR/dx (mbgen.derive.rnea_partials): only q' = G goes through the program
+        # analytic dR/dx (mbgen.derivation.rnea_partials): only q' = G goes through the program
         extra, dG = derivatives(eq.program, list(eq.kinematics), variables, tag)
         dR = [list(eq.residual_jacobian.row(i)) for i in range(nu)]
     elif eq.program:

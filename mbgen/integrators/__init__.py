@@ -13,7 +13,7 @@ here instead of testing its name:
 
 :data:`DEFAULT_RTOL` and :data:`DEFAULT_ATOL` are the one default tolerance of every
 adaptive integration mbgen runs or writes: ``CompiledModel.integrate``, the step API's
-:class:`~mbgen.run.stepper.Stepper`, ``mbgen simulate`` and ``mbgen sweep``, the
+:class:`~mbgen.runtime.stepper.Stepper`, ``mbgen simulate`` and ``mbgen sweep``, the
 generated ``example.c`` and an FMU's co-simulation (``DefaultExperiment tolerance``;
 ``atol = DEFAULT_ATOL / DEFAULT_RTOL * rtol`` for the importer's ``rtol``).
 

@@ -36,12 +36,12 @@ How to add a model element
    (``_check_point``, ``_check_frame``, ``_scalar``, a name through ``_claim``)
    and appends the record (a load goes to ``Model.loads``).
 3. ``derive/prepare.py``: turn the record into plain symbols and tree terms on
-   :class:`~mbgen.derive.prepare.Prepared` (an unknown load is refused there with
+   :class:`~mbgen.derivation.prepare.Prepared` (an unknown load is refused there with
    a ``ModelError``); then let every derivation method use it:
    ``derive/kane.py`` (generalized forces), ``derive/recursion.py``
    (``NewtonEuler._collect_loads``: body wrenches), and ``derive/common.py``
    (``energies``) when it has a potential.
-4. Tests: add it to ``loaded()`` in ``tests/derive/test_derive.py``, which fails when
+4. Tests: add it to ``loaded()`` in ``tests/derivation/test_derive.py``, which fails when
    a derivation method misses it (every method must agree with Kane), and
    check its physics against a derivation by hand in ``tests/scenes/test_physics.py``.
 """

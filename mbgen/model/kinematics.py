@@ -16,7 +16,7 @@ SOPHIA (Maple)              mbgen / sympy
 ==========================  ==========================================
 
 These work on vectors written with time-dependent symbols (``q1(t)``); the
-derivation engine in :mod:`mbgen.derive` uses its own faster representation and
+derivation engine in :mod:`mbgen.derivation` uses its own faster representation and
 is tested against these.  Components are numbers or sympy expressions; strings
 are refused (they are never evaluated, see :mod:`mbgen.model.expressions`).
 """

@@ -34,7 +34,7 @@ Conventions (Pinocchio's, so its results compare one to one):
   sees the free-flyer as one joint that owns its six speeds, with the identity
   for its motion subspace and :math:`\omega\times v` (and gravity turned into the
   root's frame) for its bias, :math:`R^T R` cancelled exactly
-  (:mod:`mbgen.derive.recursion`), so the articulated-body recursion applies.
+  (:mod:`mbgen.derivation.recursion`), so the articulated-body recursion applies.
 * gravity is ``-g`` along the world's z axis, ``g`` the model's one constant
   (9.81 in the scene of a ``.urdf`` file, :func:`mbgen.model.scene.urdf_scene`).  Every inertial number of the file is
   baked into the model as a number, as a robot's code is usually wanted.

@@ -16,8 +16,8 @@ How to add a built-in scene
    (``test_every_builtin_scene_has_a_folder``) fails until it exists.
 3. The tests that loop over every built-in scene then include it
    (``tests/codegen/test_golden.py``, ``tests/codegen/test_codegen.py``,
-   ``tests/build/test_embedding.py``, ``tests/run/test_jacobian.py``,
-   ``tests/scenes/test_physics.py``, ``tests/derive/test_newton_euler.py``); a scene
+   ``tests/build/test_embedding.py``, ``tests/runtime/test_jacobian.py``,
+   ``tests/scenes/test_physics.py``, ``tests/derivation/test_newton_euler.py``); a scene
    too slow for the default run goes into ``HEAVY`` in ``tests/support/heavy.py``
    (marked slow, never skipped).
 4. List it in the README's built-in scenes (``mbgen scenes`` shows it by itself).

@@ -60,7 +60,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 from ..errors import ArgumentError, MbgenError, MissingExtraError, UsageError
-from ..run.arguments import real_number, whole_number
+from ..runtime.arguments import real_number, whole_number
 
 #: Seconds to reach a scheduler given by address (connection and handshake).
 CONNECT_TIMEOUT = 5.0

@@ -4,7 +4,7 @@ r"""Ensembles: parameter studies and Monte Carlo runs of one scene, serially or 
 builds the members in this process (the grids' product, each point repeated
 ``n`` times with fresh draws of ``samples``; seeded, so the same call gives
 the same members), then integrates them in chunks.  Each chunk is one C call
-(:func:`mbgen.run.batch.integrate`); on Dask every chunk is a task.
+(:func:`mbgen.runtime.batch.integrate`); on Dask every chunk is a task.
 
 What travels to a worker: the rendered sources (plain strings, scattered
 once) with their content hash, and the chunk's ``(k, n_x)`` initial states and
@@ -52,8 +52,8 @@ from ..errors import ArgumentError, MbgenError, SceneError
 from ..fileio import write_atomic
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from ..pipeline import run
-from ..run import batch
-from ..run.arguments import whole_number
+from ..runtime import batch
+from ..runtime.arguments import whole_number
 from .cluster import CHUNK_TIMEOUT, Abandoned, Patience, lost_worker, reach, run_chunks
 
 #: Members per task when ``chunk`` is not given: about 4 tasks per worker, at most this.
@@ -163,7 +163,7 @@ class _Sources:
 
 
 class _Raw:
-    """The little of a CompiledModel that :func:`mbgen.run.batch.integrate` uses."""
+    """The little of a CompiledModel that :func:`mbgen.runtime.batch.integrate` uses."""
 
     def __init__(self, module, prefix, n_x, n_p, n_r):
         self.ffi, self.lib = module.ffi, module.lib
@@ -387,7 +387,7 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
         Output times: ``t_eval``, or ``n_out`` evenly spaced from the scene's
         start to ``t_end`` (default: the scene's end).
     rtol, atol, h, max_steps
-        As :meth:`mbgen.run.compiled.CompiledModel.integrate` (``h``: the step of rk4).
+        As :meth:`mbgen.runtime.compiled.CompiledModel.integrate` (``h``: the step of rk4).
     trajectories : bool
         Keep every member's states at the output times (field ``x``).
     outputs : names of model outputs

@@ -1,8 +1,8 @@
 """The symbolic core: the frozen values every later stage reads, and the passes over them.
 
-A derivation (:mod:`mbgen.derive`) ends in these values; optimising and
+A derivation (:mod:`mbgen.derivation`) ends in these values; optimising and
 rendering code (:mod:`mbgen.codegen`), the lambdified reference
-(:mod:`mbgen.run.lambdified`) and the checks read them and never change them.
+(:mod:`mbgen.runtime.lambdified`) and the checks read them and never change them.
 
 :mod:`~mbgen.symbolic.equations`
     :class:`~mbgen.symbolic.equations.Equations`: ``M u' = F``, ``q' = G`` and

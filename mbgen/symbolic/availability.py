@@ -7,7 +7,7 @@ uses, and so on.  :data:`REQUIREMENTS` holds, per output, the conditions in the
 order they are checked, each with the message of the
 :class:`~mbgen.errors.ModelError` raised when it fails; an output without a row
 always applies.  The code generator (:mod:`mbgen.codegen.outputs`) raises that
-error and the reference (:mod:`mbgen.run.lambdified`) offers only
+error and the reference (:mod:`mbgen.runtime.lambdified`) offers only
 :func:`applicable` outputs: both read this one table.
 
 The motion is ``M``, ``F``, ``G``, the recursion's accelerations and the

@@ -148,7 +148,7 @@ class Equations:
         Derivation method (``"kane"``, ``"sympy.KanesMethod"``, ...).
     method_reason : str
         Why that method: named by the caller or the scene, or chosen by
-        :func:`mbgen.derive.choose_method` and the pipeline (e.g. ``"chosen: 537
+        :func:`mbgen.derivation.choose_method` and the pipeline (e.g. ``"chosen: 537
         operations with the L D L^T solve, against Kane's 973"``); empty for
         equations that came from elsewhere.
     defaults : mapping
@@ -167,7 +167,7 @@ class Equations:
         number of bodies per variable, instead of ``F`` and ``M``.
     residual_jacobian : ImmutableMatrix, shape (n_u, n_q + n_u), or None
         ``dR/dx`` of the ``residual`` at ``u'`` held, where the
-        derivation has it analytically (:mod:`mbgen.derive.rnea_partials`; asked for
+        derivation has it analytically (:mod:`mbgen.derivation.rnea_partials`; asked for
         with ``derive(..., jacobian=True)``); ``Output.JACOBIAN`` then uses it instead
         of differentiating ``residual`` through the program.
     reactions : JointLoads or None

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 from ..abi import INTEGRATORS, Output
 from ..codegen.outputs import Form
-from ..derive import Method
+from ..derivation import Method
 from ..symbolic.availability import applicable
 from ..pipeline import PipelineResult, equations_of, run
 from ..model.scene import Scene

@@ -3,7 +3,7 @@
 On seeded random states (and random inputs), every generated output is
 evaluated three ways: the compiled C, the generated Python module, and a
 ``sympy.lambdify`` of the *unsliced, unoptimised* equations
-(:mod:`mbgen.run.lambdified`): the derived equations before the scene's fixed
+(:mod:`mbgen.runtime.lambdified`): the derived equations before the scene's fixed
 parameters were baked in and its absent inputs zeroed, called with the fixed
 values and zero inputs.  So a slicing or optimisation fault (a dropped output,
 a wrongly baked parameter) shows as an error, not as agreement with itself.
@@ -16,7 +16,7 @@ error, and is then not compared.
 
 The reference is trusted only as far as its arithmetic reaches.  Its linear solves
 are nondimensionalised (each speed in its own mass's units, each constraint row of
-unit size: :mod:`mbgen.run.lambdified`), so the scale of a model costs it nothing (the
+unit size: :mod:`mbgen.runtime.lambdified`), so the scale of a model costs it nothing (the
 rolling disc at ``m = 1e-20`` agrees to 1e-15).  What is left is the conditioning of
 the state itself: a solve with condition number ``kappa`` of size ``n`` vouches for a
 relative error of ``n kappa u`` only (``u`` the unit roundoff; the reference's
@@ -51,9 +51,9 @@ from ..symbolic.layout import Layout
 from ..abi import Output
 from ..symbolic.availability import SENSITIVITIES
 from ..pipeline import PipelineResult, run
-from ..run.lambdified import LambdifiedModel
-from ..run.base import ModelBase
-from ..run.python import python_model
+from ..runtime.lambdified import LambdifiedModel
+from ..runtime.base import ModelBase
+from ..runtime.python import python_model
 
 
 #: The columns of ``df/dp``: the parameters of a layout that the equations' motion uses.
@@ -214,7 +214,7 @@ def compare(models: dict[str, ModelBase], reference: ModelBase, outputs, *, p=No
     """Error rows of every model in ``models`` against ``reference`` on random states.
 
     A reference with a ``resolution`` (the relative error its last evaluation may carry,
-    :attr:`mbgen.run.lambdified.LambdifiedModel.resolution`) marks a sample above tolerance
+    :attr:`mbgen.runtime.lambdified.LambdifiedModel.resolution`) marks a sample above tolerance
     but within twice that as unresolved; one without is trusted to the last bit, and so is
     every reference when ``rtol`` is 0 (bit-for-bit agreement asked for: no rounding
     excuses a difference).

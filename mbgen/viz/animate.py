@@ -36,7 +36,7 @@ from ..fileio import atomic_path
 from ..model.builder import Model
 from ..model.builder import t as time_symbol
 from ..pipeline import run
-from ..run.simulate import simulate, simulate_in_c
+from ..runtime.simulate import simulate, simulate_in_c
 from .plots import figure, require_matplotlib
 
 #: File suffixes :func:`animate_scene` writes.

@@ -152,7 +152,7 @@ def plot_simulation(result, path, *, scene=None, names=None,
     Parameters
     ----------
     result
-        A trajectory: :class:`mbgen.run.integration.Trajectory`, an ``Integration``
+        A trajectory: :class:`mbgen.runtime.integration.Trajectory`, an ``Integration``
         from ``CompiledModel.integrate``, scipy's ``solve_ivp`` result, or any
         object with ``t`` and ``x`` (``(k, n_x)``) or ``y`` (``(n_x, k)``).
     path : str or Path
@@ -170,7 +170,7 @@ def plot_simulation(result, path, *, scene=None, names=None,
     inputs : mapping, optional
         The inputs that drove the run, by name: a number (held) or a ``(times,
         values)`` pair (piecewise linear, held outside ``times``, as an
-        :class:`~mbgen.run.named.InputTable`).  Drawn in a panel of their own.
+        :class:`~mbgen.runtime.named.InputTable`).  Drawn in a panel of their own.
 
     Returns
     -------

@@ -13,7 +13,7 @@ import numpy as np
 from mbgen.build import extension
 from mbgen.build.extension import (IEEE_BREAKERS, LARGE_FUNCTION_CHARS, NATIVE, cflags,
                                    compiled_path, compiler, load, module_name, native_target)
-from mbgen.run.compiled import CompiledModel
+from mbgen.runtime.compiled import CompiledModel
 from mbgen.studies.ensemble import worker_module
 from mbgen.errors import BuildError
 from mbgen.pipeline import run

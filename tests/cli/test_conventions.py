@@ -18,9 +18,9 @@ from mbgen.codegen.targets import Targets
 from mbgen.integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
-from mbgen.run.compiled import CompiledModel
-from mbgen.run.simulate import simulate, simulate_in_c
-from mbgen.run.stepper import Stepper
+from mbgen.runtime.compiled import CompiledModel
+from mbgen.runtime.simulate import simulate, simulate_in_c
+from mbgen.runtime.stepper import Stepper
 from mbgen.studies.ensemble import ensemble
 from mbgen.verify import golden
 

@@ -16,8 +16,8 @@ from mbgen.cli import EXIT_OK, EXIT_USAGE, main
 from mbgen.codegen.targets import Targets
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
-from mbgen.run.named import merge_inputs, read_input_csv
-from mbgen.run.stepper import Stepper
+from mbgen.runtime.named import merge_inputs, read_input_csv
+from mbgen.runtime.stepper import Stepper
 from mbgen.verify.golden import example_integration
 
 from models import scene_file

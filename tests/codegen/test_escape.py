@@ -15,7 +15,7 @@ import pytest
 from mbgen.codegen import escape
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
-from mbgen.run.python import python_model
+from mbgen.runtime.python import python_model
 
 from models import pendulum, scene_file
 

@@ -2,7 +2,7 @@
 
 An expression output (``mbgen.abi.EXPRESSION_OUTPUTS``) has an ``OutputDef`` row
 (``mbgen.codegen.outputs.OUTPUTS``: what the generated function computes), a
-reference row (``mbgen.run.lambdified.REFERENCES``) and an accessor on every
+reference row (``mbgen.runtime.lambdified.REFERENCES``) and an accessor on every
 runtime model; what it needs of the equations is its row of
 ``mbgen.symbolic.availability.REQUIREMENTS``, which the code generator and the
 reference both read.
@@ -15,7 +15,7 @@ import mbgen
 from mbgen.abi import EXPRESSION_OUTPUTS, INTEGRATORS, Output
 from mbgen.codegen.outputs import OUTPUTS, spec
 from mbgen.errors import ModelError
-from mbgen.run.lambdified import REFERENCES
+from mbgen.runtime.lambdified import REFERENCES
 from mbgen.symbolic.availability import REQUIREMENTS, SENSITIVITIES, applicable, applies
 
 

@@ -20,7 +20,7 @@ from mbgen.codegen import split
 from mbgen.codegen.outputs import Form
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
-from mbgen.run.compiled import CompiledModel
+from mbgen.runtime.compiled import CompiledModel
 
 from cstack import call_graph, deepest, stack_usage
 

@@ -19,10 +19,10 @@ import sympy as sm
 
 import mbgen
 from mbgen.cli import main
-from mbgen.derive import Method, choose_method
-from mbgen.derive.articulated import speed_owners
-from mbgen.derive.prepare import prepare
-from mbgen.derive.recursion import NewtonEuler
+from mbgen.derivation import Method, choose_method
+from mbgen.derivation.articulated import speed_owners
+from mbgen.derivation.prepare import prepare
+from mbgen.derivation.recursion import NewtonEuler
 from mbgen.errors import (ModelSizeError, UrdfError, UrdfInertiaError, UrdfStructureError,
                           UrdfSyntaxError, UrdfUnsupportedError)
 from mbgen.model import limits, urdf_xml

@@ -326,7 +326,7 @@ def test_cli_simulate_starts_consistent_and_reports_the_residual(tmp_path, capsy
 # ------------------------------------------------------------------ targets
 def test_step_api_projects_after_every_step():
     from mbgen.codegen.targets import Targets
-    from mbgen.run.stepper import Stepper
+    from mbgen.runtime.stepper import Stepper
 
     scn = mbgen.load_scene("four_bar")
     c = mbgen.run(scn, None, targets=Targets(step=True), name="four_bar_step").compiled

@@ -14,7 +14,7 @@ import pytest
 
 from mbgen import IntegrationError, load_scene
 from mbgen.errors import MissingExtraError
-from mbgen.run.compiled import CompiledModel
+from mbgen.runtime.compiled import CompiledModel
 from mbgen.studies.workprecision import (CSV_COLUMNS, DEFAULT_RTOLS, Config, configurations,
                                          rk4_steps, typical_magnitude, work_precision)
 

@@ -1,6 +1,6 @@
 """Fuzz worker: hostile calls into compiled C and generated Python, run in a child process.
 
-Run by ``tests/run/test_fuzz.py`` as
+Run by ``tests/runtime/test_fuzz.py`` as
 ``python tests/support/fuzz_worker.py EXAMPLES SEED SKIP PROGRESS``.
 Hypothesis draws each call (function, ``t``, ``x``, ``p``, ``r``, or the arguments of
 ``integrate``); the same call goes to the compiled model and, for evaluations, to the
@@ -33,7 +33,7 @@ from hypothesis import strategies as st
 import mbgen
 from mbgen.errors import MbgenError
 from mbgen.pipeline import run
-from mbgen.run.python import python_model
+from mbgen.runtime.python import python_model
 from mbgen.model.scene import load_scene
 from models import four_bar_model
 

@@ -131,7 +131,7 @@ def test_nan_parameter_values_compare_nothing():
     """g = NaN at run time: every back end raises NonFiniteResultError at every sample."""
     from mbgen.verify.check import CheckReport, compare, reference_model
     from mbgen.pipeline import run
-    from mbgen.run.python import python_model
+    from mbgen.runtime.python import python_model
 
     result = run(pendulum(), ("rhs", "energy"))
     outputs = tuple(result.compiled.outputs)

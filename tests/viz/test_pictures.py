@@ -46,7 +46,7 @@ def test_simulate_plot_writes_states_and_energy_drift(tmp_path, capsys):
 
 def test_energy_drift_is_small_when_conserved_and_large_when_not():
     from mbgen.viz.plots import diagnostics
-    from mbgen.run.simulate import simulate_in_c
+    from mbgen.runtime.simulate import simulate_in_c
 
     scene = load_scene("spring_pendulum", stiffness=1e3)
     model = mbgen.compile(scene, ("rhs", "dopri5"))

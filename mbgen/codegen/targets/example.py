@@ -5,12 +5,12 @@ integrator the scene asks for, and prints the trajectory as CSV.  The inputs are
 held at 0, or at the values given (``mbgen generate -r F=2``), or follow a table
 (``mbgen generate -r F=force.csv``: the table's rows become two static arrays and
 the integrator's options point at them, so the C interpolates them at every stage
-time as :meth:`~mbgen.run.compiled.CompiledModel.integrate` does with an
-:class:`~mbgen.run.named.InputTable`).  The tolerances are mbgen's defaults
+time as :meth:`~mbgen.runtime.compiled.CompiledModel.integrate` does with an
+:class:`~mbgen.runtime.named.InputTable`).  The tolerances are mbgen's defaults
 (:data:`mbgen.integrators.DEFAULT_RTOL`, ``DEFAULT_ATOL``).  The options
 (:func:`example_settings`) are also what
 :func:`mbgen.verify.golden.example_integration` passes to
-:meth:`mbgen.run.compiled.CompiledModel.integrate`, so the two can be compared.
+:meth:`mbgen.runtime.compiled.CompiledModel.integrate`, so the two can be compared.
 
 Rendered after the pipeline from the scene's values and the kernel (not by
 :func:`~mbgen.codegen.render.render`): :data:`EXAMPLE` names its template.
@@ -58,7 +58,7 @@ def example_settings(scene: Scene, kernel, r=None):
     """``(method, t, x0, p, r, options)`` of the example, or None without an integrator.
 
     ``r``: the inputs, an array ``(n_r,)`` in the kernel's input order or an
-    :class:`~mbgen.run.named.InputTable` already in that order (default zeros).
+    :class:`~mbgen.runtime.named.InputTable` already in that order (default zeros).
     """
     if not kernel.integrators:
         return None

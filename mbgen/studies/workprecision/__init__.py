@@ -6,10 +6,10 @@
   ``LSODA``; the implicit three (``Radau``, ``BDF``, ``LSODA``) both without a
   Jacobian (solve_ivp's finite differences) and with ``jac=`` the Jacobian of
   the *same* back end -- over three right-hand-side back ends: ``lambdify``
-  (:class:`~mbgen.run.lambdified.LambdifiedModel` of the scene's baked equations),
+  (:class:`~mbgen.runtime.lambdified.LambdifiedModel` of the scene's baked equations),
   ``python`` (the generated Python, :func:`mbgen.python_model`) and ``c`` (the
   compiled C), all called with the compiled model's arrays;
-* the generated C integrators (:meth:`mbgen.run.compiled.CompiledModel.integrate`):
+* the generated C integrators (:meth:`mbgen.runtime.compiled.CompiledModel.integrate`):
   ``dopri5`` and ``rosenbrock`` at the same tolerances, and ``rk4`` at a sweep
   of fixed steps laid onto the same tolerance rows (see :func:`rk4_steps`).
 
@@ -58,7 +58,7 @@ from tqdm import tqdm
 
 from ...errors import UsageError
 from ...model.scene import Scene, load_scene
-from ...run.simulate import consistent_start
+from ...runtime.simulate import consistent_start
 from ..ensemble import MAX_POINTS
 from .points import (BACKENDS, C_METHODS, DEFAULT_RTOLS, IMPLICIT_METHODS, SOLVE_IVP_METHODS,
                      Config, Point, configurations, plan, rk4_steps)

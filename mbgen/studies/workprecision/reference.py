@@ -249,5 +249,5 @@ def make_reference(scene: Scene, b: Backends, t_eval, x0, atol_scale, say, *,
 
 
 #: The old name of :class:`TrueSolution` (``Reference`` now names only the check's
-#: reference, :mod:`mbgen.run.lambdified`); kept for imports written before the rename.
+#: reference, :mod:`mbgen.runtime.lambdified`); kept for imports written before the rename.
 Reference = TrueSolution

@@ -17,11 +17,11 @@ from scipy.integrate import solve_ivp
 from ...errors import MbgenError
 from ...abi import Output
 from ...pipeline import run
-from ...run.lambdified import LambdifiedModel
-from ...run.compiled import CompiledModel
-from ...run.python import python_model
+from ...runtime.lambdified import LambdifiedModel
+from ...runtime.compiled import CompiledModel
+from ...runtime.python import python_model
 from ...model.scene import Scene
-from ...run.simulate import holonomic_outputs
+from ...runtime.simulate import holonomic_outputs
 from .points import FAILED, OVER_BUDGET
 
 

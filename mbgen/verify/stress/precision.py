@@ -43,7 +43,7 @@ natural length ``l`` stretched by a tiny ``s`` was evaluated as
 ``k = 1e8``).  The derivation now writes the stretch as
 ``(|r|^2 - l^2) / (|r| + l)`` with the numerator expanded, so that
 ``(l + s)^2 - l^2`` becomes ``s^2 + 2 l s`` (``_stretch`` in
-:mod:`mbgen.derive.kane`), and the stiff spring keeps full precision.  The rule
+:mod:`mbgen.derivation.kane`), and the stiff spring keeps full precision.  The rule
 remains for formulas that still cancel (user models).
 
 Singular and non-finite references

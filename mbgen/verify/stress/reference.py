@@ -227,5 +227,5 @@ def _real(value):
 
 
 #: The old name of :class:`HighPrecisionValue` (``Reference`` names only the check's
-#: lambdified reference, :mod:`mbgen.run.lambdified`); kept for imports written before the rename.
+#: lambdified reference, :mod:`mbgen.runtime.lambdified`); kept for imports written before the rename.
 Reference = HighPrecisionValue

@@ -1,0 +1,143 @@
+r"""The articulated-body recursion: ``u'`` at a cost linear in the number of bodies.
+
+It applies when every speed belongs to exactly one joint (relative joint
+coordinates).  With the per-body quantities of :class:`~mbgen.derivation.recursion.NewtonEuler`
+(motion subspace ``S``, spatial inertia :math:`\mathcal I`, wrench ``g``, the
+transforms ``X`` to the parent, and ``tau`` the generalized forces of loads on
+massless parts), the inward pass is
+
+.. math::
+
+    \mathcal I^A_b = \mathcal I_b + \sum_c X_c^T(\mathcal I^A_c - U_c D_c^{-1} U_c^T)X_c,
+    \qquad
+    p^A_b = -g_b + \sum_c X_c^T(p^A_c + U_c D_c^{-1} u_c)
+
+with :math:`U = \mathcal I^A S`, :math:`D = S^T U`, :math:`u = \tau - S^T p^A`, and
+the outward pass :math:`u'_b = D_b^{-1}(u_b - U_b^T X_b \hat a_p)`,
+:math:`\hat a_b = X_b \hat a_p + S_b u'_b`.  Pivots of ``D`` must be positive
+(they are checked in the generated code).
+"""
+
+from __future__ import annotations
+
+from ..symbolic.program import ProgramBuilder
+from .recursion import NewtonEuler
+from .spatial import (ZERO6, dot6, force_to_parent, matvec6, motion_to_child, symmetric, vadd6,
+                      vneg6)
+from .tree import S0, add, mul
+
+
+def speed_owners(ne: NewtonEuler) -> dict | None:
+    """Speed -> owning body when every speed belongs to exactly one joint, else None."""
+    owner = {}
+    for b in ne.bodies:
+        for k in ne.kin[b]["S"]:
+            if k in owner:
+                return None
+            owner[k] = b
+    return owner if len(owner) == ne.nu else None
+
+
+def articulated(ne: NewtonEuler) -> list | None:
+    """``u'`` by the articulated-body recursion, or None when it does not apply."""
+    if speed_owners(ne) is None:
+        return None
+    P = ne.P
+    tau = {k: add(*v) for k, v in ne.tau.items()}
+    joint = {}
+    for b in reversed(ne.bodies):
+        low = {(i, j): ne.inertia[b]["spatial"][i][j] for i in range(6) for j in range(i + 1)}
+        bias = vneg6(ne.g[b])
+        for c in b.children:
+            Ia, pa = joint[c]["Ia"], joint[c]["pa"]
+            con = ne.child_congruence(c, Ia)
+            low = {key: add(v, con[key]) for key, v in low.items()}
+            bias = vadd6(bias, force_to_parent(pa, ne.to_parent(c), ne.kin[c]["r"]))
+        I = symmetric({key: P.scalar(v) for key, v in low.items()})
+        p = P.vector(bias)
+        S = ne.kin[b]["S"]
+        ks = sorted(S)
+        U = [P.vector(matvec6(I, S[k])) for k in ks]
+        D = [[dot6(S[ks[i]], U[j]) for j in range(len(ks))] for i in range(len(ks))]
+        u = [add(tau.get(k, S0), mul(-1, dot6(S[k], p))) for k in ks]
+        solve = _SmallSolve(P, D) if ks else None
+        if ks:
+            Dinv_u = solve(u)
+            W = [solve([U[i][row] for i in range(len(ks))]) for row in range(6)]
+            low = {(i, j): add(I[i][j], mul(-1, add(*(mul(U[k][i], W[j][k])
+                                                      for k in range(len(ks))))))
+                   for i in range(6) for j in range(i + 1)}
+            pa = vadd6(p, tuple(add(*(mul(U[k][i], Dinv_u[k]) for k in range(len(ks))))
+                                for i in range(6)))
+            m = _unit_index(S[ks[0]]) if len(ks) == 1 else None
+            if m is not None:
+                # S = e_m: row and column m of I - U U^T / D vanish exactly, and
+                # component m of the bias is the joint's generalized force.
+                low = {(i, j): S0 if m in (i, j) else v for (i, j), v in low.items()}
+                pa = tuple(mul(S[ks[0]][m], tau.get(ks[0], S0)) if i == m else v
+                           for i, v in enumerate(pa))
+            Ia = symmetric({key: P.scalar(v) for key, v in low.items()})
+            pa = P.vector(pa)
+        else:
+            Ia, pa = I, p
+        joint[b] = dict(Ia=Ia, pa=pa, U=U, u=u, solve=solve, ks=ks)
+    accel = {}
+    udot = [S0] * ne.nu
+    for b in ne.bodies:
+        if b.parent is not None:
+            a = motion_to_child(accel[b.parent], ne.to_child(b), ne.kin[b]["r"])
+        else:
+            a = ZERO6
+        jt = joint[b]
+        ks = jt["ks"]
+        if ks:
+            rhs = [add(jt["u"][i], mul(-1, dot6(jt["U"][i], a))) for i in range(len(ks))]
+            qdd = [P.scalar(x) for x in jt["solve"](rhs)]
+            for k, x in zip(ks, qdd):
+                udot[k] = x
+                a = vadd6(a, tuple(mul(x, s) for s in ne.kin[b]["S"][k]))
+        accel[b] = P.vector(a)
+    return udot
+
+
+def _unit_index(col):
+    """Index ``m`` when ``col`` is ``+-e_m`` (one entry of absolute value 1, the rest zero)."""
+    nz = [i for i, x in enumerate(col) if x != 0]
+    if len(nz) == 1 and abs(col[nz[0]]) == 1:
+        return nz[0]
+    return None
+
+
+class _SmallSolve:
+    """Solve ``D x = b`` for a small symmetric positive definite ``D`` by ``L D L^T``.
+
+    Pivots become checked program symbols (a non-positive pivot means the
+    articulated inertia is not positive definite).
+    """
+
+    def __init__(self, P: ProgramBuilder, D):
+        n = len(D)
+        L = [[S0] * n for _ in range(n)]
+        d = [S0] * n
+        inv = [S0] * n
+        for j in range(n):
+            dj = add(D[j][j], *(mul(-1, mul(mul(L[j][k], L[j][k]), d[k])) for k in range(j)))
+            d[j] = P.scalar(dj, check=True)
+            inv[j] = P.scalar(1 / d[j])
+            for i in range(j + 1, n):
+                lij = add(D[i][j], *(mul(-1, mul(mul(L[i][k], L[j][k]), d[k])) for k in range(j)))
+                L[i][j] = P.scalar(mul(lij, inv[j]))
+        self.n, self.L, self.inv = n, L, inv
+
+    def __call__(self, b) -> list:
+        n, L = self.n, self.L
+        y = list(b)
+        for i in range(n):
+            y[i] = add(y[i], *(mul(-1, mul(L[i][k], y[k])) for k in range(i)))
+        y = [mul(y[i], self.inv[i]) for i in range(n)]
+        for i in reversed(range(n)):
+            y[i] = add(y[i], *(mul(-1, mul(L[k][i], y[k])) for k in range(i + 1, n)))
+        return y
+
+
+__all__ = ["articulated", "speed_owners"]

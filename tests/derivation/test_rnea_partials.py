@@ -1,0 +1,137 @@
+"""The analytic state Jacobian of inverse dynamics (mbgen.derivation.rnea_partials).
+
+``residual_jacobian`` against forward-mode derivatives through the Newton–Euler program
+(the path it replaces, itself checked against finite differences and lambdified sympy in
+tests/runtime/test_jacobian.py), compiled, at seeded random states, parameters and inputs;
+on revolute chains (angles ``q`` and ``-q``), a branching tree, prismatic joints at the
+root, in the middle and at a leaf, loads (input torques, a spring, a damper), and with
+parameters at run time.  Where it does not apply, the equations say so by carrying none.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mbgen
+from mbgen import Output
+from mbgen.derivation import Method, rnea_partials
+from mbgen.derivation.prepare import prepare
+from mbgen.derivation.recursion import NewtonEuler
+from mbgen.pipeline import equations_of, run
+from mbgen.scenes import n_link_cart, spatial_arm, torque_free
+
+OUTS = (Output.RHS, Output.JACOBIAN)
+INERTIA = ((0.1, 0.2, 0.3, 0.01, 0.02, 0.03), (0.1, 0.25, 0.3, 0.0, 0.02, 0.0),
+           (0.2, 0.1, 0.3, 0.0, 0.0, 0.01))
+
+
+def tree(kind: str) -> mbgen.Model:
+    """Three joints: revolute about z, y, x in a chain; variants named by ``kind``."""
+    m = mbgen.Model(f"tree_{kind}")
+    q = m.coordinates("q1:4")
+    m.speeds("u1:4")
+    g, = m.constants("g")
+    N = m.newtonian("N")
+    if kind == "cart":    # a prismatic root carrying a double pendulum
+        J1 = m.point("J1", m.origin, q[0] * N.x)
+        m.body("a", N, 2.0, INERTIA[0], J1)
+        A = m.rotate(N, "A", 2, q[1])
+        P2 = m.point("P2", J1, 0.5 * A.x)
+        m.body("b", A, 1.0, INERTIA[1], P2)
+        B = m.rotate(A, "B", 1, -q[2])
+        J3 = m.point("J3", J1, 1.0 * A.x)
+        m.body("c", B, 1.5, INERTIA[2], m.point("P3", J3, 0.3 * B.y))
+        m.gravity(-g * N.z)
+        return m
+    A = m.rotate(N, "A", 3, -q[0] if kind == "neg" else q[0])
+    m.body("a", A, 1.0, INERTIA[0], m.point("P1", m.origin, 0.5 * A.x))
+    J2 = m.point("J2", m.origin, 1.0 * A.x)
+    B = m.rotate(A, "B", 2, q[1])
+    P2 = m.point("P2", J2, 0.4 * B.x)
+    m.body("b", B, 2.0, INERTIA[1], P2)
+    if kind == "branch":      # c hangs from a, beside b
+        C = m.rotate(A, "C", 1, q[2])
+        J3 = m.point("J3", m.origin, 1.0 * A.x + 0.2 * A.y)
+        m.body("c", C, 1.5, INERTIA[2], m.point("P3", J3, 0.3 * C.y))
+    elif kind == "slider":    # c slides along b's y axis
+        J3 = m.point("J3", P2, q[2] * B.y)
+        m.body("c", B, 1.5, INERTIA[2], m.point("P3", J3, 0.1 * B.x))
+    else:
+        C = m.rotate(B, "C", 1, q[2])
+        J3 = m.point("J3", J2, 0.8 * B.x)
+        P3 = m.point("P3", J3, 0.3 * C.y)
+        m.body("c", C, 1.5, INERTIA[2], P3)
+        if kind == "loads":   # input torques at two joints, a spring to the ground, a damper
+            T1, T2 = m.inputs("T1 T2")
+            k, c = m.constants("k_s c_d")
+            m.torque(A, T1 * N.z, reaction=N)
+            m.torque(B, T2 * A.y, reaction=A)
+            m.spring("s", P3, m.point("anchor", m.origin, 0.3 * N.x + 0.5 * N.z), k,
+                     natural_length=0.2, damping=c)
+            m.damper("d", P2, P3, c)
+    m.gravity(-g * N.z)
+    return m
+
+
+def jacobians(source, rng, fixed=None, samples=3):
+    """``(analytic, forward-mode)`` compiled Jacobians at ``samples`` random points."""
+    analytic = equations_of(source, Method.NEWTON_EULER, jacobian=True)
+    forward = equations_of(source, Method.NEWTON_EULER, jacobian=False)
+    assert analytic.residual_jacobian is not None and forward.residual_jacobian is None
+    a = run(analytic, OUTS, fixed=fixed).compiled
+    b = run(forward, OUTS, fixed=fixed).compiled
+    out = []
+    for _ in range(samples):
+        x = rng.uniform(-1, 1, a.n_x)
+        p = rng.uniform(0.5, 1.5, a.n_p)
+        r = rng.uniform(-1, 1, a.n_r)
+        out.append((a.jacobian(0.0, x, p, r), b.jacobian(0.0, x, p, r)))
+    return out
+
+
+def assert_close(pairs, rtol=1e-11):
+    for ours, ref in pairs:
+        assert np.abs(ref).max() > 0.1
+        assert np.abs(ours - ref).max() <= rtol * np.abs(ref).max()
+
+
+@pytest.fixture
+def small(monkeypatch):
+    """The analytic partials for models under ``MIN_SPEEDS`` too."""
+    monkeypatch.setattr(rnea_partials, "MIN_SPEEDS", 1)
+
+
+@pytest.mark.parametrize("kind", ["chain", "neg", "branch", "slider", "cart", "loads"])
+def test_analytic_equals_forward_mode(kind, small):
+    assert_close(jacobians(tree(kind), np.random.default_rng(3)))
+
+
+def test_spatial_arm_with_parameters_at_run_time():
+    """``MIN_SPEEDS`` links, no monkeypatching: every link constant a run-time parameter."""
+    scene = spatial_arm.scene(rnea_partials.MIN_SPEEDS)
+    assert len(scene.model.speeds_) == rnea_partials.MIN_SPEEDS
+    assert_close(jacobians(scene.model, np.random.default_rng(5), samples=2), rtol=1e-10)
+
+
+def test_not_where_it_does_not_apply(small):
+    """Absolute angles (two motion columns per body), a free body, constraints: none."""
+    for scene in (n_link_cart.scene(), torque_free.scene()):
+        ne = NewtonEuler(prepare(scene.model))
+        assert rnea_partials.screw_joints(ne) is None
+        eq = equations_of(scene, Method.NEWTON_EULER, jacobian=True)
+        assert eq.residual_jacobian is None
+    assert equations_of(tree("chain"), Method.NEWTON_EULER).residual_jacobian is None
+
+
+def test_below_min_speeds_forward_mode():
+    eq = equations_of(spatial_arm.scene(rnea_partials.MIN_SPEEDS - 1), Method.NEWTON_EULER,
+                      jacobian=True)
+    assert eq.residual_jacobian is None
+
+
+def test_pipeline_asks_for_it_with_the_jacobian():
+    scene = spatial_arm.scene(rnea_partials.MIN_SPEEDS)
+    with_jacobian = mbgen.run(scene, OUTS, build=False)
+    assert with_jacobian.equations.residual_jacobian is not None
+    assert mbgen.run(scene, (Output.RHS,), build=False).equations.residual_jacobian is None
