@@ -42,7 +42,8 @@ parent's code unless it sets its own.
     own rounding); ``mbgen stress`` when its only failures are the harness's (a run
     stopped at the suite's budget), which say nothing about the model.
 
-:class:`StiffnessWarning` is a warning, not an error: it never ends a command.
+:class:`StiffnessWarning` and :class:`ModelWarning` are warnings, not errors: they never end
+a command.
 
 A new error derives from the matching class here (and built-in), sets ``exit_code``
 when it differs from its parent's, and gets its row in ``EXIT_CODES`` of
@@ -254,3 +255,10 @@ class BenchmarkError(MbgenError, RuntimeError):
 
 class StiffnessWarning(RuntimeWarning):
     """An explicit method's steps are held down by stability, not accuracy."""
+
+
+class ModelWarning(UserWarning):
+    """A model file loaded, but not all of it as written: what mbgen accepted against its
+    rules (a URDF inertia that breaks the triangle inequality) or drops (an MJCF file's
+    contacts, limits, equality constraints, actuators it does not read).  One warning per
+    load names each; ``strict`` loading or ``-W error::mbgen.errors.ModelWarning`` refuses."""

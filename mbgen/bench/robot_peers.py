@@ -83,10 +83,13 @@ def import_mujoco():
     return mujoco
 
 
-def switch_off(mj) -> None:
+def switch_off(mj, actuation: bool = False) -> None:
+    """Switch off in ``mj`` what mbgen does not model (:data:`SWITCHED_OFF`); with
+    ``actuation`` the actuators stay on (an MJCF file's, which mbgen reads)."""
     mujoco = import_mujoco()
     for flag in SWITCHED_OFF:
-        mj.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, flag))
+        if not (actuation and flag == "mjDSBL_ACTUATION"):
+            mj.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, flag))
 
 
 def mujoco_spec_of_urdf(path: Path, floating: bool):

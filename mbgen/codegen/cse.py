@@ -33,8 +33,8 @@ from typing import Sequence
 import sympy as sm
 
 from .printing import printed_base_count
-from ..symbolic.graph import (postorder_unique, symbols_back, to_sympy, to_symengine,
-                              walk_unique, xreplace_dag)
+from ..symbolic.graph import (postorder_unique, symbols_back, symengine_rebuilt, to_sympy,
+                              to_symengine, walk_unique, xreplace_dag)
 
 
 class CseBackend(str, Enum):
@@ -134,6 +134,7 @@ def _value_numbering(exprs: list, se):
     where a descendant was replaced.  It finds no common *part* of two sums or products
     (``a + b`` in ``a + b + c`` and ``a + b + d``), which ``symengine.cse`` does.
     """
+    from symengine.lib.symengine_wrapper import Boolean
     order = postorder_unique(exprs)
     uses: dict = {}
     for root in exprs:
@@ -147,9 +148,9 @@ def _value_numbering(exprs: list, se):
     memo: dict = {}   # node -> its replacement, for the nodes that changed
     for node in order:
         args = node.args
-        value = node.func(*[memo.get(a, a) for a in args]) if any(a in memo for a in args) \
-            else node
-        if uses.get(node, 0) >= 2:
+        value = symengine_rebuilt(node, [memo.get(a, a) for a in args]) \
+            if any(a in memo for a in args) else node
+        if uses.get(node, 0) >= 2 and not isinstance(node, Boolean):   # conditions stay put
             t = next(names)
             temps.append((t, value))
             memo[node] = t

@@ -14,11 +14,14 @@
   outputs) and :func:`load_scene` for built-in scenes and scene files;
 * :mod:`~mbgen.model.summary` -- a model's notebook summary;
 * :mod:`~mbgen.model.urdf` -- :func:`~mbgen.model.urdf.from_urdf`, a robot's URDF file as a
-  ``Model`` (Pinocchio's conventions), read and checked by :mod:`~mbgen.model.urdf_xml`;
+  ``Model`` (Pinocchio's conventions), read and checked by :mod:`~mbgen.model.urdf_xml`, its
+  joints' mimics, dynamics and limits as :mod:`~mbgen.model.urdf_joints` says;
 * :mod:`~mbgen.model.mjcf` -- :func:`~mbgen.model.mjcf.from_mjcf` and
   :func:`~mbgen.model.mjcf.from_mujoco`, a MuJoCo model (compiled by MuJoCo, the
   ``mujoco`` extra) as a ``Model`` (MuJoCo's ``qpos``/``qvel`` conventions); what MuJoCo
   would read is checked first by :mod:`~mbgen.model.mjcf_xml` (pipes, numbers, sizes);
+  what else the compiled model says (options, flags, actuators) is honoured, refused or
+  dropped with one warning by :mod:`~mbgen.model.mjcf_physics`;
 * :mod:`~mbgen.model.files` -- a path read only if it is a regular file (else named for
   what it is: a folder, a pipe, a device);
 * :mod:`~mbgen.model.free_base` -- a floating base must move mass whichever way it moves

@@ -47,8 +47,9 @@ from sympy.physics import vector as spv
 
 from ..errors import ModelError
 from ..names import check_name, model_prefix
-from .elements import (Constraint, Force, FrameDef, Gravity, Joint, LineElement, Particle, PointDef,
-                       RigidBody, Torque, axis_index, inertia_matrix)
+from .elements import (Bound, Constraint, Force, FrameDef, Gravity, Joint, LineElement, Particle,
+                       PointDef, RigidBody, Torque, axis_index, bound_record, constant_defaults,
+                       inertia_matrix)
 from .expressions import expression
 from .limits import MAX_BODIES, MAX_SPEEDS, check_count, guard_range
 from .summary import model_html
@@ -122,6 +123,8 @@ class Model:
         self.prescribed_: dict[str, sm.Expr] = {}
         self.joints_: list[Joint] = []
         self.constraints_: list[Constraint] = []
+        self.defaults_: dict[str, float] = {}     # constant name -> default value
+        self.bounds_: dict[str, Bound] = {}       # name -> its range (data only)
         self._names: set[str] = set()
         self.N: spv.ReferenceFrame | None = None
         self.origin: spv.Point | None = None
@@ -149,12 +152,26 @@ class Model:
         self.speeds_.extend(syms)
         return syms
 
-    def constants(self, names: str):
-        """Declare constant parameters (plain symbols); see :meth:`coordinates`."""
+    def constants(self, names: str, defaults=None):
+        """Declare constant parameters (plain symbols); see :meth:`coordinates`.  ``defaults``
+        (a number per name) are their values where none is given (compiled code, ``rhs``)."""
         syms = _symbols(names, sm.symbols, "constant")
+        values = constant_defaults(syms, defaults)
         self._claim((str(s) for s in syms), "constant")
         self.constants_.extend(syms)
+        self.defaults_.update(values)
         return syms
+
+    def bound(self, symbol, lower=None, upper=None) -> Bound:
+        """Record that a coordinate, speed or input stays in ``[lower, upper]`` (None: no bound
+        that way), e.g. a URDF ``<limit>``: data the equations never use (:meth:`bounds`)."""
+        record = bound_record(self, symbol, lower, upper)
+        self.bounds_[record.name] = record
+        return record
+
+    def bounds(self, kind: str = "inputs") -> dict[str, tuple[float, float]]:
+        """``{name: (lower, upper)}`` of the bounded inputs (or "coordinates", "speeds")."""
+        return {b.name: (b.lower, b.upper) for b in self.bounds_.values() if b.kind == kind}
 
     def inputs(self, names: str):
         """Declare inputs: forces or torques given at run time (functions of time)."""

@@ -4,13 +4,17 @@ Each ``Model`` method that adds something validates its arguments and appends
 one of these records: frames (:class:`FrameDef`) and points (:class:`PointDef`)
 of the kinematic tree; masses (:class:`Particle`, :class:`RigidBody`); loads
 (:class:`Force`, :class:`Torque`, :class:`Gravity`, :class:`LineElement`);
-stated joints (:class:`Joint`) and constraints (:class:`Constraint`).  Vectors
+stated joints (:class:`Joint`) and constraints (:class:`Constraint`); and, as data the
+equations never use, the range a coordinate, speed or input is meant to stay in
+(:class:`Bound`, :func:`bound_record`) and constants' default values
+(:func:`constant_defaults`).  Vectors
 are :class:`sympy.physics.vector.Vector` objects, scalars sympy expressions,
 and an axis is its number 1, 2 or 3 in its frame (:func:`axis_index`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import sympy as sm
@@ -166,6 +170,60 @@ class Constraint:
     body: object = None
 
 
+#: What a :class:`Bound` may bound: the Model's list attribute of each kind.
+BOUNDED = {"coordinates": "coordinates_", "speeds": "speeds_", "inputs": "inputs_"}
+
+
+@dataclass(frozen=True)
+class Bound:
+    """``lower <= name <= upper`` for the coordinate, speed or input ``name`` of ``kind``
+    (a key of :data:`BOUNDED`); ``-inf`` or ``inf`` where unbounded.  Data only: a
+    joint's effort, velocity or range limit (URDF ``<limit>``) kept for whoever saturates
+    or samples; the equations of motion never see it."""
+
+    name: str
+    kind: str
+    lower: float
+    upper: float
+
+
+def bound_record(model, symbol, lower, upper) -> Bound:
+    """``symbol`` (a coordinate, speed or input of ``model``, or its name) bounded to
+    ``[lower, upper]`` (None: unbounded that way), checked: numbers, not NaN, in order."""
+    name = symbol if isinstance(symbol, str) else str(getattr(symbol, "func", symbol))
+    for kind, attr in BOUNDED.items():
+        if name in [str(s.func) for s in getattr(model, attr)]:
+            break
+    else:
+        raise ModelError(f"cannot bound {symbol!r}: not a coordinate, speed or input of model "
+                         f"{model.name!r}")
+    ends = [(-math.inf, math.inf)[k] if v is None else v for k, v in enumerate((lower, upper))]
+    try:
+        lo, hi = (float(v) for v in ends)
+    except (TypeError, ValueError):
+        lo = hi = math.nan
+    if math.isnan(lo) or math.isnan(hi) or lo > hi:
+        raise ModelError(f"the bounds of {name!r} must be numbers (or None) with lower <= "
+                         f"upper; got {lower!r}, {upper!r}")
+    return Bound(name, kind, lo, hi)
+
+
+def constant_defaults(symbols, values) -> dict[str, float]:
+    """``{name: value}`` of constants ``symbols`` and their default ``values`` (one finite
+    number each; None: no defaults)."""
+    if values is None:
+        return {}
+    values = list(values) if isinstance(values, (list, tuple)) else [values]
+    try:
+        numbers = [float(v) for v in values]
+    except (TypeError, ValueError):
+        numbers = []
+    if len(numbers) != len(symbols) or not all(math.isfinite(v) for v in numbers):
+        raise ModelError(f"defaults of constants {', '.join(map(str, symbols))} must be one "
+                         f"finite number each; got {values!r}")
+    return {str(s): v for s, v in zip(symbols, numbers)}
+
+
 def inertia_matrix(name: str, frame, inertia, scalar) -> sm.ImmutableMatrix:
     """Body ``name``'s inertia (a ``Dyadic``, a 3x3 matrix or ``(Ixx, Iyy, Izz[, Ixy, Iyz,
     Izx])``) as a symmetric 3x3 matrix in ``frame`` components; ``scalar`` reads a value."""
@@ -195,6 +253,7 @@ def inertia_matrix(name: str, frame, inertia, scalar) -> sm.ImmutableMatrix:
     return sm.ImmutableMatrix(mat)
 
 
-__all__ = ["AXES", "axis_index", "FrameDef", "inertia_matrix",
+__all__ = ["AXES", "BOUNDED", "Bound", "bound_record", "constant_defaults", "axis_index",
+           "FrameDef", "inertia_matrix",
            "PointDef", "Particle", "RigidBody", "Force",
            "Torque", "Gravity", "LineElement", "Joint", "Constraint"]

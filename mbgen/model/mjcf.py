@@ -5,8 +5,11 @@ so defaults, classes, ``<compiler>`` units and angles, and inertia from geoms ar
 as MuJoCo resolves them; this module reads the compiled ``mjModel``: the body tree
 (``body_parentid``, ``body_pos``, ``body_quat``, ``body_ipos``, ``body_iquat``,
 ``body_mass``, ``body_inertia``), the joints (``jnt_type``, ``jnt_axis``, ``jnt_pos``,
-``qpos0``, ``jnt_stiffness``, ``qpos_spring``, ``dof_armature``, ``dof_damping``) and
-``opt.gravity``.
+``qpos0``, ``jnt_stiffness``, ``qpos_spring``, ``dof_armature``, ``dof_damping``); what
+else changes the dynamics (gravity and its flag, actuators, ...) is honoured, refused or
+dropped with one warning by :mod:`~mbgen.model.mjcf_physics`.  :func:`from_mjcf` names
+the model after the file (``cartpole.xml``: ``cartpole``), :func:`from_mujoco` after
+``<mujoco model>`` unless given a name.
 
 Conventions (MuJoCo's, so that a state compares one to one with ``mj_forward``):
 
@@ -35,22 +38,29 @@ Conventions (MuJoCo's, so that a state compares one to one with ``mj_forward``):
   slide angles count from ``qpos0`` (a joint's ``ref``), as in MuJoCo.
 * the inputs are MuJoCo's ``qfrc_applied``: a torque about a hinge axis, a force along a
   slide; a ball joint's torque in the body's components; a free joint's force at the
-  body's origin in world components and its torque in body components.
+  body's origin in world components and its torque in body components.  Then MuJoCo's
+  ``ctrl`` of each actuator read (:class:`~mbgen.model.mjcf_physics.Actuator`), in the
+  file's order, named ``ctrl_<actuator>``, never clamped: so ``r = (qfrc_applied, ctrl)``.
 * passive forces as MuJoCo states them: damping :math:`-d\,u` per degree of freedom
   (``dof_damping``), hinge and slide springs :math:`-k\,(q - q_\mathrm{spring})`; joint
   armature (``dof_armature``) adds to the diagonal of the mass matrix, a rotor inertia
   about the joint's axis that sees no other motion (modelled as a massless body turning
   with that one speed about a fixed axis).
 * gravity ``g`` times the direction of ``opt.gravity``, ``g = |opt.gravity|`` the model's
-  one constant; every inertial number is baked in.  Bodies without joints are welded to
+  one constant (none, and ``g = 0``, under ``<flag gravity="disable"/>``); every inertial
+  number is baked in.  Bodies without joints are welded to
   their parent and their masses merged, as fixed URDF joints are.
 
-Not read, so compare with ``mj_forward`` with them off (``opt.disableflags`` with
-``mjDSBL_CONTACT | mjDSBL_LIMIT | mjDSBL_EQUALITY | mjDSBL_FRICTIONLOSS | mjDSBL_ACTUATION``,
-or a model without them): contacts, joint limits, equality constraints, friction loss,
-actuators (apply their forces through the inputs).  Refused with
+Dropped with one :class:`~mbgen.errors.ModelWarning` naming each, so compare with
+``mj_forward`` with them off (``opt.disableflags`` with ``mjDSBL_CONTACT | mjDSBL_LIMIT |
+mjDSBL_EQUALITY | mjDSBL_FRICTIONLOSS``, or a model without them): contacts, joint limits,
+equality constraints, friction loss, actuators mbgen does not read.  Refused with
 :class:`~mbgen.errors.MjcfError`: gravity compensation, fluid forces (``density`` or
-``viscosity``), tendons with stiffness or damping, and springs on ball or free joints.
+``viscosity``), tendons with stiffness, damping or armature, and springs on ball or free
+joints (the full lists: :mod:`~mbgen.model.mjcf_physics`).  An inertia that breaks the
+triangle inequality is MuJoCo's compiler's to refuse (or to mend, with
+``balanceinertia``); a compiled model with one, its fields set by hand, is read as it is,
+as ``mj_forward`` reads it.
 
 Before MuJoCo reads a file, :func:`compile_mjcf` reads it and what it brings in
 (:mod:`~mbgen.model.mjcf_xml`): a path that is not a regular file, a number that is not
@@ -62,6 +72,7 @@ and its axes and quaternions are normalised dividing by the largest component fi
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import sympy as sm
@@ -70,6 +81,7 @@ from ..errors import MissingExtraError, MjcfError
 from ..names import C_KEYWORDS, MAX_NAME_LENGTH
 from . import free_base
 from .builder import Model
+from .mjcf_physics import FLAG, read_physics, warn_dropped
 from .mjcf_xml import MAX_MAGNITUDE, scan_mjcf
 from .urdf import Group, axis_rotation, frame_vector, identifier, quaternion_matrix, simple
 
@@ -102,17 +114,21 @@ def compile_mjcf(path):
 
 
 def from_mjcf(path) -> Model:
-    """The model of the MJCF file at ``path``, compiled by MuJoCo (module docstring).
+    """The model of the MJCF file at ``path``, compiled by MuJoCo (module docstring), named
+    after the file (``cartpole.xml``: ``cartpole``, whatever its ``<mujoco model>``).
 
-    :class:`MjcfError` for a file that is not safe to hand to MuJoCo or that MuJoCo cannot
-    compile; :class:`~mbgen.errors.ModelSizeError` for more than
-    :data:`~mbgen.model.limits.MAX_BODIES` bodies (unless forced)."""
-    return from_mujoco(compile_mjcf(path))
+    :class:`MjcfError` for a file that is not safe to hand to MuJoCo, that MuJoCo cannot
+    compile, or that holds what mbgen refuses (:mod:`~mbgen.model.mjcf_physics`);
+    :class:`~mbgen.errors.ModelSizeError` for more than
+    :data:`~mbgen.model.limits.MAX_BODIES` bodies (unless forced); one
+    :class:`~mbgen.errors.ModelWarning` naming what it drops (contacts, limits, ...)."""
+    return from_mujoco(compile_mjcf(path), name=file_model_name(path))
 
 
-def from_mujoco(mj) -> Model:
-    """The model of a compiled ``mujoco.MjModel`` (see the module docstring)."""
-    return _Builder(mj).build()
+def from_mujoco(mj, *, name: str | None = None) -> Model:
+    """The model of a compiled ``mujoco.MjModel`` (see the module docstring), named ``name``
+    (an identifier) or else after MuJoCo's model name (``<mujoco model>``)."""
+    return _Builder(mj).build(name or model_name(mj))
 
 
 # ------------------------------------------------------------------ the compiled model
@@ -152,7 +168,18 @@ def names_of(mj, kind: str, count: int) -> list[str]:
 
 
 def model_name(mj) -> str:
+    """MuJoCo's model name (``<mujoco model>``) as an identifier; ``mjcf`` if it has none."""
     raw = bytes(mj.names[:max(0, bytes(mj.names).find(b"\0"))]).decode(errors="replace")
+    return _model_identifier(raw)
+
+
+def file_model_name(path) -> str:
+    """The model name of a file: its name without the suffix, as an identifier (what
+    :func:`from_mjcf` and ``mbgen simulate robot.xml`` name the model and its outputs)."""
+    return _model_identifier(os.path.splitext(os.path.basename(os.fspath(path)))[0])
+
+
+def _model_identifier(raw: str) -> str:
     name = identifier(raw)[:48] or "mjcf"
     if not name[0].isalpha():
         name = "mjcf_" + name
@@ -192,6 +219,7 @@ class _Builder:
         self.joints = joint_symbols(mj)
         self.taken = {n for row in self.joints for names in row[2:] for n in names} | {"g"}
         self.body_names = names_of(mj, "body", mj.nbody)
+        self.physics = None             # read_physics's, once check() has run
 
     def internal(self, base: str) -> str:
         base = base[:MAX_NAME_LENGTH - 4]
@@ -233,21 +261,11 @@ class _Builder:
                 _unit(mj.jnt_axis[j], f"joint {base!r}: jnt_axis")
 
     def check(self) -> None:
+        """Numbers (:meth:`check_numbers`), then what mbgen refuses, drops and reads beyond
+        the tree (:func:`~mbgen.model.mjcf_physics.read_physics`), then free bodies."""
         self.check_numbers()
         mj = self.mj
-        problems = []
-        if np.any(mj.body_gravcomp):
-            problems.append("gravity compensation (gravcomp)")
-        if mj.opt.density or mj.opt.viscosity:
-            problems.append("fluid forces (option density or viscosity)")
-        if mj.ntendon and (np.any(mj.tendon_stiffness) or np.any(mj.tendon_damping)):
-            problems.append("tendons with stiffness or damping")
-        for j, (kind, base, *_) in enumerate(self.joints):
-            if kind in (BALL, FREE) and mj.jnt_stiffness[j]:
-                problems.append(f"a spring on the ball or free joint {base!r}")
-        if problems:
-            raise MjcfError("MuJoCo model: mbgen does not model " + "; ".join(problems)
-                            + "; remove them from the file")
+        self.physics = read_physics(mj, [row[1] for row in self.joints], self.taken)
         for j, (kind, base, *_) in enumerate(self.joints):
             if kind == FREE:
                 self.check_free_body(int(mj.jnt_bodyid[j]), j, base)
@@ -259,7 +277,7 @@ class _Builder:
         keeps its block of the mass matrix positive: nothing to refuse then."""
         mj = self.mj
         dof = int(mj.jnt_dofadr[joint])
-        if np.all(mj.dof_armature[dof:dof + 6] > 0):
+        if all(a > 0 for a in self.physics.armature[dof:dof + 6]):
             return
         found = [free_base.lack(self.free_parts(body, rng_state))
                  for rng_state in range(samples)]
@@ -298,7 +316,7 @@ class _Builder:
                 for j in range(int(mj.body_jntadr[b]), int(mj.body_jntadr[b] + mj.body_jntnum[b])):
                     columns.append(self.joint_motion(data, j))
                     dof = int(mj.jnt_dofadr[j])
-                    armature.extend(mj.dof_armature[dof:dof + columns[-1].shape[1]])
+                    armature.extend(self.physics.armature[dof:dof + columns[-1].shape[1]])
             motion = np.hstack(columns) if columns else free_base.NO_MOTION
             R = np.array(data.ximat[b]).reshape(3, 3)
             centre = np.array(data.xipos[b], dtype=float)
@@ -320,20 +338,22 @@ class _Builder:
         R = np.array(data.xmat[int(mj.jnt_bodyid[j])]).reshape(3, 3)   # a ball
         return np.hstack([free_base.revolute_motion(R[:, k], anchor) for k in range(3)])
 
-    def build(self) -> Model:
+    def build(self, title: str) -> Model:
         self.check()
         mj = self.mj
-        m = Model(model_name(mj))
+        m = Model(title)
         N = m.newtonian(self.internal("N"), self.internal("O"))
         g, = m.constants("g")
-        gvec = np.array(mj.opt.gravity, dtype=float)
+        gvec = np.array(self.physics.gravity, dtype=float)
         gnorm = float(np.linalg.norm(gvec))
-        self.g_value = gnorm
         self.symbols = {}
         for kind, base, qs, us, rs in self.joints:
             for names, make in ((qs, m.coordinates), (us, m.speeds), (rs, m.inputs)):
                 made = make(" ".join(names))
                 self.symbols.update(zip(names, made if isinstance(made, tuple) else (made,)))
+        for actuator in self.physics.actuators:      # MuJoCo's ctrl, after qfrc_applied
+            made = m.inputs(actuator.input)
+            self.symbols[actuator.input] = made[0] if isinstance(made, tuple) else made
         groups = {0: Group(None, N, m.origin)}
         place = {0: (np.eye(3), np.zeros(3))}
         rotors = []
@@ -362,6 +382,7 @@ class _Builder:
             m.body(self.internal(f"{name}_rotor_body"), frame, 0, (0, 0, armature), m.origin)
         if gnorm > 0:
             m.gravity(g * frame_vector(N, gvec / gnorm))
+        warn_dropped(title, self.physics.dropped)
         return m
 
     def add_body(self, m: Model, group: Group) -> None:
@@ -382,10 +403,10 @@ class _Builder:
         u = [self.symbols[n] for n in us]
         r = [self.symbols[n] for n in rs]
         dof = int(mj.jnt_dofadr[j])
-        damping = [float(mj.dof_damping[dof + k]) for k in range(len(u))]
+        damping = list(self.physics.damping[dof:dof + len(u)])
         for k, s in enumerate(u):
-            if mj.dof_armature[dof + k]:
-                rotors.append((f"{base}{k}", s, float(mj.dof_armature[dof + k])))
+            if self.physics.armature[dof + k]:
+                rotors.append((f"{base}{k}", s, self.physics.armature[dof + k]))
         axis = A @ _unit(mj.jnt_axis[j], f"joint {base!r}: jnt_axis") \
             if kind in (HINGE, SLIDE) else None
         jpos = np.array(mj.jnt_pos[j], dtype=float)
@@ -395,9 +416,12 @@ class _Builder:
             q0 = float(mj.qpos0[mj.jnt_qposadr[j]])
             angle = q[0] - q0 if q0 else q[0]
             load = r[0] - damping[0] * u[0]
-            k = float(mj.jnt_stiffness[j])
+            k = float(mj.jnt_stiffness[j]) if self.physics.springs else 0.0
             if k:
                 load = load - k * (q[0] - float(mj.qpos_spring[mj.jnt_qposadr[j]]))
+            for actuator in self.physics.actuators:
+                if actuator.joint == j:
+                    load = load + actuator.force(q[0], u[0], self.symbols[actuator.input])
         if kind == SLIDE:
             point = m.point(self.internal(f"{label}_slide"), parent.point,
                             frame_vector(parent.frame, axis) * angle)
@@ -455,10 +479,13 @@ def frame_vector_sym(frame, comps):
 
 
 def scene_values(mj) -> tuple[dict, dict]:
-    """``(parameters, initial state)`` of a MuJoCo model: ``g`` and ``qpos0`` by name."""
+    """``(parameters, initial state)`` of a MuJoCo model: ``g`` (0 where gravity is
+    disabled) and ``qpos0`` by name."""
     names = [n for row in joint_symbols(mj) for n in row[2]]
-    return ({"g": float(np.linalg.norm(mj.opt.gravity))},
+    gravity = int(mj.opt.disableflags) & FLAG["gravity"]
+    return ({"g": 0.0 if gravity else float(np.linalg.norm(mj.opt.gravity))},
             {n: float(v) for n, v in zip(names, mj.qpos0) if v != 0})
 
 
-__all__ = ["compile_mjcf", "from_mjcf", "from_mujoco", "import_mujoco", "joint_symbols", "scene_values"]
+__all__ = ["compile_mjcf", "file_model_name", "from_mjcf", "from_mujoco", "import_mujoco",
+           "joint_symbols", "scene_values"]

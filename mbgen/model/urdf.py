@@ -3,15 +3,16 @@ r"""A URDF robot as a :class:`~mbgen.model.builder.Model`: :func:`from_urdf`.
 What is read (:mod:`mbgen.model.urdf_xml` checks it all before anything is built):
 links with their ``<inertial>`` (mass, ``<origin xyz rpy>``, full inertia tensor)
 and joints of type revolute, continuous, prismatic and fixed, with ``<origin xyz
-rpy>`` and any ``<axis>`` (normalised).  Limits, dynamics (damping, friction),
-visuals, collisions, meshes and transmissions are not read.
+rpy>``, any ``<axis>`` (normalised), ``<mimic>``, ``<dynamics>`` and ``<limit>``
+(:mod:`mbgen.model.urdf_joints`: what each becomes, and the options that ask for it).
+Visuals, collisions, meshes and transmissions are not read.
 
 Conventions (Pinocchio's, so its results compare one to one):
 
 * one coordinate ``q_<joint>``, speed ``u_<joint>`` (``u = q'``) and input
   ``tau_<joint>`` (a torque about the axis, a force along it for a prismatic
-  joint) per moving joint, in the order of
-  ``pinocchio.buildModelFromUrdf(path).names``: depth first from the root link,
+  joint) per moving joint that is no mimic's follower, in the order of
+  ``pinocchio.buildModelFromUrdf(path, mimic=True).names``: depth first from the root link,
   the joints below a link sorted by name.  Joint and link names are sanitised
   to identifiers (characters other than letters, digits and ``_`` become
   ``_``); two that become the same name are an error.  A continuous joint has
@@ -35,9 +36,10 @@ Conventions (Pinocchio's, so its results compare one to one):
   for its motion subspace and :math:`\omega\times v` (and gravity turned into the
   root's frame) for its bias, :math:`R^T R` cancelled exactly
   (:mod:`mbgen.derivation.recursion`), so the articulated-body recursion applies.
-* gravity is ``-g`` along the world's z axis, ``g`` the model's one constant
-  (9.81 in the scene of a ``.urdf`` file, :func:`mbgen.model.scene.urdf_scene`).  Every inertial number of the file is
-  baked into the model as a number, as a robot's code is usually wanted.
+* gravity is ``-g`` along the world's z axis, ``g`` the model's first constant, 9.81 by
+  default (:data:`GRAVITY`: URDF states no gravity; ROS and Pinocchio take standard
+  gravity along -z), so a model compiled as it is runs with it.  Every inertial number of
+  the file is baked into the model as a number, as a robot's code is usually wanted.
 
 Angles of ``rpy`` within 1e-12 rad of a multiple of pi/2 are taken as that
 multiple (a cosine of ``1.5707963267948966`` is 6e-17, not 0), which keeps
@@ -56,40 +58,71 @@ import re
 import numpy as np
 import sympy as sm
 
-from ..errors import UrdfInertiaError, UrdfStructureError
+from ..errors import ArgumentTypeError, UrdfInertiaError, UrdfStructureError
 from ..names import C_KEYWORDS, MAX_NAME_LENGTH
 from . import free_base
 from .builder import Model
 from .limits import allow_large_models, check_size
+from .urdf_joints import (JointOptions, bound_joint, check_dynamics, followers, joint_load,
+                          joint_options, joint_symbols, load_constants)
 from .urdf_xml import Robot, read_urdf
 
 #: Free-flyer coordinate and speed names, in Pinocchio's order.
 FLOATING_Q = ("root_x", "root_y", "root_z", "root_qx", "root_qy", "root_qz", "root_qw")
 FLOATING_U = ("root_vx", "root_vy", "root_vz", "root_wx", "root_wy", "root_wz")
 
+#: Gravity (m/s^2) a URDF model's constant ``g`` defaults to: standard gravity along -z.
+GRAVITY = 9.81
+
 _SNAP = 1e-12
 
 
-def from_urdf(path, *, floating: bool = False, force: bool = False) -> Model:
-    """The robot of the URDF file at ``path`` as a :class:`Model` (see the module docstring);
-    ``force`` reads and builds it past the size guard (:mod:`mbgen.model.limits`).
+def from_urdf(path, *, floating: bool = False, force: bool = False, mimic: str = "coupled",
+              damping: bool = False, friction=False, soft_limits=None,
+              strict: bool = False) -> Model:
+    """The robot of the URDF file at ``path`` as a :class:`Model` (see the module docstring).
+
+    Parameters
+    ----------
+    floating : bool
+        A free-flyer on the root link (a bool: the string ``"false"`` is refused).
+    force : bool
+        Read and build past the size guard (:mod:`mbgen.model.limits`).
+    mimic, damping, friction, soft_limits
+        What the joints' ``<mimic>``, ``<dynamics>`` and ``<limit>`` become
+        (:func:`mbgen.model.urdf_joints.joint_options`): by default a mimic joint follows
+        its leader (no coordinate of its own) and no damping, friction or soft limit acts,
+        so the model is Pinocchio's ``buildModelFromUrdf(path, mimic=True)`` one to one.
+    strict : bool
+        Refuse an inertia that breaks the triangle inequality (else read with a
+        :class:`~mbgen.errors.ModelWarning`, :mod:`mbgen.model.urdf_xml`).
 
     Raises
     ------
     UrdfError
         Naming the file, the link or joint and the fix: a path that is no regular
         file, unsafe or malformed XML, a file over 100 MiB, a number out of range, a
-        missing or negative mass, an impossible inertia, a floating root that moves no
-        mass some way (:mod:`mbgen.model.free_base`), an unknown joint type, a mimic
-        joint, a link with two parents, a cycle, no root, names that collide.  Nothing
-        is built when one is raised.
+        missing or negative mass, an inertia that is not positive semidefinite, a
+        floating root that moves no mass some way (:mod:`mbgen.model.free_base`), an
+        unknown joint type, a mimic of no moving joint or a cycle of them, a link with
+        two parents, a cycle, no root, names that collide.  Nothing is built when one
+        is raised.
     ModelSizeError
         More than :data:`~mbgen.model.limits.MAX_SPEEDS` speeds (unless forced).
+    ArgumentError
+        An option of the wrong type (:class:`~mbgen.errors.ArgumentTypeError`) or value.
     """
+    for name, value in (("floating", floating), ("strict", strict)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise ArgumentTypeError(f"from_urdf: {name} must be True or False, not "
+                                    f"{type(value).__name__} {value!r}")
+    options = joint_options(mimic, damping, friction, soft_limits)
     if force:
         with allow_large_models():
-            return build_model(read_urdf(path), floating=floating)
-    return build_model(read_urdf(path), floating=floating)
+            return build_model(read_urdf(path, strict=bool(strict)), floating=bool(floating),
+                               options=options)
+    return build_model(read_urdf(path, strict=bool(strict)), floating=bool(floating),
+                       options=options)
 
 
 # ------------------------------------------------------------------------------ rotations
@@ -227,21 +260,29 @@ def frame_vector(frame, comps) -> object:
     return sum(terms[1:], terms[0]) if terms else 0
 
 
-def build_model(robot: Robot, *, floating: bool = False) -> Model:
-    """The :class:`Model` of a checked :class:`~mbgen.model.urdf_xml.Robot`: its size and
-    (``floating``) its root are checked before anything is made."""
+def build_model(robot: Robot, *, floating: bool = False,
+                options: JointOptions = JointOptions()) -> Model:
+    """The :class:`Model` of a checked :class:`~mbgen.model.urdf_xml.Robot`, its joints as
+    ``options`` say (:mod:`mbgen.model.urdf_joints`): its size, (``floating``) its root
+    and the numbers the options use are checked before anything is made."""
     joints = [j for j in robot.ordered_joints() if j.type != "fixed"]
-    check_size(len(joints) + 6 * floating,
-               f"URDF file {robot.source!r} with {len(joints)} moving joints"
+    coupled = followers(joints, options)
+    own = len(joints) - len(coupled)
+    check_size(own + 6 * floating,
+               f"URDF file {robot.source!r} with {own} moving joints"
                f"{' on a floating base' if floating else ''}")
     if floating:
         check_floating_root(robot)
+    check_dynamics(robot, options)
+    constants = {"g": GRAVITY, **load_constants(options)}
     names = _Names(robot)
-    names.visible("g", "the gravity constant")
+    for name in constants:
+        names.visible(name, "the gravity constant" if name == "g" else "a joint-load constant")
     for j in joints:
         base = identifier(j.name)
         for prefix, what in (("q", "coordinate"), ("u", "speed"), ("tau", "input")):
-            names.visible(f"{prefix}_{base}", f"joint {j.name!r}")
+            if j.name not in coupled:
+                names.visible(f"{prefix}_{base}", f"joint {j.name!r}")
     if floating:
         for n in FLOATING_Q + FLOATING_U:
             names.visible(n, "the floating base")
@@ -252,11 +293,12 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
                   for link in moving}
     m = Model(model_name(robot))
     N = m.newtonian(names.internal("N"), names.internal("O"))
-    g, = m.constants("g")
+    c = dict(zip(constants, m.constants(" ".join(constants), defaults=list(constants.values()))))
     if floating:
         root = _floating_root(m, names, body_names[robot.root])
     else:
         root = Group(None, N, m.origin)
+    symbols = joint_symbols(m, joints, identifier, options)
     groups = {robot.root: root}
     place = {robot.root: (np.eye(3), np.zeros(3))}   # link -> (A, d) in its group
     for j in robot.ordered_joints():
@@ -267,10 +309,8 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
         if j.type == "fixed":
             groups[j.child], place[j.child] = parent, (J, offset)
             continue
-        base = identifier(j.name)
-        q, = m.coordinates(f"q_{base}")
-        m.speeds(f"u_{base}")
-        tau, = m.inputs(f"tau_{base}")
+        q, load = symbols[j.name].q, joint_load(j, symbols[j.name], c, options)
+        bound_joint(m, j, symbols[j.name])
         a = J @ np.array(j.axis)
         link = body_names[j.child]
         if j.type == "prismatic":
@@ -279,7 +319,8 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
             point = m.point(names.internal(f"{link}_J"), anchor,
                             frame_vector(parent.frame, a) * q)
             child = Group(link, parent.frame, point)
-            m.force(point, tau * frame_vector(parent.frame, a), reaction=anchor)
+            if load != 0:
+                m.force(point, load * frame_vector(parent.frame, a), reaction=anchor)
             place[j.child] = (J, np.zeros(3))
         else:
             point = parent.point if not offset.any() else \
@@ -291,7 +332,9 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
                 C = C @ simple(axis, angle)
             frame = m.rotate(frame, names.internal(f"{link}_frame"), k, s * q)
             child = Group(link, frame, point)
-            m.torque(frame, s * tau * (frame.x, frame.y, frame.z)[k - 1], reaction=parent.frame)
+            if load != 0:
+                m.torque(frame, s * load * (frame.x, frame.y, frame.z)[k - 1],
+                         reaction=parent.frame)
             place[j.child] = (C.T @ J, np.zeros(3))
         groups[j.child] = child
     for link, (A, d) in place.items():
@@ -299,7 +342,7 @@ def build_model(robot: Robot, *, floating: bool = False) -> Model:
     for group in dict.fromkeys(groups.values()):
         if group.name is not None:
             _add_body(m, names, group)
-    m.gravity(-g * N.z)
+    m.gravity(-c["g"] * N.z)
     return m
 
 

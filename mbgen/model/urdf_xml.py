@@ -3,10 +3,23 @@
 :func:`read_urdf` (a path) and :func:`parse_urdf` (the text) return a
 :class:`Robot`: its links (with their ``<inertial>``), its joints (type,
 parent, child, ``<origin xyz rpy>``, normalised ``<axis>``) and its root link,
-with the joints in Pinocchio's order (:meth:`Robot.ordered_joints`).  Only
+with the joints in Pinocchio's order (:meth:`Robot.ordered_joints`), each with its
+``<mimic>`` (:class:`Mimic`), ``<dynamics damping friction>`` and ``<limit>``
+(:class:`Limit`), which :mod:`mbgen.model.urdf` uses as its options ask.  Only
 ``<robot>``, ``<link>``, ``<inertial>`` and ``<joint>`` are read; visuals,
-collisions, meshes, transmissions, ``package://`` names, Gazebo tags and limits
-are never read or resolved.
+collisions, meshes, transmissions, ``package://`` names and Gazebo tags are never
+read or resolved.
+
+A ``<mimic>`` must name another joint of the file that moves, and mimics must not
+form a cycle (:class:`~mbgen.errors.UrdfStructureError`); one on a fixed joint is
+ignored, as urdfdom and Pinocchio ignore it (Talos' gripper has five).
+
+Inertia: one that is not positive semidefinite is refused.  One that is but breaks the
+triangle inequality (CAD exports round small parts so: ANYmal C's depth camera has
+principal moments 8.7e-6, 6.7e-4, 1.4e-3 kg m^2) is read as it is, with one
+:class:`~mbgen.errors.ModelWarning` per file naming each such link and its moments
+(``strict=True`` refuses it): the mass matrix needs only a positive semidefinite
+inertia (Pinocchio reads such files; MuJoCo offers ``balanceinertia``).
 
 Safety: a path that is not a regular file (a folder, a named pipe, a device) is
 refused by what it is and never read (:mod:`mbgen.model.files`); a file over
@@ -17,12 +30,12 @@ pass of expat that stops at the declaration, so nothing is ever expanded or fetc
 :class:`~mbgen.errors.UrdfError` subclass that names the file, the link or joint, and
 the fix.
 
-Numbers: every one must be finite.  Lengths, masses and moments of inertia are
-refused above :data:`MAX_MAGNITUDE` and angles above :data:`MAX_ANGLE` (named by
-element and attribute): no robot comes near, and products of such numbers in the
-equations stay far inside the double range, where ``1e300`` would overflow to
-``inf``.  An ``<axis>`` is a direction, of any finite scale: it is divided by its
-largest component before it is normalised, so ``1e200 0 0`` is ``1 0 0`` (its square
+Numbers: every one must be finite (a ``<limit>`` value may be ``inf``).  Lengths, masses
+and moments of inertia are refused above :data:`MAX_MAGNITUDE` and angles above
+:data:`MAX_ANGLE` (named by element and attribute): no robot comes near, and products of
+such numbers in the equations stay far inside the double range, where ``1e300`` would
+overflow to ``inf``.  An ``<axis>`` is a direction, of any finite scale: it is divided by
+its largest component before it is normalised, so ``1e200 0 0`` is ``1 0 0`` (its square
 would overflow) and ``1e-200 0 0`` too (its square would be 0).
 
 Size: a file with more than :data:`~mbgen.model.limits.MAX_SPEEDS` moving joints or
@@ -36,6 +49,7 @@ that index.
 from __future__ import annotations
 
 import math
+import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,8 +57,8 @@ from xml.parsers import expat
 
 import numpy as np
 
-from ..errors import (ModelSizeError, UrdfInertiaError, UrdfStructureError, UrdfSyntaxError,
-                      UrdfUnsupportedError)
+from ..errors import (ModelSizeError, ModelWarning, UrdfInertiaError, UrdfStructureError,
+                      UrdfSyntaxError, UrdfUnsupportedError)
 from .files import read_regular_file
 from .limits import MAX_BODIES, check_size, size_forced
 
@@ -67,7 +81,7 @@ MAX_ANGLE = 1e4
 
 #: What a number may be, by what it measures: (largest magnitude or None, its unit).
 RANGES = {"size": (MAX_MAGNITUDE, "m, kg, kg m^2"), "angle": (MAX_ANGLE, "rad"),
-          "direction": (None, "")}
+          "direction": (None, ""), "bound": (None, "")}
 
 #: Joint types mbgen models.
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed")
@@ -95,9 +109,31 @@ class Link:
 
 
 @dataclass(frozen=True)
+class Mimic:
+    """A ``<mimic>``: the joint's coordinate is ``multiplier * q_joint + offset``."""
+
+    joint: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class Limit:
+    """A ``<limit>``: the coordinate's range ``[lower, upper]`` (URDF's default 0, 0), the
+    largest ``effort`` (N m or N) and ``velocity`` (rad/s or m/s); ``inf`` when absent."""
+
+    lower: float = 0.0
+    upper: float = 0.0
+    effort: float = math.inf
+    velocity: float = math.inf
+
+
+@dataclass(frozen=True)
 class JointSpec:
     """A ``<joint>``: its frame is ``xyz``/``rpy`` in the parent link's frame; ``axis`` is a
-    unit vector in the joint frame (``(1, 0, 0)`` when the file gives none)."""
+    unit vector in the joint frame (``(1, 0, 0)`` when the file gives none); ``mimic``
+    (None on a fixed joint), ``damping`` and ``friction`` (``<dynamics>``, 0 when absent)
+    and ``limit`` (None when absent) as the file gives them."""
 
     name: str
     type: str
@@ -106,6 +142,10 @@ class JointSpec:
     xyz: tuple
     rpy: tuple
     axis: tuple
+    mimic: Mimic | None = None
+    damping: float = 0.0
+    friction: float = 0.0
+    limit: Limit | None = None
 
 
 @dataclass(frozen=True)
@@ -145,16 +185,18 @@ def index_children(joints: dict) -> dict[str, list[JointSpec]]:
     return kids
 
 
-def read_urdf(path) -> Robot:
-    """Read and check the URDF file at ``path`` (see the module docstring)."""
+def read_urdf(path, *, strict: bool = False) -> Robot:
+    """Read and check the URDF file at ``path`` (see the module docstring; ``strict``
+    refuses an inertia that breaks the triangle inequality, else it is warned about)."""
     data = read_regular_file(path, "URDF file", UrdfSyntaxError, MAX_URDF_BYTES,
                              "; a robot's URDF is a few hundred kB (meshes stay in their "
                              "own files)")
-    return parse_urdf(data, str(path))
+    return parse_urdf(data, str(path), strict=strict)
 
 
-def parse_urdf(data: bytes | str, source: str = "<string>") -> Robot:
-    """Check and read URDF text (``source`` names it in messages)."""
+def parse_urdf(data: bytes | str, source: str = "<string>", *, strict: bool = False) -> Robot:
+    """Check and read URDF text (``source`` names it in messages; ``strict`` as in
+    :func:`read_urdf`)."""
     if isinstance(data, str):
         data = data.encode("utf-8")
     if len(data) > MAX_URDF_BYTES:
@@ -168,7 +210,7 @@ def parse_urdf(data: bytes | str, source: str = "<string>") -> Robot:
     if root.tag != "robot":
         raise UrdfSyntaxError(f"URDF file {source!r}: the top element is <{root.tag}>, not "
                               f"<robot>; is this a URDF file (xacro files must be expanded first)?")
-    reader = _Reader(source)
+    reader = _Reader(source, strict)
     name = root.get("name") or Path(source).stem
     links: dict[str, Link] = {}
     for el in root.findall("link"):
@@ -194,10 +236,37 @@ def parse_urdf(data: bytes | str, source: str = "<string>") -> Robot:
                 f"{other.name!r} and {joint.name!r}; closed chains are not supported: remove "
                 f"one joint (and close the loop with a constraint in a Model if you need it)")
         joints[joint.child] = joint
+    _check_mimics(source, joints)
     kids = index_children(joints)
     robot = Robot(name, source, links, joints, _root(source, links, joints, kids), kids)
     _check_moving_mass(robot)
+    if reader.imperfect:
+        warnings.warn(ModelWarning(f"URDF file {source!r}: " + "; ".join(
+            f"link {link!r} has principal moments {a:.6g} + {b:.6g} < {c:.6g}"
+            for link, (a, b, c) in reader.imperfect) + ": they break the triangle inequality "
+            "(rounded CAD numbers?); read as given, as a positive semidefinite inertia keeps "
+            "the dynamics well defined; fix ixx, iyy, izz, or refuse it with strict=True"),
+            stacklevel=4)
     return robot
+
+
+def _check_mimics(source: str, joints: dict) -> None:
+    """Every ``<mimic>`` names another moving joint, and no mimics form a cycle."""
+    by_name = {j.name: j for j in joints.values()}
+    for j in by_name.values():
+        seen, k = [j.name], j
+        while k.mimic is not None:
+            leader = by_name.get(k.mimic.joint)
+            if leader is None or leader.type == "fixed" or leader.name in seen:
+                what = ("is not a <joint> of the file" if leader is None else "is fixed"
+                        if leader.type == "fixed" else
+                        f"closes a cycle of mimics ({' -> '.join(seen + [leader.name])})")
+                raise UrdfStructureError(
+                    f"URDF file {source!r}, joint {k.name!r}: it mimics joint "
+                    f"{k.mimic.joint!r}, which {what}; name a moving joint that moves on "
+                    f"its own in <mimic joint=...>, or delete the <mimic> element")
+            seen.append(leader.name)
+            k = leader
 
 
 def _check_moving_mass(robot: Robot) -> None:
@@ -279,10 +348,13 @@ def _root(source: str, links: dict, joints: dict, kids: dict) -> str:
 
 
 class _Reader:
-    """Element readers that name the file and the element in every message."""
+    """Element readers that name the file and the element in every message; ``imperfect``
+    collects ``(link, principal moments)`` of inertias that break the triangle inequality
+    (refused when ``strict``)."""
 
-    def __init__(self, source: str):
-        self.source = source
+    def __init__(self, source: str, strict: bool = False):
+        self.source, self.strict = source, strict
+        self.imperfect: list[tuple[str, tuple]] = []
 
     def fail(self, where: str, message: str, cls=UrdfSyntaxError):
         raise cls(f"URDF file {self.source!r}, {where}: {message}")
@@ -290,7 +362,8 @@ class _Reader:
     def numbers(self, el, attr: str, where: str, default: str | None, count: int = 3,
                 measure: str = "size", tag: str = "") -> tuple:
         """``count`` finite numbers of ``el``'s ``attr`` (``default`` when ``el`` or the
-        attribute is absent), each within the range of its ``measure`` (:data:`RANGES`)."""
+        attribute is absent), each within the range of its ``measure`` (:data:`RANGES`);
+        a ``bound`` may be infinite too (no bound), never NaN."""
         limit, unit = RANGES[measure]
         named = f"<{el.tag if el is not None else tag}> {attr}"
         text = el.get(attr, default) if el is not None else default
@@ -300,8 +373,10 @@ class _Reader:
             values = tuple(float(v) for v in text.split())
         except ValueError:
             values = ()
-        if len(values) != count or not all(math.isfinite(v) for v in values):
-            self.fail(where, f"{named}=\"{text}\" must be {count} finite number(s)")
+        finite = (lambda v: not math.isnan(v)) if measure == "bound" else math.isfinite
+        if len(values) != count or not all(finite(v) for v in values):
+            kind = "number(s), finite or inf" if measure == "bound" else "finite number(s)"
+            self.fail(where, f"{named}=\"{text}\" must be {count} {kind}")
         if limit is not None and any(abs(v) > limit for v in values):
             self.fail(where, f"{named}=\"{text}\" is out of range: a magnitude over {limit:g} "
                       f"({unit}) is no robot's, and would overflow the equations' arithmetic; "
@@ -353,10 +428,13 @@ class _Reader:
                       f"(URDF gives the products of inertia as they appear in the matrix, "
                       f"ixy = -integral of x y dm)", UrdfInertiaError)
         a, b, c = moments
-        if a + b < c - tol:
+        if a + b < c - tol and self.strict:
             self.fail(where, f"the principal moments {a:.6g}, {b:.6g}, {c:.6g} break the "
                       f"triangle inequality ({a:.6g} + {b:.6g} < {c:.6g}): no rigid body has "
-                      f"them; check the file's ixx, iyy, izz", UrdfInertiaError)
+                      f"them; check the file's ixx, iyy, izz (strict=True refuses them; "
+                      f"without it they are read with a warning)", UrdfInertiaError)
+        if a + b < c - tol:
+            self.imperfect.append((where.split(" ", 1)[1].strip("'"), (a, b, c)))
 
     def joint(self, el, links: dict) -> JointSpec:
         name = el.get("name")
@@ -369,11 +447,6 @@ class _Reader:
                     if kind == "floating" else "")
             self.fail(where, f"joint type {kind!r} is not supported ({hint}supported: "
                       f"{', '.join(JOINT_TYPES)})", UrdfUnsupportedError)
-        if el.find("mimic") is not None:
-            self.fail(where, f"it mimics joint {el.find('mimic').get('joint')!r}; mimic joints "
-                      f"are not supported: delete the <mimic> element to make it an "
-                      f"independent joint (what pinocchio.buildModelFromUrdf does by default), "
-                      f"or make it fixed", UrdfUnsupportedError)
         ends = []
         for tag in ("parent", "child"):
             e = el.find(tag)
@@ -391,7 +464,29 @@ class _Reader:
                                         measure="direction", tag="axis"))
         if axis is None and kind != "fixed":
             self.fail(where, "its <axis xyz> is zero; give the joint's axis")
-        return JointSpec(name, kind, ends[0], ends[1], xyz, rpy, axis or (1.0, 0.0, 0.0))
+        dynamics = el.find("dynamics")
+        damping, friction = (self.numbers(dynamics, key, where, "0", 1, tag="dynamics")[0]
+                             for key in ("damping", "friction"))
+        return JointSpec(name, kind, ends[0], ends[1], xyz, rpy, axis or (1.0, 0.0, 0.0),
+                         self.mimic(el, where) if kind != "fixed" else None, damping,
+                         friction, self.limit(el.find("limit"), where))
+
+    def mimic(self, el, where: str) -> Mimic | None:
+        mimic = el.find("mimic")
+        if mimic is None:
+            return None
+        if not mimic.get("joint"):
+            self.fail(where, "<mimic> has no joint=\"...\"; name the joint it follows")
+        return Mimic(mimic.get("joint"), *(self.numbers(mimic, key, where, default, 1)[0]
+                                           for key, default in (("multiplier", "1"),
+                                                                ("offset", "0"))))
+
+    def limit(self, el, where: str) -> Limit | None:
+        if el is None:
+            return None
+        return Limit(*(self.numbers(el, key, where, default, 1, measure="bound")[0]
+                       for key, default in (("lower", "0"), ("upper", "0"),
+                                            ("effort", "inf"), ("velocity", "inf"))))
 
 
 def unit_vector(vector: tuple) -> tuple | None:

@@ -12,6 +12,7 @@ from functools import cmp_to_key
 from typing import Iterable, Mapping
 
 import sympy as sm
+from sympy.functions.elementary.piecewise import ExprCondPair
 
 
 def walk_unique(exprs: Iterable[sm.Basic]):
@@ -207,6 +208,13 @@ def _canonical(op, args: list):
 _SORT_KEY = cmp_to_key(sm.Basic.compare)
 
 
+#: Relations and connectives converted node by node both ways (a ``Piecewise``'s
+#: conditions), by class name, the same in both libraries (symengine turns ``a > b`` into
+#: ``b < a``, and its derivative of a Piecewise joins pieces under ``Or``).
+LOGIC = ("StrictLessThan", "LessThan", "StrictGreaterThan", "GreaterThan", "Equality",
+         "Unequality", "And", "Or", "Not")
+
+
 def _se():
     import symengine
 
@@ -271,8 +279,14 @@ def to_symengine(exprs: Iterable[sm.Basic], memo: dict | None = None) -> list:
                 out = se.exp(*args)
             elif node.func in table:
                 out = table[node.func](*args)
+            elif isinstance(node, sm.Piecewise):   # its (expression, condition) pairs
+                out = se.Piecewise(*args)
+            elif isinstance(node, ExprCondPair):   # no expression: a pair for the Piecewise
+                out = tuple(args)
+            elif isinstance(node, sm.logic.boolalg.Boolean) and type(node).__name__ in LOGIC:
+                out = getattr(se, type(node).__name__)(*args)   # a > b: b < a in symengine
             else:
-                out = se.sympify(node)   # rare kinds (Piecewise, ...): converted as a whole
+                out = se.sympify(node)   # rare kinds: converted as a whole
         memo[node] = out
     return [memo[e] for e in exprs]
 
@@ -333,10 +347,34 @@ def to_sympy(exprs: Iterable, memo: dict | None = None, small: bool = False) -> 
                 out = sm.Pow(*sargs)
             elif type(node) in table:
                 out = table[type(node)](*sargs)
+            elif isinstance(node, se.Piecewise):   # args: expression, condition, ...
+                out = sm.Piecewise(*((e, _condition(c))
+                                     for e, c in zip(sargs[::2], sargs[1::2])))
+            elif type(node).__name__ in LOGIC:
+                out = getattr(sm, type(node).__name__)(*sargs)
             else:
                 out = node._sympy_()
         memo[node] = out
     return [memo[e] for e in exprs]
+
+
+def symengine_rebuilt(node, args):
+    """Symengine ``node`` with new ``args``: ``node.func(*args)``, but a ``Piecewise`` holds
+    its pairs flat (expression, condition, ...) and is built from pairs, and a relation or
+    connective has no ``func``."""
+    se = _se()
+    if isinstance(node, se.Piecewise):
+        return se.Piecewise(*zip(args[::2], args[1::2]))
+    return getattr(se, type(node).__name__)(*args) if type(node).__name__ in LOGIC else \
+        node.func(*args)
+
+
+def _condition(c):
+    """A ``Piecewise`` condition back from symengine: its CSE names a relation ``x`` and
+    tests ``Eq(x, True)``; ``x`` holds 0 or 1 in the generated code, so that is ``x != 0``."""
+    if isinstance(c, sm.Eq) and c.rhs is sm.true:
+        return sm.Ne(c.lhs, 0)
+    return c
 
 
 def differentiate(exprs, variables) -> list[list[sm.Expr]]:
@@ -361,6 +399,10 @@ def differentiate(exprs, variables) -> list[list[sm.Expr]]:
     values = [sm.S.Zero if d is None else next(it) for d in flat]
     nv = len(svars)
     return [values[i * nv:(i + 1) * nv] for i in range(len(se_exprs))]
+
+
+#: What :func:`split_shared` never names: a Piecewise's pairs and conditions are no numbers.
+_NOT_NAMED = (ExprCondPair, sm.logic.boolalg.Boolean)
 
 
 def split_shared(exprs, prefix: str = "_s"):
@@ -395,7 +437,7 @@ def split_shared(exprs, prefix: str = "_s"):
             continue
         args = [memo[a] for a in node.args]
         rebuilt = node.func(*args) if any(n is not o for n, o in zip(args, node.args)) else node
-        if parents.get(node, 0) > 1:
+        if parents.get(node, 0) > 1 and not isinstance(node, _NOT_NAMED):
             sym = sm.Symbol(f"{prefix}{len(reps)}")
             reps.append((sym, rebuilt))
             memo[node] = sym

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 import sympy as sm
+from sympy.functions.elementary.piecewise import ExprCondPair
 
 from .graph import (free_symbols, leaves, postorder_unique, reachable, symbols_back,
                     to_symengine, to_sympy, xreplace_dag)
@@ -111,7 +112,8 @@ def _rebuild(expr, defs, memo, evaluate):
             if all(n is o for n, o in zip(args, node.args)):
                 memo[node] = node
             else:
-                memo[node] = node.func(*args) if evaluate else node.func(*args, evaluate=False)
+                memo[node] = node.func(*args) if evaluate or isinstance(node, ExprCondPair) \
+                    else node.func(*args, evaluate=False)   # (a Piecewise's pair takes no flag)
     return memo[expr]
 
 

@@ -46,3 +46,20 @@ def test_peers_fill_their_columns(tmp_path):
 
 def test_bench_robot_without_a_file_is_a_usage_error(capsys):
     assert main(["bench", "robot"]) == 2
+
+
+ACTUATED = """<mujoco model="actuated"><worldbody><body name="arm" pos="0 0 1">
+<joint name="shoulder" axis="0 1 0"/><geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/>
+<body name="fore" pos="0.3 0 0"><joint name="elbow" axis="0 1 0"/>
+<geom type="capsule" fromto="0 0 0 0.25 0 0" size="0.02"/></body></body></worldbody>
+<actuator><motor joint="shoulder" gear="3"/><position joint="elbow" kp="5"/></actuator></mujoco>"""
+
+
+def test_an_mjcf_robot_with_actuators_agrees_with_mujoco(tmp_path):
+    """The inputs of an MJCF model are qfrc_applied, then the actuators' ctrl: MuJoCo's side
+    of the benchmark gets both, with its actuation on."""
+    pytest.importorskip("mujoco")
+    path = tmp_path / "actuated.xml"
+    path.write_text(ACTUATED, encoding="utf-8")
+    rep = robot.robot_bench(str(path), repeats=1, cxx=False, pinocchio=False)
+    assert rep.diff_mj < 1e-9

@@ -5,11 +5,15 @@ hinge with a spring off its anchor, a slide with armature, damping and a spring,
 off its anchor with armature and damping, a welded tool, inertia from geoms and a gravity
 off the z axis.  ``slow``: the same with that last hinge a ball joint and a floating body
 (free joint) with a hinge below it; and real robots (Solo-12 floating, Panda) compiled by MuJoCo from their URDF.
-Contacts, limits, equality constraints, friction loss and actuators are switched off in
-MuJoCo: mbgen does not model them.  Also by default: a ball joint in a turned body under a
-turned parent and a turned free body (through lambdify, no C compiler), and what is refused
-before MuJoCo reads a file (pipes and devices, numbers that are not finite or whose square
-overflows, files that multiply into huge models) or once it has compiled one.
+Contacts, limits, equality constraints and friction loss are switched off in MuJoCo: mbgen
+does not model them (it names them in one warning at load).  Actuation stays on: a motor, a
+position and a velocity servo, an affine general actuator and one through ``jointinparent``,
+all geared, are inputs after ``qfrc_applied`` (issue 30).  Also by default: a ball joint in
+a turned body under a turned parent and a turned free body (through lambdify, no C
+compiler); MuJoCo's flags honoured (gravity, spring, damper, actuation) and what is dropped
+named once; what is refused before MuJoCo reads a file (pipes and devices, numbers that are
+not finite or whose square overflows, files that multiply into huge models) or once it has
+compiled one; a model named after its file.  dm_control's models: test_mjcf_suite.py.
 """
 
 from __future__ import annotations
@@ -17,17 +21,21 @@ from __future__ import annotations
 import os
 import sys
 import threading
+import warnings
 
 import numpy as np
 import pytest
 
 import mbgen
 from mbgen.abi import Output
-from mbgen.errors import MissingExtraError, MjcfError, ModelSizeError
+from mbgen.errors import MissingExtraError, MjcfError, ModelSizeError, ModelWarning
 from mbgen.model.mjcf import scene_values
 from mbgen.model.scene import Scene, load_scene
 
 mujoco = pytest.importorskip("mujoco")
+#: What mbgen drops (contacts, mostly) is named by one ModelWarning per load; the tests that
+#: look at it catch it themselves.
+pytestmark = pytest.mark.filterwarnings("ignore::mbgen.errors.ModelWarning")
 
 RTOL = 1e-9
 
@@ -72,14 +80,15 @@ FLOATER = """
     </body>
 """
 
-OFF = ("mjDSBL_CONTACT", "mjDSBL_LIMIT", "mjDSBL_EQUALITY", "mjDSBL_FRICTIONLOSS",
-       "mjDSBL_ACTUATION")
+OFF = ("mjDSBL_CONTACT", "mjDSBL_LIMIT", "mjDSBL_EQUALITY", "mjDSBL_FRICTIONLOSS")
 
 
 def switch_off(mj) -> None:
-    """What mbgen does not model, off in MuJoCo (springs and dampers stay on)."""
+    """What mbgen does not model, off in MuJoCo (springs, dampers and actuators stay on;
+    mbgen never clamps an actuator's force, so neither does MuJoCo here)."""
     for flag in OFF:
         mj.opt.disableflags |= int(getattr(mujoco.mjtDisableBit, flag))
+    mj.actuator_forcelimited[:] = 0
 
 
 def random_qpos(rng, mj) -> np.ndarray:
@@ -98,8 +107,16 @@ def random_qpos(rng, mj) -> np.ndarray:
     return qpos
 
 
+def random_ctrl(rng, mj) -> np.ndarray:
+    """MuJoCo's ``ctrl``: inside ``ctrlrange`` where MuJoCo clamps it (mbgen does not)."""
+    lo, hi = np.asarray(mj.actuator_ctrlrange, dtype=float).reshape(-1, 2).T
+    return np.where(mj.actuator_ctrllimited, lo + (hi - lo) * rng.uniform(0, 1, mj.nu),
+                    rng.uniform(-2, 2, mj.nu))
+
+
 def compare(mj, backends, samples=5, seed=3) -> float:
-    """Largest relative difference of u' from mj_forward's qacc (and q' from integratePos)."""
+    """Largest relative difference of u' from mj_forward's qacc (and q' from integratePos),
+    with random ``qfrc_applied`` and ``ctrl`` (every actuator read: inputs ``(tau, ctrl)``)."""
     switch_off(mj)
     data = mujoco.MjData(mj)
     rng = np.random.default_rng(seed)
@@ -107,7 +124,9 @@ def compare(mj, backends, samples=5, seed=3) -> float:
     for _ in range(samples):
         qpos = random_qpos(rng, mj)
         qvel, tau = rng.uniform(-2, 2, mj.nv), rng.uniform(-3, 3, mj.nv)
+        ctrl = random_ctrl(rng, mj)
         data.qpos[:], data.qvel[:], data.qfrc_applied[:] = qpos, qvel, tau
+        data.ctrl[:] = ctrl
         mujoco.mj_forward(mj, data)
         h = 1e-4
         steps = []
@@ -117,7 +136,8 @@ def compare(mj, backends, samples=5, seed=3) -> float:
             steps.append(q)
         qdot = (-steps[0] + 8 * steps[1] - 8 * steps[2] + steps[3]) / (12 * h)
         for backend in backends:
-            dxdt = backend.rhs(0.0, np.concatenate([qpos, qvel]), None, tau)
+            dxdt = backend.rhs(0.0, np.concatenate([qpos, qvel]), None,
+                               np.concatenate([tau, ctrl]))
             err = np.abs(dxdt[mj.nq:] - data.qacc).max() / np.abs(data.qacc).max()
             assert err <= RTOL, (type(backend).__name__, err)
             assert np.abs(dxdt[:mj.nq] - qdot).max() <= 1e-9 * max(1, np.abs(qdot).max())
@@ -451,3 +471,206 @@ def test_a_massless_free_body_on_one_hinge_is_refused_unless_its_rotor_holds_it(
 
 def test_a_free_body_that_carries_mass_is_accepted():
     mbgen.from_mujoco(mujoco.MjModel.from_xml_string(FREE_TRUNK.format(armature="")))
+
+
+# ---------------------------------------- actuators, flags, what is dropped (issue 30, 2/3/6)
+SERVO = """
+<mujoco model="servo">
+  <option gravity="0.2 0 -9.81"><flag {flags}/></option>
+  <worldbody>
+    <body name="arm" pos="0 0 1" euler="0 10 20">
+      <joint name="shoulder" axis="0 1 0" damping="0.1" ref="0.2" stiffness="1.5"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+      <body name="carriage" pos="0.4 0 0">
+        <joint name="rail" type="slide" axis="1 0 0.2" damping="0.05"/>
+        <geom type="box" size="0.05 0.03 0.03"/>
+        <body name="hand" pos="0.1 0 0">
+          <joint name="wrist" axis="0 0 1" pos="0.02 0 0"/>
+          <geom type="sphere" size="0.04" pos="0.05 0 0"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor name="torque" joint="shoulder" gear="3" ctrllimited="true" ctrlrange="-1 1"/>
+    <position name="servo" joint="rail" kp="40" kv="2" gear="1.5" damping="0.3"
+              armature="0.02"/>
+    <velocity name="spin" joint="wrist" kv="0.8" gear="2"/>
+    <general name="affine" joint="shoulder" gaintype="affine" gainprm="1.5 0.3 -0.2"
+             biastype="affine" biasprm="0.1 -0.4 -0.05" forcelimited="true"
+             forcerange="-5 5"/>
+    <motor name="in_parent" jointinparent="wrist" gear="0.5"/>
+  </actuator>
+</mujoco>
+"""
+SERVO_INPUTS = ["ctrl_torque", "ctrl_servo", "ctrl_spin", "ctrl_affine", "ctrl_in_parent"]
+
+
+@pytest.fixture(scope="module")
+def servo():
+    mj = mujoco.MjModel.from_xml_string(SERVO.format(flags=""))
+    with pytest.warns(ModelWarning):
+        return mj, _Lambdified(mj)
+
+
+def test_actuators_are_inputs_that_match_mj_forward_with_actuation_on(servo):
+    """A motor, a position servo (with actuator damping and armature), a velocity servo, an
+    affine general actuator and one through ``jointinparent``, all with gears: their
+    ``ctrl`` comes after ``qfrc_applied``, and ``u'`` matches ``mj_forward`` within the
+    ranges, force clamping off (mbgen never clamps)."""
+    mj, backend = servo
+    inputs = list(backend.model.layout.input_names)
+    assert inputs == ["tau_shoulder", "tau_rail", "tau_wrist"] + SERVO_INPUTS
+    assert compare(mj, [backend], samples=6) <= RTOL
+
+
+@pytest.mark.parametrize("break_it", ["gear", "kp", "actuator armature"])
+def test_the_actuator_comparison_has_teeth(servo, break_it):
+    mj = mujoco.MjModel.from_xml_string(SERVO.format(flags=""))
+    if break_it == "gear":
+        mj.actuator_gear[0, 0] = 1.0     # the motor without its gear
+    elif break_it == "kp":
+        mj.actuator_biasprm[1, 1] = 0.0  # the servo without its position feedback
+    else:
+        mj.actuator_armature[1] = 0.0
+    with pytest.raises(AssertionError):
+        compare(mj, [servo[1]], samples=2)
+
+
+def test_ranges_are_kept_as_data_and_their_clamping_named_once():
+    from mbgen.model.mjcf_physics import read_physics
+    mj = mujoco.MjModel.from_xml_string(SERVO.format(flags=""))
+    with pytest.warns(ModelWarning) as caught:
+        mbgen.from_mujoco(mj)
+    assert len(caught) == 1
+    message = str(caught[0].message)
+    assert "ctrl to ctrlrange ('torque')" in message and "forcerange" in message
+    assert "'affine'" in message
+    physics = read_physics(mj, ["shoulder", "rail", "wrist"], set())
+    ranges = {a.name: (a.ctrlrange, a.forcerange) for a in physics.actuators}
+    assert ranges["torque"] == ((-1.0, 1.0), None) and ranges["affine"] == (None, (-5.0, 5.0))
+    assert ranges["spin"] == (None, None)
+    mj.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL)
+    assert read_physics(mj, ["shoulder", "rail", "wrist"], set()).actuators[0].ctrlrange is None
+
+
+def test_disabled_gravity_springs_dampers_and_actuation_are_honoured():
+    """``<flag gravity="disable" spring="disable" damper="disable" actuation="disable"/>``:
+    no gravity (``g`` = 0), no spring, no damping (the actuator's neither), no actuator
+    inputs; the actuator's armature stays (MuJoCo adds it whatever the flags); no warning
+    (nothing is dropped that MuJoCo would apply)."""
+    flags = 'gravity="disable" spring="disable" damper="disable" actuation="disable" ' \
+        'contact="disable"'
+    mj = mujoco.MjModel.from_xml_string(SERVO.format(flags=flags))
+    mj.actuator_ctrllimited[:] = 0
+    mj.actuator_forcelimited[:] = 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        backend = _Lambdified(mj)
+    assert scene_values(mj)[0] == {"g": 0.0}
+    assert list(backend.model.layout.input_names) == ["tau_shoulder", "tau_rail", "tau_wrist"]
+    backend.p = np.array([9.81])        # the model holds no gravity term for g to scale
+    compare(mj, [_TauOnly(backend, mj.nv)], samples=3)
+
+
+class _TauOnly:
+    """A back end without actuator inputs, called as :func:`compare` calls (tau, ctrl)."""
+
+    def __init__(self, backend, nv):
+        self.backend, self.nv = backend, nv
+
+    def rhs(self, t, x, p, r):
+        return self.backend.rhs(t, x, p, r[:self.nv])
+
+
+DROPS = """
+<mujoco model="drops">
+  <worldbody>
+    <geom name="floor" type="plane" size="1 1 0.1"/>
+    <body name="a" pos="0 0 0.5">
+      <joint name="hinge_a" axis="0 1 0" limited="true" range="-1 1" frictionloss="0.1"/>
+      <geom name="ball_a" size="0.1"/>
+      <body name="b" pos="0.3 0 0">
+        <joint name="hinge_b" axis="0 1 0"/>
+        <geom name="ball_b" size="0.1"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon><fixed name="link"><joint joint="hinge_a" coef="1"/><joint joint="hinge_b" coef="-1"/>
+  </fixed></tendon>
+  <equality><joint name="couple" joint1="hinge_a" joint2="hinge_b"/></equality>
+  <actuator>
+    <motor name="pull" tendon="link"/>
+    <general name="slow" joint="hinge_b" dyntype="filter" dynprm="0.1"/>
+    <motor name="direct" joint="hinge_b" gear="2"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_what_is_dropped_is_named_in_one_warning_at_load():
+    """Contacts, limits, friction loss, equality constraints and the actuators mbgen does not
+    read (a tendon transmission, activation dynamics): one ModelWarning names each; the
+    actuator it reads is an input; with MuJoCo's flags switching them off, nothing is
+    named but the unread actuators."""
+    mj = mujoco.MjModel.from_xml_string(DROPS)
+    with pytest.warns(ModelWarning) as caught:
+        model = mbgen.from_mujoco(mj)
+    assert len(caught) == 1
+    message = str(caught[0].message)
+    for part in ["'drops'", "contacts (", "'floor' and 'ball_a'", "limits of 'hinge_a'",
+                 "equality constraints ('couple')", "friction loss of 'hinge_a'",
+                 "'pull' (tendon transmission)", "'slow' (activation dynamics (filter))"]:
+        assert part in message, (part, message)
+    assert [str(s) for s in model.inputs_][-1] == "ctrl_direct(t)"
+    switch_off(mj)
+    with pytest.warns(ModelWarning) as caught:
+        mbgen.from_mujoco(mj)
+    assert "contacts" not in str(caught[0].message) and "'pull'" in str(caught[0].message)
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda mj: mj.tendon_armature.__setitem__(0, 0.1), "tendon armature"),
+    (lambda mj: mj.dof_dampingpoly.__setitem__(0, [0.3, 0.0]), r"nonlinear damping"),
+    (lambda mj: mj.actuator_armature.__setitem__(0, 0.1),
+     r"armature or damping of the actuator 'pull' \(not on a hinge or slide joint\)")])
+def test_forces_mbgen_has_no_term_for_are_refused_by_name(change, match):
+    mj = mujoco.MjModel.from_xml_string(DROPS)
+    change(mj)
+    with pytest.raises(MjcfError, match=match):
+        mbgen.from_mujoco(mj)
+
+
+def test_a_model_is_named_after_its_file(tmp_path):
+    """``cartpole.xml`` with ``<mujoco model="cart-pole">`` writes ``cartpole.*``, not
+    ``cart_pole.*``; a compiled model keeps MuJoCo's name unless given one."""
+    path = tmp_path / "my-arm.xml"
+    path.write_text(ONE_BODY.replace('model="one"', 'model="cart-pole"'), encoding="utf-8")
+    assert mbgen.from_mjcf(path).name == "my_arm"
+    assert load_scene(str(path)).name == "my_arm"
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    assert mbgen.from_mujoco(mj).name == "cart_pole"
+    assert mbgen.from_mujoco(mj, name="arm").name == "arm"
+
+
+TRIANGLE = """<mujoco model="tri"><compiler {balance}/><worldbody><body name="b" pos="0 0 1">
+<joint name="j" axis="1 0.2 0.3"/><inertial pos="0.1 0 0" mass="1" diaginertia="0.1 0.1 0.3"/>
+</body></worldbody></mujoco>"""
+
+
+def test_an_inertia_against_the_triangle_inequality_is_mujocos_to_refuse(tmp_path, monkeypatch):
+    """MuJoCo's compiler refuses such an inertia (or mends it with ``balanceinertia``):
+    mbgen accepts whatever it compiles.  A compiled model whose inertia is set by hand to
+    break the inequality (positive semidefinite still) is read as mj_forward reads it,
+    without a warning, and agrees with it."""
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "tri.xml"
+    path.write_text(TRIANGLE.format(balance=""), encoding="utf-8")
+    with pytest.raises(MjcfError, match=r"could not compile.*A \+ B >= C"):
+        mbgen.from_mjcf(path)
+    mj = mujoco.MjModel.from_xml_string(TRIANGLE.format(balance='balanceinertia="true"'))
+    mj.body_inertia[1] = [0.1, 0.1, 0.3]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        backend = _Lambdified(mj)
+    compare(mj, [backend], samples=3)
