@@ -56,7 +56,7 @@ from .model.scene import Scene, load_scene
 from .model.urdf import from_urdf
 from .model.mjcf import from_mjcf, from_mujoco
 from .codegen.targets import Targets
-from .export import export_fmu
+from .export import export_fmu, generate
 from .studies.ensemble import ensemble
 from .runtime.integration import Trajectory
 from .runtime.stepper import Stepper
@@ -83,7 +83,7 @@ __all__ = ["__version__", "linearize", "tangent_jacobian", "Linearization", "Mod
            "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
            "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",
-           "CheckFailed", "IntegrationError", "Targets", "export_fmu", "ensemble",
+           "CheckFailed", "IntegrationError", "Targets", "export_fmu", "generate", "ensemble",
            "UnknownNameError", "UsageError", "InputTable", "simulate", "Trajectory", "Stepper",
            "plot_simulation", "animate_scene"]
 

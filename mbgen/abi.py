@@ -7,6 +7,11 @@ both read it, neither imports the other.
 :class:`Output`
     The functions a generated model may hold (``<prefix>_<output>``) and the
     integrators that may be rendered with them.
+:data:`OUTPUT_INFO`
+    One :class:`OutputInfo` row per expression output: its C array, its shape, what
+    it computes, what it needs of the equations (:class:`Need`) and what a
+    sensitivity differentiates by.  The stages derive what they state about an
+    output from its row; each keeps only its builder, keyed by :class:`Output`.
 Status codes
     What every generated C function returns (``<PREFIX>_<CODE>`` in the
     header): :data:`STATUS_CODES` always, :data:`INTEGRATOR_STATUS_CODES` with an
@@ -21,9 +26,12 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass
 from enum import Enum
-from typing import Iterable
+from typing import TYPE_CHECKING, Iterable
 
 from .errors import ModelError
+
+if TYPE_CHECKING:   # an annotation only: abi sits below the symbolic stage
+    from .symbolic.layout import Layout
 
 class Output(str, Enum):
     """What a generated model computes."""
@@ -68,6 +76,131 @@ class Output(str, Enum):
 INTEGRATORS = (Output.DOPRI5, Output.RK4, Output.ROSENBROCK)
 #: Outputs that are expressions of the equations (everything but the integrators).
 EXPRESSION_OUTPUTS = tuple(o for o in Output if o not in INTEGRATORS)
+
+
+class Need(str, Enum):
+    """What an output needs of the equations beyond ``M``, ``F`` and ``G``.
+
+    :data:`mbgen.symbolic.availability.CONDITIONS` holds the test of each and the
+    error message when it fails.
+    """
+
+    ENERGY = "energy"                           # kinetic (and potential) energy expressions
+    DYNAMIC_PARAMETERS = "dynamic_parameters"   # a parameter that the motion uses
+    POINTS = "points"                           # points to report
+    REACTIONS = "reactions"                     # joint reactions (a model with a body)
+    INPUTS = "inputs"                           # an input
+    CONSTRAINTS = "constraints"                 # constraints of any kind
+    CONFIGURATION = "configuration"             # configuration (holonomic) constraints
+
+
+@dataclass(frozen=True)
+class OutputInfo:
+    """One expression output: everything about it that is data.
+
+    The stages derive from this row what they state about the output -- the
+    generated C comment (:func:`mbgen.codegen.outputs.spec`), whether some equations
+    can give it (:mod:`mbgen.symbolic.availability`), the accessor's docstring
+    (:mod:`mbgen.runtime.base`) and the table in ``docs/modelling.md`` (checked by
+    ``tests/codegen/test_outputs.py``) -- and keep only how they compute it, keyed by
+    :class:`Output`.
+
+    Attributes
+    ----------
+    output : Output
+    array : str
+        The output array of the C function ``int <prefix>_<output>(double t, const double
+        *x[, const double *p][, const double *r], double *<array>)`` (``p`` and ``r`` when
+        the model has parameters and inputs), and the result's name in the generated Python.
+    shape : tuple of str
+        The result's shape in the model's sizes: ``n_x`` states, ``n_q`` coordinates, ``n_u``
+        (independent) speeds, ``n_d`` dependent speeds (0 without constraints), ``n_p``
+        parameters, ``n_pd`` those of them the motion uses (``M``, ``F``, ``G``: the columns of
+        ``df/dp``), ``n_r`` inputs, ``m`` constraints, ``m_h`` configuration constraints,
+        ``k`` reported points, ``n_joints`` joints; or a sum of them (``"n_u + n_d"``), or
+        a number.  The C array holds it row-major.
+    doc : str
+        What it computes, one sentence of plain text without the final period (no markup:
+        it lands in C comments, docstrings and Markdown alike).  Where it does not depend on
+        the equations it is the generated function's comment, with a 2-D array's row-major
+        layout.
+    needs : tuple of Need
+        What it needs of the equations, checked in this order (empty: every model gives it).
+    wrt : str
+        For a sensitivity ``df/dv`` of the first-order right-hand side: the argument ``v``
+        it differentiates by, ``"x"``, ``"p"``, ``"t"`` or ``"r"`` (empty for the others).
+    note : str
+        More for Python callers, as a sentence without the final period: in the accessor's
+        docstring and the docs, not in C.
+    """
+
+    output: Output
+    array: str
+    shape: tuple[str, ...]
+    doc: str
+    needs: tuple[Need, ...] = ()
+    wrt: str = ""
+    note: str = ""
+
+    @property
+    def shape_text(self) -> str:
+        """The shape as Python writes a tuple: ``"(n_x,)"``, ``"(n_x, n_p)"``."""
+        return f"({self.shape[0]},)" if len(self.shape) == 1 else f"({', '.join(self.shape)})"
+
+
+_POINTS = "The points reported are the scene's points, else every point but the origin"
+
+#: Every expression output, one row each (integrators have none: they are C code that calls
+#: these, :mod:`mbgen.integrators`).
+OUTPUT_INFO: dict[Output, OutputInfo] = {row.output: row for row in (
+    OutputInfo(Output.RHS, "dxdt", ("n_x",),
+               "First-order right-hand side dxdt = [q'; u']: q' = G(q,u,t) and the accelerations "
+               "u' of M u' = F"),
+    OutputInfo(Output.MASS_MATRIX, "M", ("n_u + n_d", "n_u + n_d"),
+               "Mass matrix M(q,t), symmetric (with constraints: of every speed, the dependent "
+               "ones last, in M u' = F + A^T lambda)"),
+    OutputInfo(Output.FORCING, "F", ("n_u + n_d",),
+               "Forcing F(q,u,r,t) of M u' = F (with constraints: of every speed, the dependent "
+               "ones last, in M u' = F + A^T lambda)"),
+    OutputInfo(Output.ENERGY, "energy", ("2",),
+               "Kinetic energy T and potential energy V (gravity, springs)", (Need.ENERGY,)),
+    OutputInfo(Output.JACOBIAN, "J", ("n_x", "n_x"),
+               "Jacobian df/dx of the first-order right-hand side", wrt="x",
+               note="Pass it to solve_ivp as its jac argument"),
+    OutputInfo(Output.PARAMETER_JACOBIAN, "Jp", ("n_x", "n_pd"),
+               "Parameter Jacobian df/dp of the right-hand side", (Need.DYNAMIC_PARAMETERS,),
+               wrt="p"),
+    OutputInfo(Output.TIME_DERIVATIVE, "dfdt", ("n_x",),
+               "Partial time derivative df/dt of the right-hand side", wrt="t",
+               note="Zero unless the model depends on t explicitly"),
+    OutputInfo(Output.POSITIONS, "positions", ("k", "3"),
+               "Positions of the reported points in Newtonian components", (Need.POINTS,),
+               note=_POINTS),
+    OutputInfo(Output.VELOCITIES, "velocities", ("k", "3"),
+               "Velocities of the reported points in Newtonian components", (Need.POINTS,),
+               note=_POINTS),
+    OutputInfo(Output.REACTIONS, "reactions", ("n_joints", "6"),
+               "Joint reactions: for each joint, the force and the moment (about the joint "
+               "point) that the parent exerts on the child, in the joint's frame: Fx, Fy, Fz, "
+               "Mx, My, Mz", (Need.REACTIONS,),
+               note="Rows in the order of reaction_names (from the root), each in the frame "
+                    "named in reaction_frames"),
+    OutputInfo(Output.INPUT_JACOBIAN, "Jr", ("n_x", "n_r"),
+               "Input Jacobian df/dr of the right-hand side (B of a linearisation)",
+               (Need.INPUTS,), wrt="r"),
+    OutputInfo(Output.CONSTRAINT_FORCES, "lam", ("m",),
+               "Constraint multipliers lambda of M u' = F + A^T lambda, one per constraint (a "
+               "point constraint's: the force on the body at the point along the frame axis)",
+               (Need.CONSTRAINTS,),
+               note="A stated constraint's multiplier is the generalized force conjugate to it; "
+                    "rows in the order of constraint_names"),
+    OutputInfo(Output.HOLONOMIC, "fh", ("m_h",),
+               "Residual f_h(q, t) of the configuration constraints (zero on the constraint "
+               "manifold)", (Need.CONSTRAINTS, Need.CONFIGURATION)),
+    OutputInfo(Output.HOLONOMIC_JACOBIAN, "dfh", ("m_h", "n_q"),
+               "Jacobian of the configuration constraints, df_h/dq",
+               (Need.CONSTRAINTS, Need.CONFIGURATION)),
+)}
 
 
 STATUS_CODES = (("OK", 0, "success"),
@@ -195,6 +328,6 @@ def status_message(prefix: str, status: int) -> str:
     return f"{prefix.upper()}_{code}: {text}"
 
 
-__all__ = ["Output", "INTEGRATORS", "EXPRESSION_OUTPUTS", "STATUS_CODES",
-           "INTEGRATOR_STATUS_CODES", "CONSTRAINT_STATUS_CODES", "ALL_STATUS_CODES",
-           "status_name", "status_message", "Rendered", "FunctionInfo"]
+__all__ = ["Output", "INTEGRATORS", "EXPRESSION_OUTPUTS", "Need", "OutputInfo", "OUTPUT_INFO",
+           "STATUS_CODES", "INTEGRATOR_STATUS_CODES", "CONSTRAINT_STATUS_CODES",
+           "ALL_STATUS_CODES", "status_name", "status_message", "Rendered", "FunctionInfo"]

@@ -21,12 +21,18 @@ names and in comments), and the model name is the prefix of every C symbol.
 :func:`identifier` turns names (including those of sympy models imported with
 :func:`mbgen.from_sympy`, which never passed through :func:`check_name`) into
 identifiers that are valid in C99, C++ and Python, deterministically.
+
+A name that is not known -- a scene field's, an expression's symbol, an input
+table's column, a state, parameter or input given by name -- is refused with the
+closest known names, by one rule (:func:`did_you_mean`).
 """
 
 from __future__ import annotations
 
+import difflib
 import keyword
 import re
+from typing import Iterable
 
 from .errors import ModelError
 
@@ -46,10 +52,12 @@ C_KEYWORDS = frozenset(
     """.split()
 )
 
-#: Names used by the generated code itself or by the C library it includes.
+#: Names used by the generated code itself or by the C library it includes (every output's
+#: array, :data:`mbgen.abi.OUTPUT_INFO`, among them: tests/codegen/test_outputs.py).
 RESERVED = frozenset(
     """
-    t x p r dxdt out status math np numpy M F G i j k n s d L b A J Jp DT dfdt energy result positions velocities reactions
+    t x p r out status math np numpy i j k n s d L b A G DT result
+    dxdt M F energy J Jp dfdt positions velocities reactions Jr lam fh dfh
     sqrt sin cos tan asin acos atan atan2 sinh cosh tanh asinh acosh atanh exp exp2 expm1
     log log2 log10 log1p pow fabs abs floor ceil fmod fmin fmax hypot cbrt erf erfc
     tgamma lgamma isfinite isnan isinf copysign round trunc sign
@@ -95,6 +103,23 @@ def check_name(name, what: str) -> str:
     return name
 
 
+def did_you_mean(name, names: Iterable) -> str:
+    """``"; did you mean 'c'?"`` (``"; did you mean 'a' or 'b'?"``) for the known ``names``
+    closest to the unknown ``name``; ``""`` when none is close.
+
+    Compared without case, so ``'f'`` finds ``'F'`` (a name typed in a shell); up to three,
+    the closest first, each at least half alike (:func:`difflib.get_close_matches`
+    with ``cutoff=0.5``).  Every "did you mean" of mbgen follows this rule.
+    """
+    lower: dict[str, str] = {}
+    for n in names:
+        lower.setdefault(str(n).lower(), str(n))
+    close = difflib.get_close_matches(str(name).lower(), list(lower), n=3, cutoff=0.5)
+    if not close:
+        return ""
+    return "; did you mean " + " or ".join(repr(lower[c]) for c in close) + "?"
+
+
 def model_prefix(name: str) -> str:
     """Return the C prefix for a model called ``name``.
 
@@ -131,7 +156,8 @@ def identifier(name: str) -> str:
     ident = re.sub(r"[^A-Za-z0-9_]", "_", str(name))
     if not ident or ident[0].isdigit():
         ident = "s_" + ident
-    while ident in C_KEYWORDS or keyword.iskeyword(ident) or ident in RESERVED or ident.startswith("__"):
+    while (ident in C_KEYWORDS or keyword.iskeyword(ident) or ident in RESERVED
+           or ident.startswith("__")):
         ident = ident.lstrip("_") + "_" if ident.startswith("__") else ident + "_"
     return ident
 

@@ -14,10 +14,15 @@ Which derivation: a method named by ``method=`` or the scene is used; otherwise
 can (Newton–Euler for long chains of joints, without deriving Kane), and where
 it leaves the choice open :func:`run` derives, bakes and optimises both and
 keeps the one whose right-hand side has fewer operations (:func:`operations`;
-a tie goes to Kane; the process remembers the outcome for the model's slice, so that
-other outputs of it, or a regeneration, derive only the method kept).  Either way ``Equations.method_reason`` says why, and the
-generated header, ``mbgen generate --explain`` and the notebook summaries show
-it.
+a tie goes to Kane; :data:`COMPARISONS` remembers the outcome for the model's slice, so
+that other outputs of it, or a regeneration, derive only the method kept).  The choice
+hands the model's prepared value and Newton–Euler outward pass on to the derivation, so
+neither runs twice.  Either way ``Equations.method_reason`` says why, and the generated
+header, ``mbgen generate --explain`` and the notebook summaries show it.
+
+Whoever wants to hear of the stages passes a :class:`StageTimer` (``stage=`` for the
+start of each alone): the command line's progress lines and the benchmarks' per-stage
+times come from the one sequence in :func:`run`.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 
 from .build.extension import compiled_path, load
 from .derivation import NAMED, Method, choose_method, derive, method_of
+from .derivation.prepare import Prepared
 from .symbolic.equations import Equations
 from .symbolic.graph import reachable
 from .errors import ModelError
@@ -68,7 +74,8 @@ class PipelineResult:
 
 def equations_of(source: Model | Equations | Scene, method: Method | None = None, *,
                  energy: bool = True, points: Sequence[str] | None = None,
-                 reactions: bool = False, jacobian: bool = False) -> Equations:
+                 reactions: bool = False, jacobian: bool = False,
+                 prepared: Prepared | None = None) -> Equations:
     """Derive (for a ``Model`` or a scene holding one) or pass through ``Equations``.
 
     A scene's parameter values become the equations' defaults and its name and
@@ -77,12 +84,14 @@ def equations_of(source: Model | Equations | Scene, method: Method | None = None
     the scene's points, else none); ``jacobian``: the analytic residual Jacobian
     where the derivation has one.  ``method``: the derivation (default: the
     scene's, else :func:`mbgen.derivation.derive`'s default, which compares no
-    operation counts: :func:`run` does).
+    operation counts: :func:`run` does).  ``prepared``: the model's
+    :class:`~mbgen.derivation.prepare.Prepared` value (a :class:`~mbgen.derivation.Choice`'s,
+    so that nothing the choice computed is computed again).
     """
     if isinstance(source, Scene):
         eq = equations_of(source.model, method or source.method, energy=energy,
                           points=source.points if points is None else points,
-                          reactions=reactions, jacobian=jacobian)
+                          reactions=reactions, jacobian=jacobian, prepared=prepared)
         if method is None and source.method is not None and eq.method_reason == NAMED:
             eq = replace(eq, method_reason=SCENE_NAMED)
         src = source_label(source)  # the file's name, never the path as typed
@@ -90,7 +99,9 @@ def equations_of(source: Model | Equations | Scene, method: Method | None = None
                                                           source.parameters.items()}},
                        source=src)
     if isinstance(source, Model):
-        return derive(source, method, energy=energy, points=tuple(points or ()),
+        if prepared is not None and prepared.model is not source:
+            raise ModelError("equations_of(prepared=...) is the prepared value of another model")
+        return derive(prepared or source, method, energy=energy, points=tuple(points or ()),
                       reactions=reactions, jacobian=jacobian)
     if isinstance(source, Equations):
         return source
@@ -111,6 +122,47 @@ def operations(kernel: Kernel) -> int:
 
 
 @dataclass(frozen=True)
+class StageTimer:
+    """Who hears of :func:`run`'s stages: ``started(name)`` as each starts and
+    ``finished(name, seconds, value)`` as it ends.
+
+    ``name`` is ``derive``, ``bake``, ``cse``, ``render`` or ``compile``; ``started`` gets
+    ``derive/kane`` and the like while both derivations are compared (the command line's
+    progress lines).  ``seconds`` is the stage's time so far in this run (a stage that runs
+    twice, as while comparing, adds up: :attr:`PipelineResult.timings`), ``value`` what the
+    stage returned (``Equations``, ``Kernel``, ``Rendered``, the loaded module).  The
+    benchmarks time the pipeline through ``finished``, so a new stage reaches every one.
+    """
+
+    started: Callable[[str], None] | None = None
+    finished: Callable[[str, float, object], None] | None = None
+
+
+class _Clock:
+    """Runs the stages of one :func:`run`, sums their seconds by name, tells the timer."""
+
+    def __init__(self, timer: StageTimer):
+        self.timer = timer
+        self.timings: dict[str, float] = {}
+        self.comparing = False   # while both derivations run, started() names the method
+
+    def __call__(self, name: str, fn, *args, of: Equations | Method | None = None,
+                 quiet: bool = False, **kw):
+        """``fn(*args, **kw)`` as stage ``name`` (of the method of ``of``); ``quiet``: timed,
+        not announced (the choice of method, part of ``derive``)."""
+        if self.timer.started is not None and not quiet:
+            method = of.method if isinstance(of, Equations) else of
+            self.timer.started(f"{name}/{Method(method).value}" if self.comparing and method
+                               else name)
+        t0 = time.perf_counter()
+        value = fn(*args, **kw)
+        self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t0
+        if self.timer.finished is not None and not quiet:
+            self.timer.finished(name, self.timings[name], value)
+        return value
+
+
+@dataclass(frozen=True)
 class _Trial:
     """One derivation through the optimiser: equations, their scene slice, the kernel."""
 
@@ -126,52 +178,161 @@ class _Trial:
                                                              method_reason=reason)))
 
 
-#: The comparisons this process made: the Newton-Euler equations' content (baked: the
-#: scene's slice) and the optimiser's settings -> (method, reason).  Any other outputs of
-#: the same slice (a test suite, a sweep, ``--explain``) then derive only the method kept.
-#: At most ``_REMEMBERED`` entries, oldest out.
-_CHOSEN: dict[tuple, tuple[Method, str]] = {}
-_REMEMBERED = 256
+class Comparisons:
+    """The outcomes of comparing Kane and Newton–Euler, by model slice, at most ``size``.
+
+    The key is a hash of what the right-hand side depends on in the Newton–Euler equations'
+    scene slice (:func:`_content`), with the optimiser's settings; the value the method kept
+    and why.  A run that finds its slice here derives only the method kept.
+    """
+
+    def __init__(self, size: int = 256):
+        self.size = size
+        self._kept: dict[tuple, tuple[Method, str]] = {}
+
+    def get(self, key: tuple) -> tuple[Method, str] | None:
+        """``(method, reason)`` of a slice compared before, else None."""
+        return self._kept.get(key)
+
+    def remember(self, key: tuple, method: Method, reason: str) -> None:
+        """Keep an outcome; the oldest goes when there are ``size``."""
+        if len(self._kept) >= self.size:
+            del self._kept[next(iter(self._kept))]
+        self._kept[key] = method, reason
+
+    def clear(self) -> None:
+        """Forget every outcome."""
+        self._kept.clear()
+
+    def __len__(self) -> int:
+        return len(self._kept)
 
 
-def _compared(derived, optimized, settings: tuple, outs: tuple[Output, ...]) -> _Trial:
+#: The comparisons this process made (:func:`run`'s default): other outputs of a slice
+#: compared once (a test suite, a sweep, ``--explain``) then derive only the method kept.
+COMPARISONS = Comparisons()
+
+
+@dataclass(frozen=True)
+class _Stages:
+    """Derive-and-bake and optimise for one :func:`run`, its arguments resolved."""
+
+    source: Model | Equations | Scene
+    outs: tuple[Output, ...]
+    clock: _Clock
+    points: tuple[str, ...] | None
+    parameters: Mapping[str, float] | None
+    name: str | None
+    fixed: Mapping[str, float] | None
+    inputs: Sequence[str] | None
+    cse_backend: CseBackend
+    form: Form | None
+
+    @classmethod
+    def of(cls, source, outs, clock, parameters, name, fixed, inputs, sliced: bool,
+           cse_backend, form) -> "_Stages":
+        """:func:`run`'s arguments with a scene's defaults filled in: its slice (unless not
+        ``sliced``), its prefix, and its points, or every point, where positions are asked."""
+        scene = source if isinstance(source, Scene) else None
+        if scene is not None and sliced:
+            fixed = scene.fixed if fixed is None else fixed
+            inputs = scene.inputs if inputs is None else inputs
+        wants_points = bool({Output.POSITIONS, Output.VELOCITIES} & set(outs))
+        points = None if not wants_points or (scene and scene.points) else _all_points(source)
+        name = name or (scene.prefix if scene and scene.prefix else None)
+        return cls(source, outs, clock, points, parameters, name, fixed, inputs, cse_backend,
+                   form)
+
+    def derived(self, how: Method | None, reason: str = "",
+                prepared: Prepared | None = None) -> tuple[Equations, Equations]:
+        """Derive with ``how`` (None: the source's own) for ``reason``, and bake;
+        ``prepared``: the model's prepared value that the choice of method computed."""
+        outs = self.outs
+        equations = self.clock("derive", equations_of, self.source, how, of=how,
+                               reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
+                               points=self.points, jacobian=needs_jacobian(outs),
+                               prepared=prepared)
+        if reason:
+            equations = replace(equations, method_reason=reason)
+        if self.parameters:
+            equations = replace(equations, defaults={**equations.defaults,
+                                                     **{k: float(v) for k, v in
+                                                        self.parameters.items()}})
+        if self.name:
+            equations = replace(equations, name=self.name)
+        return equations, self.clock("bake", bake, equations, self.fixed, self.inputs,
+                                     of=equations)
+
+    def optimized(self, equations: Equations, baked: Equations,
+                  only: tuple[Output, ...] | None = None) -> _Trial:
+        """The trial of ``equations``: its kernel for ``only`` (default: the run's outputs)."""
+        return _Trial(equations, baked, self.clock("cse", optimize, baked,
+                                                   self.outs if only is None else only,
+                                                   self.cse_backend, self.form, of=equations))
+
+    @property
+    def settings(self) -> tuple:
+        """The optimiser's settings that a comparison's outcome depends on."""
+        return CseBackend(self.cse_backend), self.form
+
+
+def _chosen(stages: _Stages, named: Method | None, comparisons: Comparisons | None) -> _Trial:
+    """The trial of the method named, else of :func:`~mbgen.derivation.choose_method`'s, else
+    of the cheaper of both (:func:`_compared`); the choice's prepared model is derived."""
+    source = stages.source
+    scene = source if isinstance(source, Scene) else None
+    model = source.model if scene else source
+    if named is not None or not isinstance(model, Model) or scene and scene.method is not None:
+        return stages.optimized(*stages.derived(named))
+    choice = stages.clock("derive", choose_method, model, quiet=True)
+    if choice.method is not None:
+        return stages.optimized(*stages.derived(choice.method, choice.reason, choice.prepared))
+    stages.clock.comparing = True
+    return _compared(stages, choice.prepared, comparisons)
+
+
+def _compared(stages: _Stages, prepared: Prepared,
+              comparisons: Comparisons | None) -> _Trial:
     """The derivation whose right-hand side has fewer :func:`operations`; a tie goes to Kane.
 
     The right-hand side decides for every output: it is what the others are built around
     (the integrators call it, the Jacobians differentiate it), its kernel is the cheapest
-    to compare, and one choice per model slice can be remembered whatever is asked of it.
-    ``derived(method) -> (equations, baked)`` and ``optimized(equations, baked, outputs)
-    -> _Trial`` are :func:`run`'s stages; ``settings`` the CSE back end and form.
+    to compare, and one choice per model slice can be remembered (``comparisons``)
+    whatever is asked of it.
     """
     rhs = (Output.RHS,)
     try:
-        newton_euler = derived(Method.NEWTON_EULER)
+        newton_euler = stages.derived(Method.NEWTON_EULER, prepared=prepared)
     except ModelError as exc:   # Newton-Euler does not apply; Kane says so if nothing does
-        return optimized(*derived(Method.KANE), outs).because(
+        return stages.optimized(*stages.derived(Method.KANE, prepared=prepared)).because(
             f"chosen: Newton-Euler does not apply ({str(exc).splitlines()[0]})")
-    key = (_content(newton_euler[1]), settings)
-    if key in _CHOSEN:
-        method, reason = _CHOSEN[key]
-        kept = newton_euler if method is Method.NEWTON_EULER else derived(Method.KANE)
-        return optimized(*kept, outs).because(reason)
-    ne = optimized(*newton_euler, rhs)
-    kane = optimized(*derived(Method.KANE), rhs)
-    a, b = operations(kane.kernel), operations(ne.kernel)
-    said = "right-hand side of {} operations with the L D L^T solve"
-    if b < a:
-        method, reason = Method.NEWTON_EULER, f"chosen: a {said.format(b)}, against Kane's {a}"
-    elif a < b:
-        method, reason = Method.KANE, f"chosen: a {said.format(a)}, against Newton-Euler's {b}"
-    else:
-        method, reason = Method.KANE, (f"chosen: a {said.format(a)}, as many as "
-                                       f"Newton-Euler's; a tie goes to Kane")
-    if len(_CHOSEN) >= _REMEMBERED:
-        del _CHOSEN[next(iter(_CHOSEN))]
-    _CHOSEN[key] = method, reason
+    key = (_content(newton_euler[1]), stages.settings)
+    known = comparisons.get(key) if comparisons is not None else None
+    if known is not None:
+        method, reason = known
+        kept = (newton_euler if method is Method.NEWTON_EULER
+                else stages.derived(Method.KANE, prepared=prepared))
+        return stages.optimized(*kept).because(reason)
+    ne = stages.optimized(*newton_euler, rhs)
+    kane = stages.optimized(*stages.derived(Method.KANE, prepared=prepared), rhs)
+    method, reason = _cheaper(operations(kane.kernel), operations(ne.kernel))
+    if comparisons is not None:
+        comparisons.remember(key, method, reason)
     kept = ne if method is Method.NEWTON_EULER else kane
-    if tuple(outs) != rhs:
-        kept = optimized(kept.equations, kept.baked, outs)
+    if stages.outs != rhs:
+        kept = stages.optimized(kept.equations, kept.baked)
     return kept.because(reason)
+
+
+def _cheaper(kane: int, newton_euler: int) -> tuple[Method, str]:
+    """The method with fewer operations (a tie: Kane), and the reason in words."""
+    said = "right-hand side of {} operations with the L D L^T solve"
+    if newton_euler < kane:
+        return Method.NEWTON_EULER, f"chosen: a {said.format(newton_euler)}, against Kane's {kane}"
+    if kane < newton_euler:
+        return Method.KANE, f"chosen: a {said.format(kane)}, against Newton-Euler's {newton_euler}"
+    return Method.KANE, (f"chosen: a {said.format(kane)}, as many as Newton-Euler's; a tie goes "
+                         f"to Kane")
 
 
 def _content(eq: Equations) -> int:
@@ -205,7 +366,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         name: str | None = None, sliced: bool = True,
         cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None,
         method: Method | None = None, form: Form | None = None,
-        stage: Callable[[str], None] | None = None) -> PipelineResult:
+        stage: Callable[[str], None] | None = None, timer: StageTimer | None = None,
+        comparisons: Comparisons | None = COMPARISONS) -> PipelineResult:
     """Run every stage and time it: derive, bake, optimize, render, and (optionally) compile.
 
     Parameters
@@ -235,74 +397,27 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         Called with each stage's name (``derive``, ``bake``, ``cse``, ``render``,
         ``compile``) as it starts: the command line's progress lines.  While both
         derivations are compared, the first three carry the method: ``derive/kane``.
+        Short for ``timer=StageTimer(started=stage)`` (not read when ``timer`` is given).
+    timer : StageTimer, optional
+        Told as each stage starts and ends (with its seconds and value).
+    comparisons : Comparisons or None
+        Where the outcomes of comparing both derivations are remembered and looked up
+        (default: the process's :data:`COMPARISONS`; None compares afresh and keeps nothing).
     """
-    outs = _outputs(source, outputs)
-    scene = source if isinstance(source, Scene) else None
-    timings: dict[str, float] = {}
-
-    comparing = []   # non-empty while both derivations run: stage lines name the method
-
-    def timed(label, fn, *args, of: Equations | Method | None = None, **kw):
-        if stage is not None:
-            method = of.method if isinstance(of, Equations) else of
-            stage(f"{label}/{Method(method).value}" if comparing and method else label)
-        t0 = time.perf_counter()
-        value = fn(*args, **kw)
-        timings[label] = timings.get(label, 0.0) + time.perf_counter() - t0
-        return value
-
-    wants_points = bool({Output.POSITIONS, Output.VELOCITIES} & set(outs))
-    points = None if not wants_points or (scene and scene.points) else _all_points(source)
-    if fixed is None and sliced and scene:
-        fixed = scene.fixed
-    if inputs is None and sliced and scene:
-        inputs = scene.inputs
-    if targets is None and scene:
-        targets = scene.targets
-    name = name or (scene.prefix if scene and scene.prefix else None)
-
-    def derived(how: Method | None, reason: str = "") -> tuple[Equations, Equations]:
-        """Derive with ``how`` (None: the source's own) for ``reason``, and bake."""
-        equations = timed("derive", equations_of, source, how, of=how,
-                          reactions=Output.REACTIONS in outs, energy=Output.ENERGY in outs,
-                          points=points, jacobian=needs_jacobian(outs))
-        if reason:
-            equations = replace(equations, method_reason=reason)
-        if parameters:
-            equations = replace(equations, defaults={**equations.defaults,
-                                                     **{k: float(v) for k, v in
-                                                        parameters.items()}})
-        if name:
-            equations = replace(equations, name=name)
-        return equations, timed("bake", bake, equations, fixed, inputs, of=equations)
-
-    def optimized(equations: Equations, baked: Equations, only=outs) -> _Trial:
-        return _Trial(equations, baked, timed("cse", optimize, baked, only, cse_backend, form,
-                                              of=equations))
-
-    model = source.model if scene else source
-    named = method_of(method) if method is not None else None
-    if named is not None or not isinstance(model, Model) or scene and scene.method is not None:
-        trial = optimized(*derived(named))
-    else:
-        t0 = time.perf_counter()
-        choice = choose_method(model)
-        timings["derive"] = time.perf_counter() - t0
-        if choice.method is not None:
-            trial = optimized(*derived(choice.method, choice.reason))
-        else:
-            comparing.append(True)
-            trial = _compared(derived, optimized, (CseBackend(cse_backend), form), outs)
-    equations, baked, kernel = trial.equations, trial.baked, trial.kernel
-    rendered = timed("render", render, kernel, targets)
+    clock = _Clock(timer if timer is not None else StageTimer(started=stage))
+    stages = _Stages.of(source, _outputs(source, outputs), clock, parameters, name,
+                        fixed, inputs, sliced, cse_backend, form)
+    trial = _chosen(stages, method_of(method) if method is not None else None, comparisons)
+    if targets is None and isinstance(source, Scene):
+        targets = source.targets
+    rendered = clock("render", render, trial.kernel, targets)
     compiled, cached = None, False
     if build:
         cached = compiled_path(rendered).exists()
-        module = timed("compile", load, rendered)
-        compiled = CompiledModel(rendered, module, rendered.layout, rendered.defaults,
-                                 rendered.outputs)
-    return PipelineResult(equations, baked, kernel, rendered, compiled, timings, cached,
-                          {k: float(v) for k, v in (fixed or {}).items()})
+        compiled = CompiledModel(rendered, clock("compile", load, rendered))
+    return PipelineResult(trial.equations, trial.baked, trial.kernel, rendered, compiled,
+                          clock.timings, cached,
+                          {k: float(v) for k, v in (stages.fixed or {}).items()})
 
 
 def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, *,

@@ -136,6 +136,31 @@ def test_fmu_command(tmp_path, capsys):
     assert "paraboloid.fmu" in capsys.readouterr().out
     assert validate_fmu(str(tmp_path / "paraboloid.fmu")) == []
     assert main(["fmu", "no_such_scene", "-o", str(tmp_path)]) == 3
+    assert os.listdir(tmp_path) == ["paraboloid.fmu"]           # the FMU alone, no manifest
+
+
+def test_fmu_command_is_generate_target_fmu(tmp_path, capsys):
+    """``mbgen fmu`` is an alias of ``mbgen generate --target fmu``: one row of the registry
+    writes the same archive, and beside other targets it joins their generation."""
+    from mbgen.cli import main
+
+    assert main(["fmu", "paraboloid", "-o", str(tmp_path / "alias")]) == 0
+    assert main(["generate", "paraboloid", "--target", "fmu", "-o",
+                 str(tmp_path / "target")]) == 0
+    assert os.listdir(tmp_path / "target") == ["paraboloid.fmu"]
+    assert "paraboloid.fmu  (FMI 2.0, model exchange and co-simulation)" in \
+        capsys.readouterr().out
+
+    def texts(path):
+        with zipfile.ZipFile(path) as zf:
+            return {n: zf.read(n) for n in zf.namelist() if not n.startswith("binaries/")}
+
+    assert texts(tmp_path / "alias" / "paraboloid.fmu") == \
+        texts(tmp_path / "target" / "paraboloid.fmu")
+    done = mbgen.generate(load_scene("paraboloid"), "c,fmu", tmp_path / "both")
+    assert [p.name for p in done.files] == ["paraboloid.c", "paraboloid.h"]
+    assert [p.name for p, _ in done.archives] == ["paraboloid.fmu"]
+    assert "paraboloid_dopri5_step(" in (tmp_path / "both" / "paraboloid.h").read_text()
 
 
 # ------------------------------------------------------------------ the FMI calls one by one

@@ -45,71 +45,128 @@ void bead_wire_force_default_parameters(double *p)
     p[1] = 0.1;
 }
 
-/* Constraints A u + b = 0 with u = [u_s; u_r]: 1 independent speeds u_s (states),
- * 1 dependent speeds u_r.  CA is A (row-major 1 x 2), CB is b.
- * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
- * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
- * BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
- * speeds).  The reduced mass matrix's pivots: see bead_wire_force_kkt_factor. */
-static void bead_wire_force_con_lu_solve(const double *LU, const int *piv, double *b)
+/* LU factorisation with partial pivoting, in place (row-major n x n): P A = L U, piv[k] = row
+ * swapped with row k.  Returns 1; 0 (singular: the caller names the status) when a pivot column's
+ * largest entry is not above 1e-13 * max_ij |A_ij| (NaN and infinities included),
+ * for a solve with a smaller pivot would keep fewer than 3 of its 16 digits. */
+static int bead_wire_force_lu_factor(double *A, int n, int *piv)
 {
-    int i, k;
-    (void)piv;   /* one row: nothing to swap (and gcc -O2 cannot see piv[0] == 0) */
-    for (i = 1; i < 1; ++i) {
-        for (k = 0; k < i; ++k) {
-            b[i] -= LU[i * 1 + k] * b[k];
+    int i, j, k, r;
+    double big, v, l, tol = 0.0;
+    for (i = 0; i < n * n; ++i) {
+        if (fabs(A[i]) > tol) {
+            tol = fabs(A[i]);
         }
     }
-    for (i = 1 - 1; i >= 0; --i) {
-        for (k = i + 1; k < 1; ++k) {
-            b[i] -= LU[i * 1 + k] * b[k];
+    tol *= 1e-13;
+    for (k = 0; k < n; ++k) {
+        r = k;
+        big = fabs(A[k * n + k]);
+        for (i = k + 1; i < n; ++i) {
+            v = fabs(A[i * n + k]);
+            if (v > big) {
+                big = v;
+                r = i;
+            }
         }
-        b[i] /= LU[i * 1 + i];
+        piv[k] = r;
+        if (!(big > tol) || !isfinite(big)) {
+            return 0;
+        }
+        if (r != k) {
+            for (j = 0; j < n; ++j) {
+                v = A[k * n + j];
+                A[k * n + j] = A[r * n + j];
+                A[r * n + j] = v;
+            }
+        }
+        for (i = k + 1; i < n; ++i) {
+            l = A[i * n + k] / A[k * n + k];
+            A[i * n + k] = l;
+            if (l != 0.0) {
+                for (j = k + 1; j < n; ++j) {
+                    A[i * n + j] -= l * A[k * n + j];
+                }
+            }
+        }
+    }
+    return 1;
+}
+
+/* Solve A x = b in place (b <- x) with the factors from bead_wire_force_lu_factor. */
+static void bead_wire_force_lu_solve(const double *LU, int n, const int *piv, double *b)
+{
+    int i, k;
+    double v;
+    for (k = 0; k < n; ++k) {
+        if (piv[k] != k) {
+            v = b[k];
+            b[k] = b[piv[k]];
+            b[piv[k]] = v;
+        }
+    }
+    for (i = 1; i < n; ++i) {
+        v = b[i];
+        for (k = 0; k < i; ++k) {
+            v -= LU[i * n + k] * b[k];
+        }
+        b[i] = v;
+    }
+    for (i = n - 1; i >= 0; --i) {
+        v = b[i];
+        for (k = i + 1; k < n; ++k) {
+            v -= LU[i * n + k] * b[k];
+        }
+        b[i] = v / LU[i * n + i];
     }
 }
 
+/* Solve A^T y = b in place (b <- y) with the factors from bead_wire_force_lu_factor. */
+static void bead_wire_force_lu_solve_t(const double *LU, int n, const int *piv, double *b)
+{
+    int i, k;
+    double v;
+    for (i = 0; i < n; ++i) {
+        v = b[i];
+        for (k = 0; k < i; ++k) {
+            v -= LU[k * n + i] * b[k];
+        }
+        b[i] = v / LU[i * n + i];
+    }
+    for (i = n - 1; i >= 0; --i) {
+        v = b[i];
+        for (k = i + 1; k < n; ++k) {
+            v -= LU[k * n + i] * b[k];
+        }
+        b[i] = v;
+    }
+    for (k = n - 1; k >= 0; --k) {
+        if (piv[k] != k) {
+            v = b[k];
+            b[k] = b[piv[k]];
+            b[piv[k]] = v;
+        }
+    }
+}
+
+/* Constraints A u + b = 0 with u = [u_s; u_r]: 1 independent speeds u_s (states),
+ * 1 dependent speeds u_r.  CA is A (row-major 1 x 2), CB is b.
+ * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by bead_wire_force_lu_factor; a pivot
+ * |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see bead_wire_force_kkt_factor. */
 static int bead_wire_force_velocity_solve(const double *CA, const double *CB, const double *us,
                                        double *LU, int *piv, double *UR)
 {
-    int i, j, k;
-    double amax = 0.0;
+    int i, j;
     for (i = 0; i < 1; ++i) {
         for (j = 0; j < 1; ++j) {
-            const double a = CA[i * 2 + 1 + j];
-            LU[i * 1 + j] = a;
-            if (fabs(a) > amax) {
-                amax = fabs(a);
-            }
+            LU[i * 1 + j] = CA[i * 2 + 1 + j];
         }
     }
-    for (k = 0; k < 1; ++k) {
-        int p = k;
-        double big = fabs(LU[k * 1 + k]);
-        for (i = k + 1; i < 1; ++i) {
-            if (fabs(LU[i * 1 + k]) > big) {
-                big = fabs(LU[i * 1 + k]);
-                p = i;
-            }
-        }
-        piv[k] = p;
-        if (!(big > 1e-13 * amax)) {
-            return BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR;
-        }
-        if (p != k) {
-            for (j = 0; j < 1; ++j) {
-                const double tmp = LU[k * 1 + j];
-                LU[k * 1 + j] = LU[p * 1 + j];
-                LU[p * 1 + j] = tmp;
-            }
-        }
-        for (i = k + 1; i < 1; ++i) {
-            const double l = LU[i * 1 + k] / LU[k * 1 + k];
-            LU[i * 1 + k] = l;
-            for (j = k + 1; j < 1; ++j) {
-                LU[i * 1 + j] -= l * LU[k * 1 + j];
-            }
-        }
+    if (!bead_wire_force_lu_factor(LU, 1, piv)) {
+        return BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR;
     }
     for (i = 0; i < 1; ++i) {
         double s = CB[i];
@@ -118,32 +175,8 @@ static int bead_wire_force_velocity_solve(const double *CA, const double *CB, co
         }
         UR[i] = -s;
     }
-    bead_wire_force_con_lu_solve(LU, piv, UR);
+    bead_wire_force_lu_solve(LU, 1, piv, UR);
     return BEAD_WIRE_FORCE_OK;
-}
-
-/* Solve A_r^T y = b in place with the factors of bead_wire_force_lu_solve. */
-static void bead_wire_force_con_lu_solve_t(const double *LU, const int *piv, double *b)
-{
-    int i, k;
-    for (i = 0; i < 1; ++i) {
-        for (k = 0; k < i; ++k) {
-            b[i] -= LU[k * 1 + i] * b[k];
-        }
-        b[i] /= LU[i * 1 + i];
-    }
-    for (i = 1 - 1; i >= 0; --i) {
-        for (k = i + 1; k < 1; ++k) {
-            b[i] -= LU[k * 1 + i] * b[k];
-        }
-    }
-    for (k = 1 - 1; k >= 0; --k) {
-        if (piv[k] != k) {
-            const double tmp = b[k];
-            b[k] = b[piv[k]];
-            b[piv[k]] = tmp;
-        }
-    }
 }
 
 #define BEAD_WIRE_FORCE_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 2 + (j)] : (M)[(j) * 2 + (i)])
@@ -163,7 +196,7 @@ static int bead_wire_force_kkt_factor(const double *CA, const double *LU, const 
         for (i = 0; i < 1; ++i) {
             v[i] = -CA[i * 2 + b];
         }
-        bead_wire_force_con_lu_solve(LU, piv, v);
+        bead_wire_force_lu_solve(LU, 1, piv, v);
         for (i = 0; i < 1; ++i) {
             CR[i * 1 + b] = v[i];
         }
@@ -214,7 +247,7 @@ static void bead_wire_force_kkt_solve(const double *LU, const int *piv, const do
     for (i = 0; i < 1; ++i) {
         e[i] = r3[i];
     }
-    bead_wire_force_con_lu_solve(LU, piv, e);
+    bead_wire_force_lu_solve(LU, 1, piv, e);
     for (i = 0; i < 2; ++i) {
         double s = r2[i];
         for (k = 0; k < 1; ++k) {
@@ -244,7 +277,7 @@ static void bead_wire_force_kkt_solve(const double *LU, const int *piv, const do
         }
         lam[i] = s;
     }
-    bead_wire_force_con_lu_solve_t(LU, piv, lam);
+    bead_wire_force_lu_solve_t(LU, 1, piv, lam);
 }
 
 /* First-order right-hand side dxdt = [G(q,u,t); u_s'] of the constrained system: u_r from A u + b = 0 (LU of A_r), u_s' from the reduced equations T^T M T u_s' = T^T (F - M [0; d]).
@@ -476,16 +509,17 @@ static int bead_wire_force_initial_step(double t0, const double *y, const double
  * constraints f_h(q, t) = 0 after an accepted step: Newton on them alone, to
  * max|f_h| <= 1e-12 (1 + max|q_r|) with q_r as the step left them (the bound does not
  * grow with the iterates, so Newton running off near a dead point is no convergence), at
- * most 12 iterations (BEAD_WIRE_FORCE_PROJECTION_FAILED otherwise); a pivot of the dependent
- * coordinates' Jacobian at or below 1e-13 max|entry| is BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR.
+ * most 12 iterations (BEAD_WIRE_FORCE_PROJECTION_FAILED otherwise); the dependent coordinates'
+ * Jacobian singular by bead_wire_force_lu_factor's rule is BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR.
  * stats->max_residual records the largest max|f_h| met before projecting;
  * opt->no_projection = 1 only records it (to measure drift). */
 static int bead_wire_force_project(double t, double *x, const double *p,
                                 const bead_wire_force_options *opt, bead_wire_force_stats *stats)
 {
     double f[1], J[2], a[1], dq[1];
-    double res, scale, big, amax, tmp;
-    int it, i, j, k, pr, status;
+    double res, scale;
+    int piv[1];
+    int it, i, status;
     status = bead_wire_force_holonomic(t, x, p, f);
     if (status != BEAD_WIRE_FORCE_OK) {
         return status;
@@ -517,50 +551,14 @@ static int bead_wire_force_project(double t, double *x, const double *p,
         if (status != BEAD_WIRE_FORCE_OK) {
             return status;
         }
-        amax = 0.0;
         for (i = 0; i < 1; ++i) {
             a[i * 1 + 0] = J[i * 2 + 1];
-            if (fabs(a[i * 1 + 0]) > amax) {
-                amax = fabs(a[i * 1 + 0]);
-            }
             dq[i] = -f[i];
         }
-        for (k = 0; k < 1; ++k) {
-            pr = k;
-            big = fabs(a[k * 1 + k]);
-            for (i = k + 1; i < 1; ++i) {
-                if (fabs(a[i * 1 + k]) > big) {
-                    big = fabs(a[i * 1 + k]);
-                    pr = i;
-                }
-            }
-            if (!(big > 1e-13 * amax)) {
-                return BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR;
-            }
-            if (pr != k) {
-                for (j = 0; j < 1; ++j) {
-                    tmp = a[k * 1 + j];
-                    a[k * 1 + j] = a[pr * 1 + j];
-                    a[pr * 1 + j] = tmp;
-                }
-                tmp = dq[k];
-                dq[k] = dq[pr];
-                dq[pr] = tmp;
-            }
-            for (i = k + 1; i < 1; ++i) {
-                tmp = a[i * 1 + k] / a[k * 1 + k];
-                for (j = k; j < 1; ++j) {
-                    a[i * 1 + j] -= tmp * a[k * 1 + j];
-                }
-                dq[i] -= tmp * dq[k];
-            }
+        if (!bead_wire_force_lu_factor(a, 1, piv)) {
+            return BEAD_WIRE_FORCE_CONSTRAINT_SINGULAR;
         }
-        for (i = 1 - 1; i >= 0; --i) {
-            for (j = i + 1; j < 1; ++j) {
-                dq[i] -= a[i * 1 + j] * dq[j];
-            }
-            dq[i] /= a[i * 1 + i];
-        }
+        bead_wire_force_lu_solve(a, 1, piv, dq);
         x[1] += dq[0];
         status = bead_wire_force_holonomic(t, x, p, f);
         if (status != BEAD_WIRE_FORCE_OK) {

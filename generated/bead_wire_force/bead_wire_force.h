@@ -66,16 +66,16 @@ extern "C" {
 #define BEAD_WIRE_FORCE_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of bead_wire_force.h, .c and .py with this value blanked. */
-#define BEAD_WIRE_FORCE_CONTENT_HASH "ead588e90b14805e"
+#define BEAD_WIRE_FORCE_CONTENT_HASH "978e1933012b2790"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
-#define BEAD_WIRE_FORCE_STACK_CONSTRAINT_FORCES 1032
+#define BEAD_WIRE_FORCE_STACK_CONSTRAINT_FORCES 1104
 #define BEAD_WIRE_FORCE_STACK_DEFAULT_PARAMETERS 256
-#define BEAD_WIRE_FORCE_STACK_DOPRI5 2208
-#define BEAD_WIRE_FORCE_STACK_HOLONOMIC 924
-#define BEAD_WIRE_FORCE_STACK_HOLONOMIC_JACOBIAN 916
-#define BEAD_WIRE_FORCE_STACK_RHS 1032
+#define BEAD_WIRE_FORCE_STACK_DOPRI5 2280
+#define BEAD_WIRE_FORCE_STACK_HOLONOMIC 996
+#define BEAD_WIRE_FORCE_STACK_HOLONOMIC_JACOBIAN 988
+#define BEAD_WIRE_FORCE_STACK_RHS 1104
 
 int bead_wire_force_rhs(double t, const double *x, const double *p, double *dxdt);
 int bead_wire_force_constraint_forces(double t, const double *x, const double *p, double *lam);

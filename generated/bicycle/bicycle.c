@@ -2408,79 +2408,79 @@ static int bicycle_initial_step(double t0, const double *y, const double *f0, co
     return BICYCLE_OK;
 }
 
-/* LU factorisation with partial pivoting, in place (row-major 10 x 10): P A = L U,
- * piv[k] = row swapped with row k.  A pivot column whose largest entry is not above
- * 160 * DBL_EPSILON * max_ij |A_ij| (NaN included) is singular: rounding noise is all
- * that a matrix singular in exact arithmetic leaves there, not an exact zero. */
-static int bicycle_lu_factor(double *A, int *piv)
+/* LU factorisation with partial pivoting, in place (row-major n x n): P A = L U, piv[k] = row
+ * swapped with row k.  Returns 1; 0 (singular: the caller names the status) when a pivot column's
+ * largest entry is not above 1e-13 * max_ij |A_ij| (NaN and infinities included),
+ * for a solve with a smaller pivot would keep fewer than 3 of its 16 digits. */
+static int bicycle_lu_factor(double *A, int n, int *piv)
 {
     int i, j, k, r;
-    double amax, v, l, tol = 0.0;
-    for (i = 0; i < 100; ++i) {
+    double big, v, l, tol = 0.0;
+    for (i = 0; i < n * n; ++i) {
         if (fabs(A[i]) > tol) {
             tol = fabs(A[i]);
         }
     }
-    tol *= 160 * DBL_EPSILON;
-    for (k = 0; k < 10; ++k) {
+    tol *= 1e-13;
+    for (k = 0; k < n; ++k) {
         r = k;
-        amax = fabs(A[k * 10 + k]);
-        for (i = k + 1; i < 10; ++i) {
-            v = fabs(A[i * 10 + k]);
-            if (v > amax) {
-                amax = v;
+        big = fabs(A[k * n + k]);
+        for (i = k + 1; i < n; ++i) {
+            v = fabs(A[i * n + k]);
+            if (v > big) {
+                big = v;
                 r = i;
             }
         }
         piv[k] = r;
-        if (!(amax > tol) || !isfinite(amax)) {
-            return BICYCLE_SINGULAR_ITERATION_MATRIX;
+        if (!(big > tol) || !isfinite(big)) {
+            return 0;
         }
         if (r != k) {
-            for (j = 0; j < 10; ++j) {
-                v = A[k * 10 + j];
-                A[k * 10 + j] = A[r * 10 + j];
-                A[r * 10 + j] = v;
+            for (j = 0; j < n; ++j) {
+                v = A[k * n + j];
+                A[k * n + j] = A[r * n + j];
+                A[r * n + j] = v;
             }
         }
-        for (i = k + 1; i < 10; ++i) {
-            l = A[i * 10 + k] / A[k * 10 + k];
-            A[i * 10 + k] = l;
+        for (i = k + 1; i < n; ++i) {
+            l = A[i * n + k] / A[k * n + k];
+            A[i * n + k] = l;
             if (l != 0.0) {
-                for (j = k + 1; j < 10; ++j) {
-                    A[i * 10 + j] -= l * A[k * 10 + j];
+                for (j = k + 1; j < n; ++j) {
+                    A[i * n + j] -= l * A[k * n + j];
                 }
             }
         }
     }
-    return BICYCLE_OK;
+    return 1;
 }
 
 /* Solve A x = b in place (b <- x) with the factors from bicycle_lu_factor. */
-static void bicycle_lu_solve(const double *LU, const int *piv, double *b)
+static void bicycle_lu_solve(const double *LU, int n, const int *piv, double *b)
 {
     int i, k;
     double v;
-    for (k = 0; k < 10; ++k) {
+    for (k = 0; k < n; ++k) {
         if (piv[k] != k) {
             v = b[k];
             b[k] = b[piv[k]];
             b[piv[k]] = v;
         }
     }
-    for (i = 1; i < 10; ++i) {
+    for (i = 1; i < n; ++i) {
         v = b[i];
         for (k = 0; k < i; ++k) {
-            v -= LU[i * 10 + k] * b[k];
+            v -= LU[i * n + k] * b[k];
         }
         b[i] = v;
     }
-    for (i = 10 - 1; i >= 0; --i) {
+    for (i = n - 1; i >= 0; --i) {
         v = b[i];
-        for (k = i + 1; k < 10; ++k) {
-            v -= LU[i * 10 + k] * b[k];
+        for (k = i + 1; k < n; ++k) {
+            v -= LU[i * n + k] * b[k];
         }
-        b[i] = v / LU[i * 10 + i];
+        b[i] = v / LU[i * n + i];
     }
 }
 
@@ -2577,7 +2577,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             for (i = 0; i < 10; ++i) {
                 G[i * 10 + i] += inv_hg;
             }
-            status = bicycle_lu_factor(G, piv);
+            status = bicycle_lu_factor(G, 10, piv) ? BICYCLE_OK : BICYCLE_SINGULAR_ITERATION_MATRIX;
             ++stats->n_lu;
             if (status != BICYCLE_OK) {
                 return status;
@@ -2587,7 +2587,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             for (i = 0; i < 10; ++i) {
                 K[0][i] = fs[i];
             }
-            bicycle_lu_solve(G, piv, K[0]);
+            bicycle_lu_solve(G, 10, piv, K[0]);
             /* stage 2 */
             for (i = 0; i < 10; ++i) {
                 xs[i] = y[i] + (1.544 * K[0][i]);
@@ -2601,7 +2601,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             for (i = 0; i < 10; ++i) {
                 K[1][i] = fs[i] + (-5.6688 * K[0][i]) / h;
             }
-            bicycle_lu_solve(G, piv, K[1]);
+            bicycle_lu_solve(G, 10, piv, K[1]);
             /* stage 3 */
             for (i = 0; i < 10; ++i) {
                 xs[i] = y[i] + (0.9466785280815826 * K[0][i] + 0.2557011698983284 * K[1][i]);
@@ -2615,7 +2615,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             for (i = 0; i < 10; ++i) {
                 K[2][i] = fs[i] + (-2.430093356833875 * K[0][i] - 0.2063599157091915 * K[1][i]) / h;
             }
-            bicycle_lu_solve(G, piv, K[2]);
+            bicycle_lu_solve(G, 10, piv, K[2]);
             /* stage 4 */
             for (i = 0; i < 10; ++i) {
                 xs[i] = y[i] + (3.314825187068521 * K[0][i] + 2.896124015972201 * K[1][i] + 0.9986419139977817 * K[2][i]);
@@ -2629,7 +2629,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             for (i = 0; i < 10; ++i) {
                 K[3][i] = fs[i] + (-0.1073529058151375 * K[0][i] - 9.594562251023355 * K[1][i] - 20.47028614809616 * K[2][i]) / h;
             }
-            bicycle_lu_solve(G, piv, K[3]);
+            bicycle_lu_solve(G, 10, piv, K[3]);
             /* stage 5 */
             for (i = 0; i < 10; ++i) {
                 xs[i] = y[i] + (1.221224509226641 * K[0][i] + 6.019134481288629 * K[1][i] + 12.53708332932087 * K[2][i] - 0.687886036105895 * K[3][i]);
@@ -2643,7 +2643,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             for (i = 0; i < 10; ++i) {
                 K[4][i] = fs[i] + (7.496443313967647 * K[0][i] - 10.24680431464352 * K[1][i] - 33.99990352819905 * K[2][i] + 11.7089089320616 * K[3][i]) / h;
             }
-            bicycle_lu_solve(G, piv, K[4]);
+            bicycle_lu_solve(G, 10, piv, K[4]);
             /* stage 6 */
             for (i = 0; i < 10; ++i) {
                 xs[i] = y[i] + (1.221224509226641 * K[0][i] + 6.019134481288629 * K[1][i] + 12.53708332932087 * K[2][i] - 0.687886036105895 * K[3][i] + K[4][i]);
@@ -2657,7 +2657,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             for (i = 0; i < 10; ++i) {
                 K[5][i] = fs[i] + (8.083246795921522 * K[0][i] - 7.981132988064893 * K[1][i] - 31.52159432874371 * K[2][i] + 16.31930543123136 * K[3][i] - 6.058818238834054 * K[4][i]) / h;
             }
-            bicycle_lu_solve(G, piv, K[5]);
+            bicycle_lu_solve(G, 10, piv, K[5]);
             for (i = 0; i < 10; ++i) {
                 const double ay = fabs(y[i]);
                 double an;

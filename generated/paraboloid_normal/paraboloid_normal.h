@@ -77,17 +77,17 @@ extern "C" {
 #define PARABOLOID_NORMAL_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of paraboloid_normal.h, .c and .py with this value blanked. */
-#define PARABOLOID_NORMAL_CONTENT_HASH "fb17fd4a316bbb4b"
+#define PARABOLOID_NORMAL_CONTENT_HASH "fe4b914bcb69bf09"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
-#define PARABOLOID_NORMAL_STACK_CONSTRAINT_FORCES 1112
+#define PARABOLOID_NORMAL_STACK_CONSTRAINT_FORCES 1184
 #define PARABOLOID_NORMAL_STACK_DEFAULT_PARAMETERS 256
-#define PARABOLOID_NORMAL_STACK_DOPRI5 2528
-#define PARABOLOID_NORMAL_STACK_ENERGY 1004
-#define PARABOLOID_NORMAL_STACK_HOLONOMIC 956
-#define PARABOLOID_NORMAL_STACK_HOLONOMIC_JACOBIAN 948
-#define PARABOLOID_NORMAL_STACK_RHS 1112
+#define PARABOLOID_NORMAL_STACK_DOPRI5 2600
+#define PARABOLOID_NORMAL_STACK_ENERGY 1076
+#define PARABOLOID_NORMAL_STACK_HOLONOMIC 1028
+#define PARABOLOID_NORMAL_STACK_HOLONOMIC_JACOBIAN 1020
+#define PARABOLOID_NORMAL_STACK_RHS 1184
 
 int paraboloid_normal_rhs(double t, const double *x, const double *p, double *dxdt);
 int paraboloid_normal_energy(double t, const double *x, const double *p, double *energy);

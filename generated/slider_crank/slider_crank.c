@@ -52,77 +52,128 @@ void slider_crank_default_parameters(double *p)
     p[8] = 0.05;
 }
 
-/* Constraints A u + b = 0 with u = [u_s; u_r]: 1 independent speeds u_s (states),
- * 2 dependent speeds u_r.  CA is A (row-major 2 x 3), CB is b.
- * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by LU with partial pivoting;
- * a pivot |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
- * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
- * SLIDER_CRANK_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
- * speeds).  The reduced mass matrix's pivots: see slider_crank_kkt_factor. */
-static void slider_crank_con_lu_solve(const double *LU, const int *piv, double *b)
+/* LU factorisation with partial pivoting, in place (row-major n x n): P A = L U, piv[k] = row
+ * swapped with row k.  Returns 1; 0 (singular: the caller names the status) when a pivot column's
+ * largest entry is not above 1e-13 * max_ij |A_ij| (NaN and infinities included),
+ * for a solve with a smaller pivot would keep fewer than 3 of its 16 digits. */
+static int slider_crank_lu_factor(double *A, int n, int *piv)
+{
+    int i, j, k, r;
+    double big, v, l, tol = 0.0;
+    for (i = 0; i < n * n; ++i) {
+        if (fabs(A[i]) > tol) {
+            tol = fabs(A[i]);
+        }
+    }
+    tol *= 1e-13;
+    for (k = 0; k < n; ++k) {
+        r = k;
+        big = fabs(A[k * n + k]);
+        for (i = k + 1; i < n; ++i) {
+            v = fabs(A[i * n + k]);
+            if (v > big) {
+                big = v;
+                r = i;
+            }
+        }
+        piv[k] = r;
+        if (!(big > tol) || !isfinite(big)) {
+            return 0;
+        }
+        if (r != k) {
+            for (j = 0; j < n; ++j) {
+                v = A[k * n + j];
+                A[k * n + j] = A[r * n + j];
+                A[r * n + j] = v;
+            }
+        }
+        for (i = k + 1; i < n; ++i) {
+            l = A[i * n + k] / A[k * n + k];
+            A[i * n + k] = l;
+            if (l != 0.0) {
+                for (j = k + 1; j < n; ++j) {
+                    A[i * n + j] -= l * A[k * n + j];
+                }
+            }
+        }
+    }
+    return 1;
+}
+
+/* Solve A x = b in place (b <- x) with the factors from slider_crank_lu_factor. */
+static void slider_crank_lu_solve(const double *LU, int n, const int *piv, double *b)
 {
     int i, k;
-    for (k = 0; k < 2; ++k) {
+    double v;
+    for (k = 0; k < n; ++k) {
         if (piv[k] != k) {
-            const double tmp = b[k];
+            v = b[k];
             b[k] = b[piv[k]];
-            b[piv[k]] = tmp;
+            b[piv[k]] = v;
         }
     }
-    for (i = 1; i < 2; ++i) {
+    for (i = 1; i < n; ++i) {
+        v = b[i];
         for (k = 0; k < i; ++k) {
-            b[i] -= LU[i * 2 + k] * b[k];
+            v -= LU[i * n + k] * b[k];
         }
+        b[i] = v;
     }
-    for (i = 2 - 1; i >= 0; --i) {
-        for (k = i + 1; k < 2; ++k) {
-            b[i] -= LU[i * 2 + k] * b[k];
+    for (i = n - 1; i >= 0; --i) {
+        v = b[i];
+        for (k = i + 1; k < n; ++k) {
+            v -= LU[i * n + k] * b[k];
         }
-        b[i] /= LU[i * 2 + i];
+        b[i] = v / LU[i * n + i];
     }
 }
 
+/* Solve A^T y = b in place (b <- y) with the factors from slider_crank_lu_factor. */
+static void slider_crank_lu_solve_t(const double *LU, int n, const int *piv, double *b)
+{
+    int i, k;
+    double v;
+    for (i = 0; i < n; ++i) {
+        v = b[i];
+        for (k = 0; k < i; ++k) {
+            v -= LU[k * n + i] * b[k];
+        }
+        b[i] = v / LU[i * n + i];
+    }
+    for (i = n - 1; i >= 0; --i) {
+        v = b[i];
+        for (k = i + 1; k < n; ++k) {
+            v -= LU[k * n + i] * b[k];
+        }
+        b[i] = v;
+    }
+    for (k = n - 1; k >= 0; --k) {
+        if (piv[k] != k) {
+            v = b[k];
+            b[k] = b[piv[k]];
+            b[piv[k]] = v;
+        }
+    }
+}
+
+/* Constraints A u + b = 0 with u = [u_s; u_r]: 1 independent speeds u_s (states),
+ * 2 dependent speeds u_r.  CA is A (row-major 2 x 3), CB is b.
+ * Dependent speeds: A_r u_r = -(A_s u_s + b), A_r factored by slider_crank_lu_factor; a pivot
+ * |u_kk| <= 1e-13 max_ij |A_r,ij| (relative to A_r's scale; stricter than rounding's
+ * m * DBL_EPSILON, for beyond it u_r would keep fewer than 3 of its 16 digits) is
+ * SLIDER_CRANK_CONSTRAINT_SINGULAR (a locked or singular configuration for these dependent
+ * speeds).  The reduced mass matrix's pivots: see slider_crank_kkt_factor. */
 static int slider_crank_velocity_solve(const double *CA, const double *CB, const double *us,
                                        double *LU, int *piv, double *UR)
 {
-    int i, j, k;
-    double amax = 0.0;
+    int i, j;
     for (i = 0; i < 2; ++i) {
         for (j = 0; j < 2; ++j) {
-            const double a = CA[i * 3 + 1 + j];
-            LU[i * 2 + j] = a;
-            if (fabs(a) > amax) {
-                amax = fabs(a);
-            }
+            LU[i * 2 + j] = CA[i * 3 + 1 + j];
         }
     }
-    for (k = 0; k < 2; ++k) {
-        int p = k;
-        double big = fabs(LU[k * 2 + k]);
-        for (i = k + 1; i < 2; ++i) {
-            if (fabs(LU[i * 2 + k]) > big) {
-                big = fabs(LU[i * 2 + k]);
-                p = i;
-            }
-        }
-        piv[k] = p;
-        if (!(big > 1e-13 * amax)) {
-            return SLIDER_CRANK_CONSTRAINT_SINGULAR;
-        }
-        if (p != k) {
-            for (j = 0; j < 2; ++j) {
-                const double tmp = LU[k * 2 + j];
-                LU[k * 2 + j] = LU[p * 2 + j];
-                LU[p * 2 + j] = tmp;
-            }
-        }
-        for (i = k + 1; i < 2; ++i) {
-            const double l = LU[i * 2 + k] / LU[k * 2 + k];
-            LU[i * 2 + k] = l;
-            for (j = k + 1; j < 2; ++j) {
-                LU[i * 2 + j] -= l * LU[k * 2 + j];
-            }
-        }
+    if (!slider_crank_lu_factor(LU, 2, piv)) {
+        return SLIDER_CRANK_CONSTRAINT_SINGULAR;
     }
     for (i = 0; i < 2; ++i) {
         double s = CB[i];
@@ -131,32 +182,8 @@ static int slider_crank_velocity_solve(const double *CA, const double *CB, const
         }
         UR[i] = -s;
     }
-    slider_crank_con_lu_solve(LU, piv, UR);
+    slider_crank_lu_solve(LU, 2, piv, UR);
     return SLIDER_CRANK_OK;
-}
-
-/* Solve A_r^T y = b in place with the factors of slider_crank_lu_solve. */
-static void slider_crank_con_lu_solve_t(const double *LU, const int *piv, double *b)
-{
-    int i, k;
-    for (i = 0; i < 2; ++i) {
-        for (k = 0; k < i; ++k) {
-            b[i] -= LU[k * 2 + i] * b[k];
-        }
-        b[i] /= LU[i * 2 + i];
-    }
-    for (i = 2 - 1; i >= 0; --i) {
-        for (k = i + 1; k < 2; ++k) {
-            b[i] -= LU[k * 2 + i] * b[k];
-        }
-    }
-    for (k = 2 - 1; k >= 0; --k) {
-        if (piv[k] != k) {
-            const double tmp = b[k];
-            b[k] = b[piv[k]];
-            b[piv[k]] = tmp;
-        }
-    }
 }
 
 #define SLIDER_CRANK_ML(M, i, j) ((i) >= (j) ? (M)[(i) * 3 + (j)] : (M)[(j) * 3 + (i)])
@@ -176,7 +203,7 @@ static int slider_crank_kkt_factor(const double *CA, const double *LU, const int
         for (i = 0; i < 2; ++i) {
             v[i] = -CA[i * 3 + b];
         }
-        slider_crank_con_lu_solve(LU, piv, v);
+        slider_crank_lu_solve(LU, 2, piv, v);
         for (i = 0; i < 2; ++i) {
             CR[i * 1 + b] = v[i];
         }
@@ -227,7 +254,7 @@ static void slider_crank_kkt_solve(const double *LU, const int *piv, const doubl
     for (i = 0; i < 2; ++i) {
         e[i] = r3[i];
     }
-    slider_crank_con_lu_solve(LU, piv, e);
+    slider_crank_lu_solve(LU, 2, piv, e);
     for (i = 0; i < 3; ++i) {
         double s = r2[i];
         for (k = 0; k < 2; ++k) {
@@ -257,7 +284,7 @@ static void slider_crank_kkt_solve(const double *LU, const int *piv, const doubl
         }
         lam[i] = s;
     }
-    slider_crank_con_lu_solve_t(LU, piv, lam);
+    slider_crank_lu_solve_t(LU, 2, piv, lam);
 }
 
 /* First-order right-hand side dxdt = [G(q,u,t); u_s'] of the constrained system: u_r from A u + b = 0 (LU of A_r), u_s' from the reduced equations T^T M T u_s' = T^T (F - M [0; d]).
@@ -707,16 +734,17 @@ static int slider_crank_initial_step(double t0, const double *y, const double *f
  * constraints f_h(q, t) = 0 after an accepted step: Newton on them alone, to
  * max|f_h| <= 1e-12 (1 + max|q_r|) with q_r as the step left them (the bound does not
  * grow with the iterates, so Newton running off near a dead point is no convergence), at
- * most 12 iterations (SLIDER_CRANK_PROJECTION_FAILED otherwise); a pivot of the dependent
- * coordinates' Jacobian at or below 1e-13 max|entry| is SLIDER_CRANK_CONSTRAINT_SINGULAR.
+ * most 12 iterations (SLIDER_CRANK_PROJECTION_FAILED otherwise); the dependent coordinates'
+ * Jacobian singular by slider_crank_lu_factor's rule is SLIDER_CRANK_CONSTRAINT_SINGULAR.
  * stats->max_residual records the largest max|f_h| met before projecting;
  * opt->no_projection = 1 only records it (to measure drift). */
 static int slider_crank_project(double t, double *x, const double *p, const double *r,
                                 const slider_crank_options *opt, slider_crank_stats *stats)
 {
     double f[2], J[6], a[4], dq[2];
-    double res, scale, big, amax, tmp;
-    int it, i, j, k, pr, status;
+    double res, scale;
+    int piv[2];
+    int it, i, status;
     status = slider_crank_holonomic(t, x, p, r, f);
     if (status != SLIDER_CRANK_OK) {
         return status;
@@ -751,54 +779,15 @@ static int slider_crank_project(double t, double *x, const double *p, const doub
         if (status != SLIDER_CRANK_OK) {
             return status;
         }
-        amax = 0.0;
         for (i = 0; i < 2; ++i) {
             a[i * 2 + 0] = J[i * 3 + 2];
-            if (fabs(a[i * 2 + 0]) > amax) {
-                amax = fabs(a[i * 2 + 0]);
-            }
             a[i * 2 + 1] = J[i * 3 + 1];
-            if (fabs(a[i * 2 + 1]) > amax) {
-                amax = fabs(a[i * 2 + 1]);
-            }
             dq[i] = -f[i];
         }
-        for (k = 0; k < 2; ++k) {
-            pr = k;
-            big = fabs(a[k * 2 + k]);
-            for (i = k + 1; i < 2; ++i) {
-                if (fabs(a[i * 2 + k]) > big) {
-                    big = fabs(a[i * 2 + k]);
-                    pr = i;
-                }
-            }
-            if (!(big > 1e-13 * amax)) {
-                return SLIDER_CRANK_CONSTRAINT_SINGULAR;
-            }
-            if (pr != k) {
-                for (j = 0; j < 2; ++j) {
-                    tmp = a[k * 2 + j];
-                    a[k * 2 + j] = a[pr * 2 + j];
-                    a[pr * 2 + j] = tmp;
-                }
-                tmp = dq[k];
-                dq[k] = dq[pr];
-                dq[pr] = tmp;
-            }
-            for (i = k + 1; i < 2; ++i) {
-                tmp = a[i * 2 + k] / a[k * 2 + k];
-                for (j = k; j < 2; ++j) {
-                    a[i * 2 + j] -= tmp * a[k * 2 + j];
-                }
-                dq[i] -= tmp * dq[k];
-            }
+        if (!slider_crank_lu_factor(a, 2, piv)) {
+            return SLIDER_CRANK_CONSTRAINT_SINGULAR;
         }
-        for (i = 2 - 1; i >= 0; --i) {
-            for (j = i + 1; j < 2; ++j) {
-                dq[i] -= a[i * 2 + j] * dq[j];
-            }
-            dq[i] /= a[i * 2 + i];
-        }
+        slider_crank_lu_solve(a, 2, piv, dq);
         x[2] += dq[0];
         x[1] += dq[1];
         status = slider_crank_holonomic(t, x, p, r, f);

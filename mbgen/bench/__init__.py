@@ -15,8 +15,11 @@ time budget and a memory cap.
 
 How to add a benchmark
 ----------------------
-1. ``mbgen/bench/<name>.py``: the measurement (rows of numbers), a ``format_*`` table
-   and the writers (CSV with :func:`mbgen.fileio.write_atomic`, PNG with
+1. ``mbgen/bench/<name>.py``: the measurement (rows of numbers; mbgen's generation
+   through :func:`mbgen.pipeline.run` with ``timer=``
+   :func:`~mbgen.bench.timing.pipeline_timer`, not a sequence of stages of its own; only
+   :mod:`~mbgen.bench.stages` has one, to time each output's CSE alone), a ``format_*``
+   table and the writers (CSV with :func:`mbgen.fileio.write_atomic`, PNG with
    :func:`mbgen.viz.plots.figure` and :func:`~mbgen.viz.plots.save_png`).  A side that
    may run away runs in a child process: ``children.run_json_child(["-m",
    "mbgen.bench.<name>", ...])`` and ``if __name__ == "__main__":`` at the module's end

@@ -5,9 +5,10 @@ revolute joints about z and y alternating, full link inertias, gravity) is
 run through three tools, side by side in one run:
 
 mbgen (a child process per ``n``, under a time budget and a memory cap)
-    *derive* (``equations_of``), *bake* (the scene's fixed parameters),
-    *CSE* (``optimize``, RHS output), *render*, *compile* (cffi, into an empty
-    cache); the operations after CSE; the RHS time **inside C** -- a small C
+    the stages of :func:`mbgen.pipeline.run` with the method asked for, each timed
+    once (:func:`mbgen.bench.timing.pipeline_timer`): *derive*, *bake* (the scene's
+    fixed parameters), *CSE* (``optimize``, RHS output), *render*, *compile* (cffi,
+    into an empty cache); the operations after CSE; the RHS time **inside C** -- a small C
     driver (``templates/bench/rhs.c.j2``) calls ``<prefix>_rhs`` in a loop timed
     with ``clock_gettime``, compiled with ``cc`` and the same flags as Pinocchio's
     driver and run as a subprocess; and the time of one ``model.rhs`` call from
@@ -55,14 +56,9 @@ from sympy.physics import mechanics as me
 from threadpoolctl import threadpool_limits
 
 from ..abi import Output
-from ..build.extension import load
-from ..codegen.optimize import optimize
-from ..codegen.render import render
-from ..codegen.slicing import bake
 from ..derivation import Method
 from ..errors import BenchmarkError
-from ..pipeline import equations_of
-from ..runtime.compiled import CompiledModel
+from ..pipeline import run
 from ..scenes.spatial_arm import axis, link_parameters
 from ..scenes.spatial_arm import scene as arm_scene
 from ..symbolic.graph import count_ops_dag
@@ -72,7 +68,7 @@ from .arm_casadi import have_casadi
 from .arm_jacobian import format_extra, relative_difference, run_casadi, run_jacobian
 from .arm_pinocchio import (build_aba_driver, import_pinocchio, pinocchio_aba_derivatives,
                             pinocchio_arm, run_aba_derivatives_driver, run_aba_driver)
-from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, staged
+from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, pipeline_timer
 
 @dataclass
 class ArmRow:
@@ -135,17 +131,10 @@ def state(n: int) -> tuple[np.ndarray, np.ndarray]:
 # ----------------------------------------------------------------------------- mbgen (child)
 def _mbgen_child(n: int, repeats: int, method: str, emit) -> None:
     """mbgen's side for one ``n``; ``emit(key, value)`` reports each result as it is known."""
-    stage = staged(emit)
-
-    scene = arm_scene(n)
-    equations = stage("derive_s", equations_of, scene, Method(method), energy=False)
-    baked = stage("bake_s", bake, equations, scene.fixed, scene.inputs)
-    kernel = stage("cse_s", optimize, baked, (Output.RHS,))
-    emit("ops_after", kernel.ops_after)
-    rendered = stage("render_s", render, kernel)
-    module = stage("compile_s", load, rendered)
+    result = run(arm_scene(n), (Output.RHS,), method=Method(method),
+                 timer=pipeline_timer(emit, counts={"ops_after": "ops_after"}))
+    rendered, model = result.rendered, result.compiled
     layout = rendered.layout
-    model = CompiledModel(rendered, module, layout, rendered.defaults, rendered.outputs)
     q, v = state(n)
     x = np.concatenate([q, v])
     p = np.array([rendered.defaults[k] for k in layout.parameter_names])

@@ -3,7 +3,8 @@
 mbgen's Jacobian (a child process per ``n``, ``python -m mbgen.bench.arm_jacobian``,
 under the same budget and memory cap as the RHS side)
     *derive*, *bake*, *CSE* (``optimize`` of ``Output.JACOBIAN`` alone), *render*,
-    *compile*: the Jacobian's own generation from the scene, each stage timed once; its
+    *compile*: the Jacobian's own generation from the scene by :func:`mbgen.pipeline.run`,
+    each stage timed once; its
     operations after CSE (the header's count: the ``L D L^T`` solve excluded); and
     ``<prefix>_jacobian`` (``df/dx`` of the first-order RHS, row-major ``n_x x n_x``)
     timed inside C by :func:`mbgen.bench.timing.c_function_ns`.  Its lower ``n`` rows,
@@ -35,17 +36,12 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ..abi import Output
-from ..build.extension import load
-from ..codegen.optimize import optimize
-from ..codegen.render import render
-from ..codegen.slicing import bake
 from ..derivation import Method
-from ..pipeline import equations_of
-from ..runtime.compiled import CompiledModel
+from ..pipeline import run
 from ..scenes.spatial_arm import scene as arm_scene
 from . import children
 from .arm_casadi import have_casadi
-from .timing import c_function_ns, staged
+from .timing import c_function_ns, pipeline_timer
 
 JAC_STAGES = ("jac_derive_s", "jac_bake_s", "jac_cse_s", "jac_render_s", "jac_compile_s",
               "jac_c_ns")
@@ -61,18 +57,11 @@ def relative_difference(ours, theirs) -> float:
 
 # ----------------------------------------------------------------------------- mbgen (child)
 def _jacobian_child(n: int, repeats: int, method: str, x: np.ndarray, emit) -> None:
-    stage = staged(emit)
-
     scene = replace(arm_scene(n), outputs=(Output.JACOBIAN,))
-    equations = stage("jac_derive_s", equations_of, scene, Method(method), energy=False,
-                      jacobian=True)
-    baked = stage("jac_bake_s", bake, equations, scene.fixed, scene.inputs)
-    kernel = stage("jac_cse_s", optimize, baked, (Output.JACOBIAN,))
-    emit("jac_ops", kernel.ops_after)
-    rendered = stage("jac_render_s", render, kernel)
-    module = stage("jac_compile_s", load, rendered)
+    result = run(scene, method=Method(method),
+                 timer=pipeline_timer(emit, "jac_", counts={"ops_after": "jac_ops"}))
+    rendered, model = result.rendered, result.compiled
     layout = rendered.layout
-    model = CompiledModel(rendered, module, layout, rendered.defaults, rendered.outputs)
     p = np.array([rendered.defaults[k] for k in layout.parameter_names])
     r = np.zeros(layout.n_r)
     emit("jac_block", np.asarray(model.jacobian(0.0, x, p, r))[n:].tolist())

@@ -53,18 +53,14 @@ from sympy.physics import mechanics as me
 from threadpoolctl import threadpool_limits
 
 from ..abi import Output
-from ..build.extension import load
-from ..codegen.optimize import optimize
-from ..codegen.render import render
-from ..codegen.slicing import bake
+from ..derivation import Method
 from ..model.scene import load_scene
 from ..pipeline import compile as compile_
-from ..pipeline import equations_of
-from ..runtime.compiled import CompiledModel
+from ..pipeline import run
 from ..runtime.linearize import linearize
 from ..scenes.whipple import PARAMETERS, upright_state
 from . import children
-from .timing import c_rhs_ns, per_call_ns, staged
+from .timing import c_rhs_ns, per_call_ns, pipeline_timer, staged
 
 #: Speed (m/s) of the steady upright run where both sides linearise and evaluate.
 SPEED = 5.0
@@ -99,15 +95,11 @@ def _mbgen_child(point: dict, repeats: int, emit) -> None:
     stage = staged(emit)
 
     scene = load_scene("whipple")
-    equations = stage("derive_s", equations_of, scene, energy=False)
-    baked = stage("bake_s", bake, equations, scene.fixed, scene.inputs)
-    kernel = stage("cse_s", optimize, baked, (Output.RHS,))
-    emit("ops_before", kernel.ops_before)
-    emit("ops_after", kernel.ops_after)
-    rendered = stage("render_s", render, kernel)
-    module = stage("compile_s", load, rendered)
+    counts = {"ops_before": "ops_before", "ops_after": "ops_after"}
+    result = run(scene, (Output.RHS,), method=Method.KANE,
+                 timer=pipeline_timer(emit, counts=counts))
+    rendered, model = result.rendered, result.compiled
     layout = rendered.layout
-    model = CompiledModel(rendered, module, layout, rendered.defaults, rendered.outputs)
     x = np.array(point["x"])
     p = model.default_parameters if layout.n_p else np.zeros(0)
     emit("accelerations", model.rhs(0.0, x, p)[8:].tolist())

@@ -5,9 +5,9 @@ name (:data:`mbgen.bench.robot_peers.ROBOTS`: ``panda``, ``ur5``, ``solo12`` and
 on a floating base).  In one run, side by side:
 
 mbgen (a child process, cold: an empty compile cache)
-    the generation stages (derive, bake, CSE, render, compile; the Jacobian too with
-    ``jacobian=True``), the RHS in a C loop (:func:`mbgen.bench.timing.c_rhs_ns`) and
-    ``model.rhs`` from Python.
+    the generation stages of :func:`mbgen.pipeline.run` as ``mbgen.compile`` runs them
+    (derive, bake, CSE, render, compile; the Jacobian too with ``jacobian=True``), the
+    RHS in a C loop (:func:`mbgen.bench.timing.c_rhs_ns`) and ``model.rhs`` from Python.
 Pinocchio (``pin``; URDF only)
     ``aba`` in a C++ loop over the model Pinocchio builds from the same file, and
     ``pin.aba`` from Python.  An MJCF file is left out with a note: MuJoCo's ball and free
@@ -38,16 +38,11 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ..abi import Output
-from ..build.extension import load
-from ..codegen.optimize import optimize
-from ..codegen.render import render
-from ..codegen.slicing import bake
 from ..model.mjcf import compile_mjcf, from_mujoco, scene_values
 from ..model.scene import Scene, urdf_scene
-from ..pipeline import equations_of
-from ..runtime.compiled import CompiledModel
+from ..pipeline import run
 from . import children, robot_peers as peers
-from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, staged
+from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, pipeline_timer, staged
 
 STAGES = ("derive_s", "bake_s", "cse_s", "render_s", "compile_s")
 
@@ -112,14 +107,10 @@ def _mbgen_child(file: str, floating: bool, jacobian: bool, repeats: int, emit) 
 
     path = Path(file)
     scene = stage("read_s", _scene, path, floating, jacobian)
-    equations = stage("derive_s", equations_of, scene, energy=False)
-    baked = stage("bake_s", bake, equations, scene.fixed, scene.inputs)
-    kernel = stage("cse_s", optimize, baked, tuple(scene.outputs))
-    emit("ops_after", kernel.ops_after)
-    rendered = stage("render_s", render, kernel)
-    module = stage("compile_s", load, rendered)
+    result = run(scene, timer=pipeline_timer(emit, counts={"ops_after": "ops_after"}))
+    emit("ops_after", result.kernel.ops_after)   # the kept one's, where both were compared
+    rendered, model = result.rendered, result.compiled
     layout = rendered.layout
-    model = CompiledModel(rendered, module, layout, rendered.defaults, rendered.outputs)
     mj = compile_mjcf(path) if path.suffix.lower() != ".urdf" else None
     x, r = random_state(layout, floating, mj)
     p = np.array([rendered.defaults[k] for k in layout.parameter_names])
@@ -189,10 +180,12 @@ def _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say) -> None:
 
 
 def _mujoco_state(mj, names, x, r, floating, urdf: bool):
-    """MuJoCo's ``(qpos, qvel, qfrc_applied)`` of mbgen's state, and the map back of qacc."""
+    """MuJoCo's ``(qpos, qvel, qfrc_applied)`` of mbgen's state, and the map back of qacc.
+    An MJCF model's inputs are ``qfrc_applied`` then the actuators' ``ctrl``
+    (:mod:`mbgen.model.mjcf`); the ``ctrl`` part is set by the caller."""
     if not urdf:
         n_q = mj.nq
-        return x[:n_q], x[n_q:], r, lambda qacc, x=x: qacc
+        return x[:n_q], x[n_q:], r[:mj.nv], lambda qacc, x=x: qacc
     mujoco = peers.import_mujoco()
     from ..model.urdf import identifier
     index = {n: i for i, n in enumerate(names)}
@@ -237,10 +230,12 @@ def _mujoco(report, file, clean, floating, names, x, r, accel, repeats, say) -> 
         return
     urdf = file.suffix.lower() == ".urdf"
     mj = peers.mujoco_of_urdf(clean, floating) if urdf else compile_mjcf(file)
-    peers.switch_off(mj)
+    peers.switch_off(mj, actuation=not urdf)      # an MJCF file's actuators are read
     qpos, qvel, qfrc, back = _mujoco_state(mj, names, x, r, floating, urdf)
     data = mujoco.MjData(mj)
     data.qpos[:], data.qvel[:], data.qfrc_applied[:] = qpos, qvel, qfrc
+    if not urdf:
+        data.ctrl[:] = r[mj.nv:mj.nv + mj.nu]
 
     def forward():
         mujoco.mj_forward(mj, data)

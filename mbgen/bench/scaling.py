@@ -6,11 +6,13 @@ the same model (:mod:`mbgen.scenes.n_link_cart` is
 ``cart_force=True``, same symbols and state order):
 
 mbgen
-    *derive*: ``build_model(n)`` + :func:`mbgen.derive`; *CSE*:
-    :func:`mbgen.codegen.optimize.optimize` (RHS output; this includes block assembly,
-    power hoisting and the operation counts); *render*; *compile*:
-    :func:`mbgen.build.extension.load` into an empty temporary cache, so the C compiler
-    really runs; *RHS*: one ``CompiledModel.rhs(t, x, p, r)`` call.
+    the stages of :func:`mbgen.pipeline.run` with Kane's method (what
+    :func:`mbgen.derive` takes for this model at every ``n``); *derive*: ``build_model(n)``
+    + the derivation; *CSE*: :func:`mbgen.codegen.optimize.optimize` (RHS output; this
+    includes block assembly, power hoisting and the operation counts); *render*;
+    *compile*: :func:`mbgen.build.extension.load` into an empty temporary cache, so the C
+    compiler really runs (the *bake* stage has nothing to bake here and is not reported);
+    *RHS*: one ``CompiledModel.rhs(t, x, p, r)`` call.
 sympy
     *derive*: ``n_link_pendulum_on_cart(n, cart_force=True)`` (builds the model,
     ``KanesMethod`` and ``kanes_equations``) plus reading ``mass_matrix_full``
@@ -66,12 +68,9 @@ from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 from threadpoolctl import threadpool_limits
 
 from ..abi import Output
-from ..build.extension import load
-from ..codegen.optimize import optimize
-from ..codegen.render import render
-from ..derivation import derive
+from ..derivation import Method
 from ..fileio import write_atomic
-from ..runtime.compiled import CompiledModel
+from ..pipeline import run
 from ..scenes.n_link_cart import build_model
 from ..symbolic.graph import count_ops_dag, count_ops_tree
 from ..viz.plots import figure, save_png
@@ -200,24 +199,25 @@ def _point(layout) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return x, p, r
 
 
+#: How the progress lines name the pipeline's stages (the others by their own names).
+_SAID = {"cse": "CSE"}
+
+
 def _mbgen_side(n: int, repeats: int, say: Callable[[str], None]):
     """Run and time mbgen's stages; returns ``(fields, layout, (x, p, r), dxdt)``."""
-    say(f"n={n}: mbgen derive")
     sm.core.cache.clear_cache()
-    equations, derive_s = _timed(lambda: derive(build_model(n), energy=False))
-    say(f"n={n}: mbgen CSE")
-    kernel, cse_s = _timed(optimize, equations, (Output.RHS,))
-    say(f"n={n}: mbgen render")
-    rendered, render_s = _timed(render, kernel)
-    say(f"n={n}: mbgen compile")
-    module, compile_s = _timed(load, rendered)
-    model = CompiledModel(rendered, module, equations.layout, equations.defaults, (Output.RHS,))
-    x, p, r = _point(equations.layout)
+    model, build_s = _timed(build_model, n)
+    result = run(model, (Output.RHS,), method=Method.KANE,
+                 stage=lambda name: say(f"n={n}: mbgen {_SAID.get(name, name)}"))
+    seconds, kernel, layout = result.timings, result.kernel, result.equations.layout
+    compiled = result.compiled
+    x, p, r = _point(layout)
     say(f"n={n}: mbgen RHS")
-    rhs_s = _per_call(lambda: model.rhs(0.0, x, p, r), repeats)
-    fields = dict(n=n, derive_s=derive_s, cse_s=cse_s, render_s=render_s, compile_s=compile_s,
-                  rhs_s=rhs_s, ops_before=kernel.ops_before, ops_after=kernel.ops_after)
-    return fields, equations.layout, (x, p, r), model.rhs(0.0, x, p, r)
+    rhs_s = _per_call(lambda: compiled.rhs(0.0, x, p, r), repeats)
+    fields = dict(n=n, derive_s=build_s + seconds["derive"], cse_s=seconds["cse"],
+                  render_s=seconds["render"], compile_s=seconds["compile"], rhs_s=rhs_s,
+                  ops_before=kernel.ops_before, ops_after=kernel.ops_after)
+    return fields, layout, (x, p, r), compiled.rhs(0.0, x, p, r)
 
 
 def _sympy_side(n: int, repeats: int, layout, point, say: Callable[[str], None]):

@@ -16,13 +16,15 @@ import statistics
 import subprocess
 import time
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Mapping
 
 import numpy as np
 
 from ..build.extension import compiler
 from ..codegen.templating import environment
+from ..codegen.optimize import Kernel
 from ..errors import BenchmarkError, BuildError
+from ..pipeline import StageTimer
 
 #: Shortest timed loop, seconds (C drivers and Python per-call loops).
 MIN_LOOP_S = 0.02
@@ -39,6 +41,27 @@ def staged(emit: Callable[[str, object], None]) -> Callable:
         emit(key, time.perf_counter() - t0)
         return value
     return stage
+
+
+def pipeline_timer(emit: Callable[[str, object], None], prefix: str = "",
+                   counts: Mapping[str, str] | None = None) -> StageTimer:
+    """The :class:`~mbgen.pipeline.StageTimer` of a benchmark child.
+
+    ``emit(f"{prefix}{stage}_s", seconds)`` as each stage of :func:`mbgen.pipeline.run` ends
+    (``derive_s``, ``bake_s``, ``cse_s``, ``render_s``, ``compile_s``: every benchmark times
+    the one pipeline, a new stage included); a stage that runs twice (both derivations
+    compared) reports its sum.  ``counts`` (a :class:`~mbgen.codegen.optimize.Kernel`
+    attribute -> key) are emitted as the kernel is made, so that a side stopped later in
+    render or compile still reports them.
+    """
+    counts = dict(counts or {})
+
+    def finished(stage: str, seconds: float, value) -> None:
+        emit(f"{prefix}{stage}_s", seconds)
+        if isinstance(value, Kernel):
+            for attribute, key in counts.items():
+                emit(key, getattr(value, attribute))
+    return StageTimer(finished=finished)
 
 
 def per_call_ns(fn: Callable[[], object], repeats: int) -> float:

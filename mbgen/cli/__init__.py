@@ -68,7 +68,8 @@ class Command(NamedTuple):
 #: Every command, in the order of ``mbgen --help``.
 COMMANDS = {
     "scenes": Command("scenes", "list the built-in scenes"),
-    "generate": Command("generate", "write the generated C header, C source and Python"),
+    "generate": Command("generate", "write the generated C header, C source and Python "
+                                    "(--target c,python,step,batch,example,fmu)"),
     "linearize": Command("linearize", "A, B and eigenvalues at the scene's initial state"),
     "check": Command("check", "compare compiled C, generated Python and lambdify"),
     "simulate": Command("simulate", "integrate with the compiled RHS and write a CSV"),
@@ -86,7 +87,8 @@ COMMANDS = {
                  "against run time)"),
     "stress": Command("stress", "stability suite: stiff, extreme, near-singular, long runs, "
                                 "floating point vs 50-digit mpmath"),
-    "fmu": Command("fmu", "write an FMI 2.0 FMU (model exchange and co-simulation)"),
+    "fmu": Command("fmu", "write an FMI 2.0 FMU (model exchange and co-simulation); "
+                          "alias of 'generate --target fmu -o .'"),
     "sweep": Command("sweep", "parameter study / Monte Carlo ensemble on Dask (exit 5 "
                               "when a member failed; the table is written anyway)"),
     "golden": Command("golden", "compare (or --update) generated/ with the generator"),

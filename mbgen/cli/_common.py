@@ -23,7 +23,6 @@ output path, a file in the way) exits 2; one in what the scene states exits 3.
 from __future__ import annotations
 
 import argparse
-import difflib
 import math
 import os
 import sys
@@ -34,6 +33,7 @@ from ..derivation import Method
 from ..symbolic.equations import METHOD_TITLES
 from ..errors import OutputPathError, SceneError, UsageError
 from ..model.scene import load_scene, model_names
+from ..names import did_you_mean
 from ..runtime.named import InputTable, check_names, merge_inputs, read_input_csv, vector
 from ..studies.ensemble import MAX_POINTS
 from ..verify import golden
@@ -258,11 +258,9 @@ def input_signals(args) -> dict:
         table = read_input_csv(value)
         columns = table.values
         if name not in columns and len(columns) != 1:
-            close = difflib.get_close_matches(name, list(columns), 1)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
             raise UsageError(f"-r {pair!r}: {value} has the columns {', '.join(columns)}, "
-                             f"none named {name!r}{hint} (name the column {name}, or give a "
-                             f"table with one input column)")
+                             f"none named {name!r}{did_you_mean(name, columns)} (name the "
+                             f"column {name}, or give a table with one input column)")
         out[name] = (table.times, columns.get(name, next(iter(columns.values()))))
     return out
 

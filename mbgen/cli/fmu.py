@@ -1,5 +1,9 @@
 """``mbgen fmu SCENE``: write an FMI 2.0 FMU (model exchange and co-simulation).
 
+An alias of ``mbgen generate SCENE --target fmu`` that writes ``<prefix>.fmu`` alone
+into ``-o`` (default: the current folder; no manifest, no other file), through the same
+row of :data:`mbgen.codegen.targets.TARGETS` (:func:`mbgen.generate`).
+
 An FMU's inputs are the importer's (causality input): it sets them at every step or
 communication point, so an input table belongs to the importer (FMPy:
 ``simulate_fmu(..., input=...)``, linear between rows as ``mbgen simulate -r
@@ -10,7 +14,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..export import export_fmu
+from ..export import generate
 from ..errors import EXIT_OK, UsageError
 from ._common import add_scene_arguments, check_folder, scene_from
 
@@ -32,6 +36,6 @@ def run(args) -> int:
                          f"simulate_fmu(path, input=...)), or use 'mbgen simulate -r "
                          f"NAME=FILE.csv' to run the table here")
     check_folder(args.output, "-o")
-    path = export_fmu(scene_from(args), args.output)
-    print(f"{path}  (FMI 2.0, model exchange and co-simulation)")
+    for path, what in generate(scene_from(args), ["fmu"], args.output).archives:
+        print(f"{path}  ({what})")
     return EXIT_OK

@@ -12,8 +12,9 @@ prints a kernel with :mod:`~mbgen.codegen.printing` into the Jinja templates of
 loops, the FMU and the embedding example.  :mod:`~mbgen.codegen.split` cuts a long C
 function into parts that share a work array (a compiler's time stays linear in the model),
 :mod:`~mbgen.codegen.solver` unrolls the mass matrix's ``L D L^T`` solve, :mod:`~mbgen.codegen.header` states the header's index
-macros, content hash and stack bounds, :mod:`~mbgen.codegen.escape` escapes user text
-where it lands.
+macros, content hash and the units of the stack bounds (each target states its own; the C
+helpers are runtime routines emitted once, :mod:`mbgen.codegen.targets.runtime`),
+:mod:`~mbgen.codegen.escape` escapes user text where it lands.
 
 Nothing here compiles or runs the code (:mod:`mbgen.build`, :mod:`mbgen.runtime`) or derives
 equations (:mod:`mbgen.derivation`); the pipeline (:mod:`mbgen.pipeline`) calls the stages.
@@ -27,7 +28,7 @@ How to add a rendered part
    class and ``METHODS`` row there; here nothing but ``templates/integrators/<name>.c.j2``
    and ``templates/step/<name>.c.j2``, ``.h.j2``, chosen by the output's name; its view is
    chosen by ``implicit`` in :func:`mbgen.codegen.integrators.method_view`, its stack bound
-   by ``adaptive`` / ``implicit`` in :mod:`mbgen.codegen.header`).
+   by ``adaptive`` / ``implicit`` in the integrators and step targets' ``stack_bounds``).
 3. An output: its row in :mod:`mbgen.codegen.outputs` (the expressions) -- the templates
    print every output the same way.
 4. ``tests/codegen/test_targets.py`` fails when a target's or an integrator's template

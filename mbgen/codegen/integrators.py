@@ -158,8 +158,7 @@ def integrator_context(kernel) -> dict:
         m = method_view(o)
         m.update(template=f"integrators/{o.value}.c.j2",
                  proto=f"int {prefix}_{o.value}(const double *x0{extra_params}, {tail}"
-                       + (f", {prefix}_{o.value}_work *work)" if m["implicit"] else ")"),
-                 lu=m["implicit"] and not any(n["implicit"] for n in methods))
+                       + (f", {prefix}_{o.value}_work *work)" if m["implicit"] else ")"))
         methods.append(m)
     return dict(integ=dict(
         methods=methods,

@@ -10,61 +10,43 @@ Every function follows one pattern (the templates render it):
 4. if ``columns``: solve ``M Y = D`` column by column and write ``Y`` below
    the kinematic rows of the output.
 
-Outputs
--------
-``RHS``
-    ``dxdt = [G; M^{-1} F]``, shape ``(n_x,)``.
-``MASS_MATRIX``, ``FORCING``
-    ``M`` (``n_u x n_u``, each symmetric pair computed once) and ``F``.
-``ENERGY``
-    ``[T, V]``.
-``JACOBIAN``, ``PARAMETER_JACOBIAN``, ``TIME_DERIVATIVE``
-    :math:`\partial f/\partial v` of the first-order right-hand side for
-    ``v = x`` (``n_x x n_x``), ``v = p`` (``n_x x n_p``) or ``v = t`` (``n_x``).
-    With :math:`R(v, a) = F - M a` and the accelerations ``a`` held fixed,
+What each output is -- its C array, shape, description, what it needs of the
+equations and what a sensitivity differentiates by -- is its row of
+:data:`mbgen.abi.OUTPUT_INFO`.  Here each expression output has only its builder, a
+row of :data:`BUILDERS` that returns its :class:`Spec`; a builder states the
+generated comment (``Spec.doc``) only where it depends on the equations (the form,
+the constraints, the point and joint names), else :func:`spec` writes the row's.
+The integrators have no expressions of their own and pull in the outputs they call
+(:func:`with_dependencies`).
 
-    .. math::
+The sensitivities :math:`\partial f/\partial v` of the first-order right-hand side
+(``v`` is ``x``, ``p``, ``t`` or ``r``: the row's ``wrt``) share one builder,
+:func:`_sensitivity`.  With :math:`R(v, a) = F - M a` and the accelerations ``a``
+held fixed,
 
-        \frac{\partial u'}{\partial v} = M^{-1} \frac{\partial R}{\partial v}
-        = M^{-1}\Big(\frac{\partial F}{\partial v} - \frac{\partial M}{\partial v} a\Big),
+.. math::
 
-    so ``M`` is factored once and :math:`\partial R/\partial v` is symbolic.
-``POSITIONS``, ``VELOCITIES``
-    Newtonian components of the named points' positions and velocities,
-    shape ``(k, 3)`` (the points the equations were derived with).
-``REACTIONS``
-    For every joint (from the root), the force and moment the parent exerts
-    on the child at the joint point, in the joint's frame: shape
-    ``(n_joints, 6)``, ``[Fx, Fy, Fz, Mx, My, Mz]``.
-``INPUT_JACOBIAN``
-    :math:`\partial f/\partial r` (``n_x x n_r``), like the Jacobians above.
-``CONSTRAINT_FORCES``, ``HOLONOMIC``, ``HOLONOMIC_JACOBIAN``
-    A constrained model's multipliers ``lambda`` of ``M u' = F + A^T lambda``,
-    the configuration constraints ``f_h(q, t)`` and ``df_h/dq``.
-``DOPRI5``, ``RK4``, ``ROSENBROCK``
-    Integrators rendered into the C with the model (no expressions of their
-    own); they pull in the outputs they call.
+    \frac{\partial u'}{\partial v} = M^{-1} \frac{\partial R}{\partial v}
+    = M^{-1}\Big(\frac{\partial F}{\partial v} - \frac{\partial M}{\partial v} a\Big),
 
-Each expression output is one :class:`OutputDef` row of :data:`OUTPUTS`: the
-name of its array and the function that builds its :class:`Spec`.  What it needs
-of the equations (and the error when they lack it) is its row of
-:data:`mbgen.symbolic.availability.REQUIREMENTS`, read by :func:`spec` and by the
-reference.
+so ``M`` is factored once and :math:`\partial R/\partial v` is symbolic.
 
 How to add an output
 --------------------
 1. ``mbgen/abi.py``: a member of :class:`~mbgen.abi.Output` (the function's name
-   ``<prefix>_<value>``).
-2. ``mbgen/symbolic/availability.py``: its row of ``REQUIREMENTS`` when some
-   equations cannot give it (and of ``SENSITIVITIES`` for a ``df/dv``).
-3. Here: an :class:`OutputDef` row of :data:`OUTPUTS` and its builder, which
-   returns the :class:`Spec` (blocks, ``solve``, labels, doc).
-4. ``mbgen/runtime/lambdified.py``: its row of ``REFERENCES``, how the reference
+   ``<prefix>_<value>``) and its :class:`~mbgen.abi.OutputInfo` row of ``OUTPUT_INFO``
+   (array, shape, doc, needs, ``wrt`` for a ``df/dv``).  A need that is new:
+   a :class:`~mbgen.abi.Need` member and its test in
+   ``mbgen/symbolic/availability.py`` (``CONDITIONS``).
+2. Here: its builder, a row of :data:`BUILDERS` (a ``df/dv`` reuses ``_sensitivity``).
+3. ``mbgen/runtime/lambdified.py``: its row of ``REFERENCES``, how the reference
    computes it from the unoptimised equations.
-5. ``mbgen/runtime/base.py``: its accessor row (the method ``model.<value>(t, x, p, r)``
-   of every runtime model and its result's shape).
-6. ``tests/codegen/test_outputs.py`` fails while an output misses a row in any of these
-   tables; ``tests/codegen/test_golden.py`` then shows what the generated code gained.
+4. ``mbgen/runtime/base.py``: its accessor line in :class:`~mbgen.runtime.base.ModelBase`
+   (``<value> = _accessor(Output.<NAME>)``; the docstring comes from the row).
+5. ``tests/codegen/test_outputs.py`` fails while an output misses a row in any of these
+   tables, and prints the table of ``docs/modelling.md`` ("Outputs and their shapes")
+   that the rows give; ``tests/codegen/test_golden.py`` then shows what the generated
+   code gained.
 """
 
 from __future__ import annotations
@@ -75,7 +57,7 @@ from typing import Callable, Iterable
 
 import sympy as sm
 
-from ..abi import INTEGRATORS, Output
+from ..abi import INTEGRATORS, OUTPUT_INFO, Output, OutputInfo
 from ..errors import ModelError
 from ..integrators import METHODS
 from ..symbolic.availability import SENSITIVITIES, imported, imported_hint, require, time_symbols
@@ -157,20 +139,6 @@ class Spec:
         return size
 
 
-@dataclass(frozen=True)
-class OutputDef:
-    """One expression output: its array's name in the generated code and how to build its spec.
-
-    ``build(eq, row, form)`` returns the :class:`Spec`; ``doc`` is the generated
-    function's description where it does not depend on the equations.
-    """
-
-    output: Output
-    array: str
-    build: Callable[[Equations, "OutputDef", Form], Spec]
-    doc: str = ""
-
-
 def spec(eq: Equations, output: Output, form: Form = Form.SOLVE) -> Spec:
     """What ``output`` computes for ``eq`` (integrators have no spec: see :data:`INTEGRATORS`).
 
@@ -181,8 +149,8 @@ def spec(eq: Equations, output: Output, form: Form = Form.SOLVE) -> Spec:
     Raises
     ------
     ModelError
-        The equations cannot give ``output`` (see
-        :data:`mbgen.symbolic.availability.REQUIREMENTS`), or have no recursion for
+        The equations cannot give ``output`` (its row's ``needs``, see
+        :mod:`mbgen.symbolic.availability`), or have no recursion for
         ``Form.RECURSIVE``.
     """
     form = Form(form)
@@ -192,17 +160,26 @@ def spec(eq: Equations, output: Output, form: Form = Form.SOLVE) -> Spec:
                             if imported(eq) else
                             "derive with Method.NEWTON_EULER (relative joints) or use "
                             "Form.SOLVE"))
-    row = OUTPUTS.get(output)
-    if row is None:
+    build = BUILDERS.get(output)
+    if build is None:
         raise ModelError(f"output {output.value!r} has no expressions of its own")
     require(eq, output)
-    out = row.build(eq, row, form)
+    info = OUTPUT_INFO[output]
+    out = build(eq, info, form)
+    if not out.doc:
+        out = replace(out, doc=_comment(info))
     if eq.constraints is not None and not out.velocity:
         exprs = [e for b in out.pre + out.post for _, e in b.entries]
         exprs += [e for _, e in out.extra.assignments]
         if out.solve or set(eq.layout.dependent_speeds) & eq.uses(exprs):
             out = replace(out, velocity=_velocity_blocks(eq))
     return out
+
+
+def _comment(info: OutputInfo) -> str:
+    """The generated function's comment from the row: its doc, and a 2-D array's layout."""
+    layout = f", row-major {' x '.join(info.shape)}" if len(info.shape) == 2 else ""
+    return f"{info.doc}{layout}."
 
 
 def _mass_blocks(eq: Equations):
@@ -227,74 +204,74 @@ def _velocity_blocks(eq: Equations) -> tuple[Block, ...]:
             Block("CB", c.m, tuple(enumerate(c.velocity_bias))))
 
 
-def _rhs(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _rhs(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     L = eq.layout
     if form is Form.RECURSIVE:
         entries = tuple(enumerate(list(eq.kinematics) + list(eq.accelerations)))
-        return Spec(row.output, row.array, (L.n_x,), L.derivative_names,
+        return Spec(info.output, info.array, (L.n_x,), L.derivative_names,
                     (Block("out", L.n_x, entries),), pivots=True,
                     doc="First-order right-hand side dxdt = [G(q,u,t); u'] with u' from "
                         "the articulated-body recursion.")
     g = Block("out", L.n_x, tuple(enumerate(eq.kinematics)))
     if eq.constraints is not None:
-        return Spec(row.output, row.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
+        return Spec(info.output, info.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
                     solve=True, velocity=_velocity_blocks(eq),
                     doc="First-order right-hand side dxdt = [G(q,u,t); u_s'] of the "
                         "constrained system: u_r from A u + b = 0 (LU of A_r), u_s' from "
                         "the reduced equations T^T M T u_s' = T^T (F - M [0; d]).")
-    return Spec(row.output, row.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
+    return Spec(info.output, info.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
                 solve=True,
                 doc="First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by "
                     "L D L^T.")
 
 
-def _mass_matrix(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _mass_matrix(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     M = eq.mass_matrix
     n, sp = M.rows, eq.layout.all_speeds
     lower = tuple((i * n + j, M[i, j]) for i in range(n) for j in range(i + 1))
     mirror = tuple((j * n + i, i * n + j) for i in range(n) for j in range(i))
     labels = tuple(f"M[{sp[i]},{sp[j]}]" for i in range(n) for j in range(n))
-    return Spec(row.output, row.array, (n, n), labels, (Block("out", n * n, lower, mirror),),
+    return Spec(info.output, info.array, (n, n), labels, (Block("out", n * n, lower, mirror),),
                 doc="Mass matrix M(q,t), row-major, symmetric" + (
                     " (of every speed, the dependent ones last: M u' = F + A^T lambda)."
                     if eq.constraints is not None else "."))
 
 
-def _forcing(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _forcing(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     L = eq.layout
-    return Spec(row.output, row.array, (L.n_u + L.n_d,), tuple(f"F[{s}]" for s in L.all_speeds),
+    return Spec(info.output, info.array, (L.n_u + L.n_d,), tuple(f"F[{s}]" for s in L.all_speeds),
                 (Block("out", L.n_u + L.n_d, tuple(enumerate(eq.forcing))),),
                 doc="Forcing F(q,u,r,t) of M u' = F" + (
                     " + A^T lambda (every speed, the dependent ones last)."
                     if eq.constraints is not None else "."))
 
 
-def _energy(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _energy(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     pot = eq.potential_energy if eq.potential_energy is not None else sm.S.Zero
-    return Spec(row.output, row.array, (2,), ("T", "V"),
-                (Block("out", 2, ((0, eq.kinetic_energy), (1, pot))),), doc=row.doc)
+    return Spec(info.output, info.array, (2,), ("T", "V"),
+                (Block("out", 2, ((0, eq.kinetic_energy), (1, pot))),))
 
 
-def _positions(eq: Equations, row: OutputDef, form: Form) -> Spec:
-    return _point_spec(eq, row, "position", "r", "Positions")
+def _positions(eq: Equations, info: OutputInfo, form: Form) -> Spec:
+    return _point_spec(eq, info, "position", "r", "Positions")
 
 
-def _velocities(eq: Equations, row: OutputDef, form: Form) -> Spec:
-    return _point_spec(eq, row, "velocity", "v", "Velocities")
+def _velocities(eq: Equations, info: OutputInfo, form: Form) -> Spec:
+    return _point_spec(eq, info, "velocity", "v", "Velocities")
 
 
-def _point_spec(eq: Equations, row: OutputDef, attribute: str, letter: str, what: str) -> Spec:
+def _point_spec(eq: Equations, info: OutputInfo, attribute: str, letter: str, what: str) -> Spec:
     """``attribute`` (of :class:`PointKinematics`) of the equations' points, ``k x 3``."""
     entries = tuple((3 * k + i, getattr(pk, attribute)[i])
                     for k, pk in enumerate(eq.points) for i in range(3))
     labels = tuple(f"{letter}_{pk.name}.{axis}" for pk in eq.points for axis in ("x", "y", "z"))
-    return Spec(row.output, row.array, (len(eq.points), 3), labels,
+    return Spec(info.output, info.array, (len(eq.points), 3), labels,
                 (Block("out", 3 * len(eq.points), entries),),
                 doc=f"{what} of {', '.join(pk.name for pk in eq.points)} in Newtonian "
                     f"components, row-major k x 3.")
 
 
-def _reactions(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _reactions(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     """Joint reactions: after the solve (they hold for the actual accelerations)."""
     J = eq.reactions
     nj = len(J.names)
@@ -305,35 +282,34 @@ def _reactions(eq: Equations, row: OutputDef, form: Form) -> Spec:
     if form is Form.RECURSIVE:
         acc = acceleration_symbols(eq.layout.n_u)
         defs = Program(tuple(zip(acc, eq.accelerations)))
-        return Spec(row.output, row.array, (nj, 6), J.labels(),
+        return Spec(info.output, info.array, (nj, 6), J.labels(),
                     (Block("out", 6 * nj, entries),), doc=doc, extra=defs, pivots=True)
-    return Spec(row.output, row.array, (nj, 6), J.labels(), _mass_blocks(eq),
+    return Spec(info.output, info.array, (nj, 6), J.labels(), _mass_blocks(eq),
                 solve=True, post=(Block("out", 6 * nj, entries),), doc=doc)
 
 
-def _constraint_forces(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _constraint_forces(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     c = eq.constraints
     lam = lambda_symbols(c.m)
-    return Spec(row.output, row.array, (c.m,), tuple(f"lambda[{n}]" for n in c.names),
+    return Spec(info.output, info.array, (c.m,), tuple(f"lambda[{n}]" for n in c.names),
                 _mass_blocks(eq), solve=True, post=(Block("out", c.m, tuple(enumerate(lam))),),
-                velocity=_velocity_blocks(eq), doc=row.doc)
+                velocity=_velocity_blocks(eq))
 
 
-def _holonomic(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _holonomic(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     c = eq.constraints
-    return Spec(row.output, row.array, (c.m_h,), c.names[:c.m_h],
-                (Block("out", c.m_h, tuple(enumerate(c.holonomic))),), doc=row.doc)
+    return Spec(info.output, info.array, (c.m_h,), c.names[:c.m_h],
+                (Block("out", c.m_h, tuple(enumerate(c.holonomic))),))
 
 
-def _holonomic_jacobian(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _holonomic_jacobian(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     c, L = eq.constraints, eq.layout
     labels = tuple(f"d({n})/d({q})" for n in c.names[:c.m_h] for q in L.coordinates)
-    return Spec(row.output, row.array, (c.m_h, L.n_q), labels,
-                (Block("out", c.m_h * L.n_q, tuple(enumerate(c.holonomic_jacobian))),),
-                doc=row.doc)
+    return Spec(info.output, info.array, (c.m_h, L.n_q), labels,
+                (Block("out", c.m_h * L.n_q, tuple(enumerate(c.holonomic_jacobian))),))
 
 
-def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
+def _sensitivity(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     r"""``df/dv``: kinematic rows symbolic, dynamic rows from :math:`M^{-1}\,\partial R/\partial v`.
 
     ``v``: the output's :data:`~mbgen.symbolic.availability.SENSITIVITIES` row.
@@ -346,26 +322,26 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
     accelerations differentiated through the program instead.
     """
     L = eq.layout
-    sensitivity = SENSITIVITIES[row.output]
+    sensitivity = SENSITIVITIES[info.output]
     variables = tuple(sensitivity.variables(eq, L))
     var_names = ("t",) if sensitivity.vector else tuple(map(str, variables))
     nq, nu, nv = L.n_q, L.n_u, len(variables)
     shape = (L.n_x,) if sensitivity.vector else (L.n_x, nv)
     labels = tuple(f"d({s}')/d({v})" for s in L.state_names for v in var_names)
-    tag = f"{row.array.lower()}_"
+    tag = f"{info.array.lower()}_"
     if form is Form.RECURSIVE and eq.residual is None:
         extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
                                variables, tag)
         entries = tuple((i * nv + j, d[i][j]) for i in range(L.n_x) for j in range(nv))
-        return Spec(row.output, row.array, shape, labels, (Block("out", L.n_x * nv, entries),),
-                    doc=row.doc, variables=variables, extra=extra, pivots=True)
+        return Spec(info.output, info.array, shape, labels, (Block("out", L.n_x * nv, entries),),
+                    variables=variables, extra=extra, pivots=True)
     if eq.constraints is not None:
-        return _implicit_sensitivity(eq, row, variables, shape, labels, tag)
+        return _implicit_sensitivity(eq, info, variables, shape, labels, tag)
     acc = acceleration_symbols(nu)
     M, F = eq.mass_matrix, eq.forcing
     rows = (list(eq.residual) if eq.residual is not None else
             [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)])
-    if row.output is Output.JACOBIAN and eq.residual_jacobian is not None:
+    if info.output is Output.JACOBIAN and eq.residual_jacobian is not None:
         # analytic dR/dx (mbgen.derivation.rnea_partials): only q' = G goes through the program
         extra, dG = derivatives(eq.program, list(eq.kinematics), variables, tag)
         dR = [list(eq.residual_jacobian.row(i)) for i in range(nu)]
@@ -382,16 +358,15 @@ def _sensitivity(eq: Equations, row: OutputDef, form: Form) -> Spec:
         rows = g_entries + tuple(((nq + i) * nv + j, sm.S.Zero)
                                  for i in range(nu) for j in range(nv))
         # a recursion's pivots are still checked: a singular M is an error, not zeros
-        return Spec(row.output, row.array, shape, labels, (Block("out", L.n_x * nv, rows),),
-                    doc=row.doc, variables=variables, extra=extra,
-                    pivots=eq.accelerations is not None)
-    return Spec(row.output, row.array, shape, labels,
+        return Spec(info.output, info.array, shape, labels, (Block("out", L.n_x * nv, rows),),
+                    variables=variables, extra=extra, pivots=eq.accelerations is not None)
+    return Spec(info.output, info.array, shape, labels,
                 (Block("out", L.n_x * nv, g_entries), *_mass_blocks(eq)),
-                solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv, doc=row.doc,
+                solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv,
                 variables=variables, extra=extra)
 
 
-def _implicit_sensitivity(eq: Equations, row: OutputDef, variables, shape, labels,
+def _implicit_sensitivity(eq: Equations, info: OutputInfo, variables, shape, labels,
                           tag) -> Spec:
     r"""``df/dv`` of a constrained model by implicit differentiation (evaluated in C).
 
@@ -427,37 +402,25 @@ def _implicit_sensitivity(eq: Equations, row: OutputDef, variables, shape, label
     post = (block("PC", dC, 0, nv), block("PG", dG, 0, nv), block("PGR", dG, nv, m),
             block("PE", dE, 0, nv), block("PER", dE, nv, m), block("PB", dB, 0, nv),
             block("PBR", dB, nv, m))
-    return Spec(row.output, row.array, shape, labels, _mass_blocks(eq), solve=True, post=post,
-                doc=row.doc, variables=variables, extra=extra,
-                velocity=_velocity_blocks(eq), implicit=nv)
+    return Spec(info.output, info.array, shape, labels, _mass_blocks(eq), solve=True, post=post,
+                variables=variables, extra=extra, velocity=_velocity_blocks(eq), implicit=nv)
 
 
-#: Every expression output: one row each (what it needs of the equations:
-#: :data:`mbgen.symbolic.availability.REQUIREMENTS`).
-OUTPUTS: dict[Output, OutputDef] = {d.output: d for d in (
-    OutputDef(Output.RHS, "dxdt", _rhs),
-    OutputDef(Output.MASS_MATRIX, "M", _mass_matrix),
-    OutputDef(Output.FORCING, "F", _forcing),
-    OutputDef(Output.ENERGY, "energy", _energy,
-              "Kinetic energy T and potential energy V (gravity, springs)."),
-    OutputDef(Output.JACOBIAN, "J", _sensitivity,
-              "Jacobian df/dx of the first-order right-hand side, row-major n_x x n_x."),
-    OutputDef(Output.PARAMETER_JACOBIAN, "Jp", _sensitivity,
-              "Parameter Jacobian df/dp of the right-hand side, row-major n_x x n_p."),
-    OutputDef(Output.TIME_DERIVATIVE, "dfdt", _sensitivity,
-              "Partial time derivative df/dt of the right-hand side."),
-    OutputDef(Output.POSITIONS, "positions", _positions),
-    OutputDef(Output.VELOCITIES, "velocities", _velocities),
-    OutputDef(Output.REACTIONS, "reactions", _reactions),
-    OutputDef(Output.INPUT_JACOBIAN, "Jr", _sensitivity,
-              "Input Jacobian df/dr of the right-hand side (B of a linearisation), row-major "
-              "n_x x n_r."),
-    OutputDef(Output.CONSTRAINT_FORCES, "lam", _constraint_forces,
-              "Constraint multipliers lambda of M u' = F + A^T lambda, one per constraint (a "
-              "point constraint's: the force on the body at the point along the frame axis)."),
-    OutputDef(Output.HOLONOMIC, "fh", _holonomic,
-              "Residual f_h(q, t) of the configuration constraints (zero on the constraint "
-              "manifold)."),
-    OutputDef(Output.HOLONOMIC_JACOBIAN, "dfh", _holonomic_jacobian,
-              "Jacobian of the configuration constraints, df_h/dq, row-major m_h x n_q."),
-)}
+#: How the kernel computes every expression output: ``build(eq, info, form) -> Spec``, with
+#: ``info`` the output's row of :data:`mbgen.abi.OUTPUT_INFO`.
+BUILDERS: dict[Output, Callable[[Equations, OutputInfo, Form], Spec]] = {
+    Output.RHS: _rhs,
+    Output.MASS_MATRIX: _mass_matrix,
+    Output.FORCING: _forcing,
+    Output.ENERGY: _energy,
+    Output.JACOBIAN: _sensitivity,
+    Output.PARAMETER_JACOBIAN: _sensitivity,
+    Output.TIME_DERIVATIVE: _sensitivity,
+    Output.POSITIONS: _positions,
+    Output.VELOCITIES: _velocities,
+    Output.REACTIONS: _reactions,
+    Output.INPUT_JACOBIAN: _sensitivity,
+    Output.CONSTRAINT_FORCES: _constraint_forces,
+    Output.HOLONOMIC: _holonomic,
+    Output.HOLONOMIC_JACOBIAN: _holonomic_jacobian,
+}

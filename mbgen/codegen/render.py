@@ -4,11 +4,12 @@ Printers turn expressions into code strings; the Jinja templates in
 ``templates/`` own the file structure.  Templates receive plain data (strings,
 numbers, lists of tuples), never sympy objects or modules.
 
-What is rendered is a loop over targets (:mod:`mbgen.codegen.targets`): the model's
-files (:data:`~mbgen.codegen.targets.MODEL`), the sections the wanted targets add
-to them (:data:`~mbgen.codegen.targets.SECTIONS`: the integrators when the scene asks
-for one, the step API with ``Targets(step=True)``) and the batch loops compiled into
-the Python extension (:data:`~mbgen.codegen.targets.BATCH`).
+What is rendered is one loop over the rows of :data:`mbgen.codegen.targets.TARGETS` that are
+wanted for the kernel and the user's :class:`~mbgen.codegen.targets.Targets`: each adds its
+context, its status codes, its declarations, the sections it includes into the model's
+files, its stack bounds and its files (the model's ``.h``, ``.c``, ``.py``; the batch loops
+of the Python extension).  Runtime routines are emitted once, where a section first asks
+for one (:class:`~mbgen.codegen.targets.runtime.Runtime`).
 
 Text a user controls (model, scene, point and symbol names, descriptions, the
 source line, output labels) reaches the templates raw and is escaped where it
@@ -27,9 +28,10 @@ from ..names import model_prefix
 from . import header as head
 from .optimize import Kernel
 from .templating import environment
-from .targets import BATCH, MODEL, SECTIONS, STEP, Targets
-from .targets.base import EXTENSION, SOURCE
+from .targets import TARGETS, Targets
+from .targets.base import EXTENSION, HEADER, SOURCE
 from .targets.model import function_views
+from .targets.runtime import Runtime
 
 
 def render(kernel: Kernel, targets=None) -> Rendered:
@@ -45,46 +47,53 @@ def render(kernel: Kernel, targets=None) -> Rendered:
     """
     targets = targets or Targets()
     eq = kernel.equations
-    L = kernel.layout
     prefix = model_prefix(eq.name)
-    upper = prefix.upper()
-    c_views, py_views = function_views(kernel, prefix)
-    ctx = MODEL.context(kernel, c_views, prefix, py_views)
-    sections = [t for t in SECTIONS if t.wanted(kernel, targets)]
-    codes = STATUS_CODES + tuple(dict.fromkeys(c for t in sections for c in t.status_codes))
+    views = function_views(kernel, prefix)
+    active = [t for t in TARGETS if t.wanted(kernel, targets)]
+    ctx: dict = {}
+    for t in active:
+        ctx.update(t.context(kernel, views, prefix))
+    codes = STATUS_CODES + tuple(dict.fromkeys(c for t in active for c in t.status_codes))
     if eq.constraints is not None:
         codes += CONSTRAINT_STATUS_CODES
-    ctx["defines"] += [(f"{upper}_{code}", value, text) for code, value, text in codes]
-    for t in sections:
-        ctx.update(t.context(kernel, c_views, prefix))
+    ctx["defines"] += [(f"{prefix.upper()}_{code}", value, text) for code, value, text in codes]
+    runtime = Runtime(ctx)
+    for t in active:
         ctx["declarations"] += t.declarations(ctx)
-        ctx["sections"] += [tpl for tpl, where in t.templates(prefix) if where == SOURCE]
-    step_methods = tuple(ctx["step"]["names"]) if STEP in sections else ()
-    bounds = head.stack_bounds(kernel, c_views, prefix, step_methods)
-    ctx.update(index_defines=head.index_defines(upper, L), content_hash=head.HASH_PLACEHOLDER,
-               stack_bounds=sorted(bounds.items()))
+        ctx["sections"] += [(tpl, runtime.view(t)) for tpl, where in t.templates(prefix)
+                            if where == SOURCE]
+    bounds: dict[str, int] = {}
+    for t in active:
+        bounds.update(t.stack_bounds(kernel, ctx, bounds))
+    ctx.update(index_defines=head.index_defines(prefix.upper(), kernel.layout),
+               content_hash=head.HASH_PLACEHOLDER, stack_bounds=sorted(bounds.items()))
     env = environment()
-    files = {name: env.get_template(tpl).render(ctx) for tpl, name in MODEL.templates(prefix)}
+    files, extension, cdef = {}, "", []
+    for t in active:
+        ctx["runtime"] = runtime.view(t)
+        for tpl, where in t.templates(prefix):
+            if where == EXTENSION:
+                extension += env.get_template(tpl).render(ctx)
+            elif where not in (HEADER, SOURCE) and t.bundled:
+                files[where] = env.get_template(tpl).render(ctx)
+        cdef += t.cdef(ctx)
     digest = head.content_hash(files)
     header = f"{prefix}.h"
     files[header] = files[header].replace(f'_CONTENT_HASH "{head.HASH_PLACEHOLDER}"',
                                           f'_CONTENT_HASH "{digest}"')
-    ctx.update(BATCH.context(kernel, c_views, prefix))
-    extension = "".join(env.get_template(tpl).render(ctx)
-                        for tpl, where in BATCH.templates(prefix) if where == EXTENSION)
-    cdef = "\n".join([f"#define {n} {v}" for n, v, _ in ctx["defines"]]
-                     + ctx["declarations"]) + "\n"
+    declarations = "\n".join([f"#define {n} {v}" for n, v, _ in ctx["defines"]]
+                             + ctx["declarations"]) + "\n"
     args = tuple(ctx["args"])
     infos = tuple(FunctionInfo(v["output"], v["name"], args, v["out_size"],
-                               tuple(v["out_shape"]), tuple(v["out_labels"])) for v in c_views)
-    return Rendered(prefix, files, cdef, infos, L,
-                    {str(sym): eq.defaults[str(sym)] for sym in L.parameters
+                               tuple(v["out_shape"]), tuple(v["out_labels"])) for v in views.c)
+    step_methods = tuple(ctx["step"]["names"]) if "step" in ctx else ()
+    c = eq.constraints
+    return Rendered(prefix, files, declarations, infos, kernel.layout,
+                    {str(sym): eq.defaults[str(sym)] for sym in kernel.layout.parameters
                      if str(sym) in eq.defaults}, kernel.outputs, extension,
-                    "\n".join(BATCH.declarations(ctx)) + "\n", digest,
-                    tuple(sorted(bounds.items())), step_methods, _joints(kernel),
-                    eq.constraints.names if eq.constraints is not None else (),
-                    tuple(map(str, eq.constraints.dependent_coordinates))
-                    if eq.constraints is not None else ())
+                    "\n".join(cdef) + "\n", digest, tuple(sorted(bounds.items())), step_methods,
+                    _joints(kernel), c.names if c is not None else (),
+                    tuple(map(str, c.dependent_coordinates)) if c is not None else ())
 
 
 def _joints(kernel: Kernel) -> tuple:

@@ -45,6 +45,14 @@ from dataclasses import dataclass
 UNROLL_MAX = 12
 #: A pivot ``d_j <= PIVOT_ULPS * n * eps * M_jj`` is singular (the module docstring).
 PIVOT_ULPS = 16
+#: The one pivot rule of every LU factorisation in the generated code (the constraint block
+#: ``A_r``, the projection's Jacobian, Rosenbrock's ``I / (h gamma) - J``: the runtime routine
+#: ``lu``): partial pivoting, and a pivot ``|u_kk| <= LU_PIVOT * max_ij |A_ij|`` is singular.
+#: A general matrix has no diagonal to scale by, so the rule is relative to its largest entry;
+#: ``1e-13`` is stricter than rounding (``n eps`` for the sizes met here) because a solve with
+#: a smaller pivot keeps fewer than 3 of its 16 digits.  The generated Python and the
+#: lambdified reference (``CONSTRAINT_PIVOT``) state the same number.
+LU_PIVOT = 1e-13
 
 
 def pivot_factor(n: int) -> str:

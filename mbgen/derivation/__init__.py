@@ -53,7 +53,9 @@ How to add a derivation
 1. Write ``mbgen/derivation/<method>.py`` with one function
    ``<method>(prep: Prepared, wants: Wants) -> Equations`` that fills the
    fields above (shared pieces: :mod:`~mbgen.derivation.common`,
-   :mod:`~mbgen.derivation.reactions`).
+   :mod:`~mbgen.derivation.reactions`; a method over the body tree starts from
+   :func:`~mbgen.derivation.recursion.outward_pass`, which forks the outward pass
+   the choice already ran).
 2. Add a member to :class:`Method` and its row to :data:`METHODS` (the CLI's
    ``--derivation`` choices and a scene's ``method`` follow :class:`Method`),
    and its name in :data:`mbgen.symbolic.equations.METHOD_TITLES`.
@@ -83,19 +85,22 @@ With no method named, :func:`choose_method` looks at the joint tree
    Kane's method.
 
 The equations record which method was used and why (``Equations.method`` and
-``Equations.method_reason``; ``Equations.derivation`` says both in words).
+``Equations.method_reason``; ``Equations.derivation`` says both in words).  The
+choice hands on what it computed (:attr:`Choice.prepared`: the prepared model with
+its Newton–Euler outward pass), so that ``prepare`` and the outward pass run once per
+derivation, or per comparison of both.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Callable
 
 from ..symbolic.equations import Equations
 from ..errors import ModelError
 from ..model.builder import Model
-from .choice import CHAIN, COMPARE_SPEEDS, structure
+from .choice import CHAIN, COMPARE_SPEEDS, Structure, structure
 from .common import Wants
 from .constraints import constrain
 from . import kane, newton_euler, prepare
@@ -128,11 +133,14 @@ class Choice:
 
     ``method`` is None when the structure leaves the choice open: the caller
     derives both and keeps the one with fewer operations.  ``reason`` says why,
-    in words (``Equations.method_reason``).
+    in words (``Equations.method_reason``).  ``prepared`` is the model's
+    :func:`~mbgen.derivation.prepare.prepare` value that the choice looked at, with the
+    Newton–Euler outward pass it ran: :func:`derive` it, and neither runs again.
     """
 
     method: Method | None
     reason: str
+    prepared: Prepared | None = field(default=None, compare=False, repr=False)
 
 
 def choose_method(model: Model | Prepared) -> Choice:
@@ -148,33 +156,42 @@ def choose_method(model: Model | Prepared) -> Choice:
     Choice
         ``Choice(Method.NEWTON_EULER, ...)`` or ``Choice(Method.KANE, ...)`` where
         the model's joint tree decides; ``Choice(None, ...)`` where both should
-        be derived and compared.
+        be derived and compared.  Its ``prepared`` carries the outward pass.
     """
     prep = model if isinstance(model, Prepared) else prepare.prepare(_model(model))
     s = structure(prep)
+    if s.outward is not None and prep.outward is None:
+        prep = replace(prep, outward=s.outward)
+    method, reason = _rule(s)
+    return Choice(method, reason, prep)
+
+
+def _rule(s: Structure) -> tuple[Method | None, str]:
+    """The rule of this package's docstring, applied to the model's joint tree."""
     if s.unfit:
-        return Choice(Method.KANE, f"chosen: Newton-Euler cannot infer this model's joints "
-                                   f"({s.unfit})")
+        return Method.KANE, f"chosen: Newton-Euler cannot infer this model's joints ({s.unfit})"
     if s.owned and s.chain_speeds >= CHAIN:
-        return Choice(Method.NEWTON_EULER, f"chosen: {s.joint_tree}; Kane's method not derived")
+        return Method.NEWTON_EULER, f"chosen: {s.joint_tree}; Kane's method not derived"
     if s.speeds > COMPARE_SPEEDS:
         if s.owned:
-            return Choice(Method.NEWTON_EULER, f"chosen: {s.speeds} speeds on a tree of joints "
-                                               f"that own them; Kane's method not derived")
-        return Choice(Method.KANE, f"chosen: {s.speeds} speeds, too many to derive both, and "
-                                   f"no tree of joints that own them; Newton-Euler not derived")
+            return Method.NEWTON_EULER, (f"chosen: {s.speeds} speeds on a tree of joints "
+                                         f"that own them; Kane's method not derived")
+        return Method.KANE, (f"chosen: {s.speeds} speeds, too many to derive both, and "
+                             f"no tree of joints that own them; Newton-Euler not derived")
     tree = s.joint_tree if s.owned else "no tree of joints that own their speeds"
-    return Choice(None, f"{s.speeds} speeds, {tree}: both are compared")
+    return None, f"{s.speeds} speeds, {tree}: both are compared"
 
 
-def derive(model: Model, method: Method | None = None, *, energy: bool = True,
+def derive(model: Model | Prepared, method: Method | None = None, *, energy: bool = True,
            points=(), reactions: bool = False, jacobian: bool = False) -> Equations:
     """Derive the equations of motion of ``model``.
 
     Parameters
     ----------
-    model : Model
-        The multibody model.
+    model : Model or Prepared
+        The multibody model, or its prepared value (a :class:`Choice`'s ``prepared``, to
+        share what the choice computed: nothing is prepared, and no outward pass run,
+        again).
     method : Method, optional
         ``Method.KANE`` (Kane's method with partial velocities) or
         ``Method.NEWTON_EULER`` (body by body over the joint tree, with the
@@ -199,17 +216,20 @@ def derive(model: Model, method: Method | None = None, *, energy: bool = True,
         ``M(q, t) u' = F(q, u, r, t)``, ``q' = G(q, u, t)`` and the layout;
         ``method`` and ``method_reason`` say which derivation and why.
     """
-    model = _model(model)
+    prep = model if isinstance(model, Prepared) else None
+    model = prep.model if prep is not None else _model(model)
     named = None if method is None else method_of(method)
-    prep = prepare.prepare(model)
+    prep = prep or prepare.prepare(model)
     if named is None:
         choice = choose_method(prep)
+        prep = choice.prepared
         named, reason = (choice.method, choice.reason) if choice.method else (Method.KANE,
                                                                                UNDECIDED)
     else:
         reason = NAMED
     eq = METHODS[named](prep, Wants(energy, tuple(points), reactions, jacobian))
-    return replace(constrain(eq, prep), method_reason=reason)
+    return replace(constrain(eq, prep), method_reason=reason,
+                   defaults={**eq.defaults, **model.defaults_})   # Model.constants(defaults=)
 
 
 def method_of(method) -> Method:

@@ -44,7 +44,7 @@ applies the rule.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..errors import ModelError
 from .articulated import speed_owners
@@ -79,6 +79,9 @@ class Structure:
         same as ``chain`` when every joint has one speed; a floating base adds six).
     unfit : str
         Why Newton–Euler cannot infer the model's bodies and joints ("" when it can).
+    outward : NewtonEuler or None
+        The outward pass this was read from (None where ``unfit``), for the derivation to
+        fork (:attr:`mbgen.derivation.prepare.Prepared.outward`).
     """
 
     speeds: int
@@ -86,6 +89,7 @@ class Structure:
     chain: int
     chain_speeds: int = 0
     unfit: str = ""
+    outward: NewtonEuler | None = field(default=None, compare=False, repr=False)
 
     @property
     def joint_tree(self) -> str:
@@ -98,12 +102,13 @@ class Structure:
 def structure(prep: Prepared) -> Structure:
     """The model's joint tree: its speeds, whether joints own them, its longest chain.
 
-    Costs Newton–Euler's outward pass (milliseconds: a 16-link arm 0.06 s),
-    never a derivation.
+    Costs Newton–Euler's outward pass (milliseconds: a 16-link arm 0.06 s), never a
+    derivation; the pass ``prep`` carries, where it carries one.  The pass is only read,
+    and returned in :attr:`Structure.outward`.
     """
     n_u = prep.layout.n_u
     try:
-        ne = NewtonEuler(prep)
+        ne = prep.outward if prep.outward is not None else NewtonEuler(prep)
     except ModelError as exc:
         return Structure(n_u, False, 0, 0, str(exc).splitlines()[0])
     depth: dict = {}
@@ -111,9 +116,9 @@ def structure(prep: Prepared) -> Structure:
     for body in ne.bodies:  # every parent before its children
         up = body.parent
         depth[body] = 1 + (depth[up] if up is not None else 0)
-        speeds[body] = len(ne.kin[body]["S"]) + (speeds[up] if up is not None else 0)
+        speeds[body] = len(ne.kin[body].S) + (speeds[up] if up is not None else 0)
     return Structure(n_u, speed_owners(ne) is not None, max(depth.values(), default=0),
-                     max(speeds.values(), default=0))
+                     max(speeds.values(), default=0), outward=ne)
 
 
 __all__ = ["CHAIN", "COMPARE_SPEEDS", "Structure", "structure"]

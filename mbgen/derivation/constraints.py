@@ -22,7 +22,7 @@ the dependent speeds come last.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import sympy as sm
@@ -36,74 +36,122 @@ from .prepare import Prepared, signed_atoms
 from .tree import cross, unit
 
 
+#: ``Constraint.kind`` of a configuration constraint ``f(q, t) = 0``; the other kind,
+#: ``"motion"``, is ``f(q, u, t) = 0`` (:class:`mbgen.model.elements.Constraint`).
+HOLONOMIC = "holonomic"
+
+
+def configuration(c) -> bool:
+    """Whether the stated constraint ``c`` constrains the configuration (the one place the
+    derivation reads ``Constraint.kind``)."""
+    return c.kind == HOLONOMIC
+
+
+@dataclass(frozen=True)
+class _Row:
+    """One stated constraint in plain symbols.
+
+    ``row`` is its velocity form ``c(q, u, t)`` (to be linear in ``u``), ``speed`` its
+    dependent speed, ``load`` what :attr:`Constraints.loads` records of a point
+    constraint (None for an expression); a configuration constraint also has ``f(q, t)``
+    (``holonomic``) and its dependent ``coordinate``.
+    """
+
+    name: str
+    row: sm.Expr
+    speed: sm.Symbol
+    load: tuple | None
+    holonomic: sm.Expr | None = None
+    coordinate: sm.Symbol | None = None
+
+
 def constrain(eq: Equations, prep: Prepared) -> Equations:
-    """``eq`` (derived over every speed) with the model's constraints; unchanged without any."""
+    """``eq`` (derived over every speed) with the model's constraints; unchanged without any.
+
+    Three steps: :func:`_rows` (each constraint in plain symbols), :func:`_check` (the
+    velocity form ``A u + b``, refused where it cannot determine the dependent speeds)
+    and :func:`_reorder` (the dependent speeds last, the acceleration form).
+    """
     stated = ordered(prep.model)
     if not stated:
         return eq
-    L, tree = eq.layout, prep.tree
-    qdot = prep.qdot
+    rows = _rows(stated, prep, eq.layout)
+    A, b = _check(rows, eq)
+    return _reorder(eq, prep, rows, A, b)
+
+
+def _rows(stated, prep: Prepared, L: Layout) -> list[_Row]:
+    """The stated constraints, in the order of their rows, as :class:`_Row` values."""
     model = prep.model
     to_plain = {f: sm.Symbol(str(f.func)) for f in model.coordinates_ + model.speeds_}
-    speeds = list(L.speeds)
-    coords = list(L.coordinates)
+    return [_configuration_row(c, prep, L, to_plain) if configuration(c)
+            else _motion_row(c, prep, to_plain) for c in stated]
+
+
+def _configuration_row(c, prep: Prepared, L: Layout, to_plain: dict) -> _Row:
+    """``f(q, t)``, its time derivative along ``q' = G`` and its dependent coordinate and speed."""
+    where = f"constraint {c.name!r}"
+    tree, qdot = prep.tree, prep.qdot
+    speeds, coords = list(L.speeds), list(L.coordinates)
+    if c.points:
+        a, b = c.points
+        fnode = prep.frame_nodes[c.frame]
+        atoms = signed_atoms(prep.point_atoms[a], prep.point_atoms[b])
+        e = unit(c.axis)
+        f = sm.Add(*(s * tree.dot(atom.c, atom.frame, e, fnode) for s, atom in atoms))
+        load = ("coincident", (a.name, b.name), c.frame.name, c.axis)
+    else:
+        f = prep.plain(c.expression, where)
+        load = None
+    if free_symbols([f]) & set(speeds):
+        raise ModelError(f"{where} contains speeds; a configuration constraint may "
+                         f"depend on coordinates and time only (state it with "
+                         f"model.nonholonomic)")
+    if f == 0:
+        raise ModelError(f"{where} is identically zero; leave it out")
+    q = to_plain[c.dependent]
+    if q not in free_symbols([f]):
+        raise ModelError(f"{where} does not contain its dependent coordinate {q}; "
+                         f"choose a coordinate the constraint determines")
+    row = sm.Add(*(f.diff(qj) * qdot[qj] for qj in coords if qj in free_symbols([f])),
+                 f.diff(L.time))
+    if c.speed is not None:
+        speed = to_plain[c.speed]
+    else:
+        match = [u for u in speeds if qdot[q] == u]
+        if not match:
+            raise ModelError(f"{where}: no speed u with {q}' = u; name the dependent "
+                             f"speed with speeds=[...]")
+        speed = match[0]
+    return _Row(c.name, row, speed, load, f, q)
+
+
+def _motion_row(c, prep: Prepared, to_plain: dict) -> _Row:
+    """A motion constraint's row as stated (``q'`` replaced by ``G``) and its dependent speed."""
+    where = f"constraint {c.name!r}"
+    if c.points:
+        P, = c.points
+        row = _material_velocity(prep, P, c.body, prep.frame_nodes[c.frame], c.axis)
+        load = ("no_slip", (P.name,), c.frame.name, c.axis)
+    else:
+        row = prep.plain(c.expression, where)
+        load = None
+    if row == 0:
+        raise ModelError(f"{where} is identically zero (the point cannot move along "
+                         f"that axis); leave it out")
+    return _Row(c.name, row, to_plain[c.dependent], load)
+
+
+def _check(rows: list[_Row], eq: Equations) -> tuple[list, list]:
+    """``(A, b)`` of the velocity form ``A u + b = 0`` (``A`` rows over every speed), after
+    refusing constraints that cannot determine their dependent coordinates and speeds."""
+    L = eq.layout
+    speeds, coords = list(L.speeds), list(L.coordinates)
     moving_u = set(speeds)
-
-    def plain_symbol(f):
-        return to_plain[f]
-
-    holonomic, dep_q, rows, dep_u, names, loads = [], [], [], [], [], []
-    for c in stated:
-        where = f"constraint {c.name!r}"
-        if c.kind == "holonomic":
-            if c.points:
-                a, b = c.points
-                fnode = prep.frame_nodes[c.frame]
-                atoms = signed_atoms(prep.point_atoms[a], prep.point_atoms[b])
-                e = unit(c.axis)
-                f = sm.Add(*(s * tree.dot(atom.c, atom.frame, e, fnode) for s, atom in atoms))
-                loads.append(("coincident", (a.name, b.name), c.frame.name, c.axis))
-            else:
-                f = prep.plain(c.expression, where)
-                loads.append(None)
-            if free_symbols([f]) & moving_u:
-                raise ModelError(f"{where} contains speeds; a configuration constraint may "
-                                 f"depend on coordinates and time only (state it with "
-                                 f"model.nonholonomic)")
-            if f == 0:
-                raise ModelError(f"{where} is identically zero; leave it out")
-            q = plain_symbol(c.dependent)
-            if q not in free_symbols([f]):
-                raise ModelError(f"{where} does not contain its dependent coordinate {q}; "
-                                 f"choose a coordinate the constraint determines")
-            holonomic.append(f)
-            dep_q.append(q)
-            rows.append(sm.Add(*(f.diff(qj) * qdot[qj] for qj in coords
-                                 if qj in free_symbols([f])), f.diff(L.time)))
-            if c.speed is not None:
-                dep_u.append(plain_symbol(c.speed))
-            else:
-                match = [u for u in speeds if qdot[q] == u]
-                if not match:
-                    raise ModelError(f"{where}: no speed u with {q}' = u; name the dependent "
-                                     f"speed with speeds=[...]")
-                dep_u.append(match[0])
-        else:
-            if c.points:
-                P, = c.points
-                row = _material_velocity(prep, P, c.body, prep.frame_nodes[c.frame], c.axis)
-                loads.append(("no_slip", (P.name,), c.frame.name, c.axis))
-            else:
-                row = prep.plain(c.expression, where)
-                loads.append(None)
-            if row == 0:
-                raise ModelError(f"{where} is identically zero (the point cannot move along "
-                                 f"that axis); leave it out")
-            rows.append(row)
-            dep_u.append(plain_symbol(c.dependent))
-        names.append(c.name)
-
-    m, mh = len(rows), len(holonomic)
+    dep_q = [r.coordinate for r in rows if r.holonomic is not None]
+    dep_u = [r.speed for r in rows]
+    names = [r.name for r in rows]
+    m, mh = len(rows), len(dep_q)
     _distinct(dep_q, "dependent coordinate")
     _distinct(dep_u, "dependent speed")
     if m >= len(speeds):
@@ -112,19 +160,31 @@ def constrain(eq: Equations, prep: Prepared) -> Equations:
     if mh >= len(coords):
         raise ModelError(f"{mh} configuration constraints for {len(coords)} coordinates: at "
                          f"least one coordinate must stay independent")
-    A = [[row.diff(u) for u in speeds] for row in rows]
+    A = [[r.row.diff(u) for u in speeds] for r in rows]
     if free_symbols([e for r in A for e in r]) & moving_u:
         bad = [n for n, r in zip(names, A) if free_symbols(r) & moving_u]
         raise ModelError(f"constraint(s) {bad} are not linear in the speeds; motion constraints "
                          f"must be A(q, t) u + b(q, t) = 0")
     zero = {u: sm.S.Zero for u in speeds}
-    b = xreplace_dag(rows, zero)
-    for j, u in enumerate(dep_u):
+    b = xreplace_dag([r.row for r in rows], zero)
+    for u in dep_u:
         if all(A[i][speeds.index(u)] == 0 for i in range(m)):
             raise ModelError(f"dependent speed {u} appears in no constraint; choose speeds the "
                              f"constraints determine")
     _check_rank(A, [speeds.index(u) for u in dep_u], names, eq, L)
+    return A, b
 
+
+def _reorder(eq: Equations, prep: Prepared, rows: list[_Row], A: list, b: list) -> Equations:
+    r"""``eq`` with the dependent speeds last (``M``, ``F``, the program's and the reactions'
+    acceleration placeholders reordered) and its :class:`Constraints`: the velocity form in
+    the new order and its acceleration bias :math:`\beta`."""
+    L, qdot = eq.layout, prep.qdot
+    speeds, coords = list(L.speeds), list(L.coordinates)
+    holonomic = [r.holonomic for r in rows if r.holonomic is not None]
+    dep_q = tuple(r.coordinate for r in rows if r.holonomic is not None)
+    dep_u = [r.speed for r in rows]
+    m, mh = len(rows), len(holonomic)
     independent = [u for u in speeds if u not in dep_u]
     order = [speeds.index(u) for u in independent + dep_u]
     A_new = [[r[k] for k in order] for r in A]
@@ -145,15 +205,15 @@ def constrain(eq: Equations, prep: Prepared) -> Equations:
             reactions.matrix.rows, reactions.matrix.cols,
             xreplace_dag(list(reactions.matrix), acc_map)))
     cons = Constraints(
-        names=tuple(names),
+        names=tuple(r.name for r in rows),
         holonomic=sm.ImmutableMatrix(mh, 1, holonomic),
-        dependent_coordinates=tuple(dep_q),
+        dependent_coordinates=dep_q,
         holonomic_jacobian=sm.ImmutableMatrix(mh, len(coords),
                                               [f.diff(q) for f in holonomic for q in coords]),
         velocity_matrix=sm.ImmutableMatrix(A_new),
         velocity_bias=sm.ImmutableMatrix(m, 1, b),
         acceleration_bias=sm.ImmutableMatrix(m, 1, beta),
-        loads=tuple(loads))
+        loads=tuple(r.load for r in rows))
     return replace(eq, layout=layout,
                    mass_matrix=sm.ImmutableMatrix(n, n, [M[i, j] for i in order for j in order]),
                    forcing=sm.ImmutableMatrix(n, 1, [F[i] for i in order]),
@@ -164,8 +224,8 @@ def constrain(eq: Equations, prep: Prepared) -> Equations:
 
 def ordered(model) -> list:
     """The model's constraints in the order of their rows: configuration ones first."""
-    return ([c for c in model.constraints_ if c.kind == "holonomic"]
-            + [c for c in model.constraints_ if c.kind != "holonomic"])
+    return ([c for c in model.constraints_ if configuration(c)]
+            + [c for c in model.constraints_ if not configuration(c)])
 
 
 def _material_velocity(prep: Prepared, P, body, fnode, axis):

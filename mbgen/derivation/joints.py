@@ -146,8 +146,38 @@ def _depth(point, parent_of) -> int:
     return d
 
 
+@dataclass(frozen=True)
+class _Placement:
+    """How the model's points hang from each other: each point's parent and atoms (its
+    offsets from the origin), the coordinates and time that make an offset move, and each
+    frame's rigid class (:func:`_rigid_classes`)."""
+
+    parent_of: dict
+    atoms_of: dict
+    moving: set
+    rigid: dict
+
+    def own_atoms(self, point) -> tuple:
+        """The atoms of ``point``'s own offset from its parent point."""
+        up = self.parent_of.get(point)
+        atoms = self.atoms_of[point]
+        return atoms[len(self.atoms_of[up]):] if up is not None else atoms
+
+    def atoms_between(self, upper, lower) -> tuple:
+        """The atoms from ``upper`` down to ``lower`` (a point placed below it)."""
+        return self.atoms_of[lower][len(self.atoms_of[upper]):]
+
+    def rigid_in(self, point, rep) -> bool:
+        """Whether ``point``'s own offset is constant in the rigid class ``rep``."""
+        return all(_is_constant(a, self.moving) and self.rigid[a.frame] is rep
+                   for a in self.own_atoms(point))
+
+
 def build_bodies(prep: Prepared) -> BodyTree:
     """Group the model's masses into bodies and find every body's parent and joint.
+
+    Four passes, as the module docstring describes them: :func:`_group_bodies`,
+    :func:`_fixed_in`, :func:`_set_parents` and :func:`_from_the_root`.
 
     Raises
     ------
@@ -158,36 +188,33 @@ def build_bodies(prep: Prepared) -> BodyTree:
     moving = set(layout.coordinates) | {layout.time}
     rigid = _rigid_classes(prep, moving)
     root = prep.frame_nodes[model.N]
-    parent_of = {p: pd.parent for p, pd in model.points.items()}
-    atoms_of = prep.point_atoms
-
-    def own_atoms(point):
-        up = parent_of.get(point)
-        return atoms_of[point][len(atoms_of[up]):] if up is not None else atoms_of[point]
-
-    def atoms_between(upper, lower):
-        return atoms_of[lower][len(atoms_of[upper]):]
-
-    def rigid_in(point, rep) -> bool:
-        return all(_is_constant(a, moving) and rigid[a.frame] is rep for a in own_atoms(point))
-
+    at = _Placement({p: pd.parent for p, pd in model.points.items()}, prep.point_atoms, moving,
+                    rigid)
     stated = {j.child: j for j in model.joints_}
+    bodies = _group_bodies(prep, at, stated, root)
+    fixed_in = _fixed_in(model, bodies, at, root)
+    _set_parents(prep, bodies, stated, fixed_in, at)
+    ordered = _from_the_root(model, bodies, at)
+    return BodyTree(ordered, root, rigid, fixed_in, at.own_atoms, at.atoms_between)
 
-    # bodies: group elements by (rigid frame class, joint point) ---------------------------
+
+def _group_bodies(prep: Prepared, at: _Placement, stated: dict, root: FrameNode) -> list:
+    """**Bodies**: the mass elements grouped by (rigid frame class, joint point), in the order
+    of their first element."""
     groups: dict = {}
     for me in prep.masses:
         if me.frame is not None:
             frame = me.frame
         else:
-            chain = atoms_of[me.point]
+            chain = at.atoms_of[me.point]
             frame = chain[-1].frame if chain else root
-        rep = rigid[frame]
+        rep = at.rigid[frame]
         j = stated[me.name].point if me.name in stated and stated[me.name].point else None
         if j is None:
             j = me.point
-            while parent_of.get(j) is not None and rigid_in(j, rep):
-                j = parent_of[j]
-        elif not _fixed_below(j, me.point, rep, parent_of, rigid_in):
+            while at.parent_of.get(j) is not None and at.rigid_in(j, rep):
+                j = at.parent_of[j]
+        elif not _fixed_below(j, me.point, rep, at.parent_of, at.rigid_in):
             raise ModelError(f"the joint point {j.name} stated for {me.name!r} is not fixed in "
                              f"it: {me.name!r} must be placed from {j.name} by offsets constant "
                              f"in its own frame")
@@ -197,28 +224,33 @@ def build_bodies(prep: Prepared) -> BodyTree:
         body = groups[key]
         if me.frame is not None and all(e.frame is None for e, _ in body.elements):
             body.frame = me.frame   # a rigid body's own frame names the body frame
-        body.elements.append((me, atoms_between(j, me.point)))
-    bodies = list(groups.values())
-    by_name = {}
-    for b in bodies:
-        for me, _ in b.elements:
-            by_name[me.name] = b
+        body.elements.append((me, at.atoms_between(j, me.point)))
+    return list(groups.values())
 
-    # where every point is fixed --------------------------------------------------------
+
+def _fixed_in(model, bodies: list, at: _Placement, root: FrameNode) -> dict:
+    """Point -> the bodies (and ``GROUND``) it is fixed in, from the origin down."""
     fixed_in: dict = {}
     for point in model.points:
-        up = parent_of[point]
+        up = at.parent_of[point]
         holders = [b for b in bodies if b.point is point]
         if up is None:
             holders.append(GROUND)
         else:
             for h in fixed_in[up]:
-                rep = rigid[root] if h is GROUND else rigid[h.frame]
-                if h not in holders and rigid_in(point, rep):
+                rep = at.rigid[root] if h is GROUND else at.rigid[h.frame]
+                if h not in holders and at.rigid_in(point, rep):
                     holders.append(h)
         fixed_in[point] = holders
+    return fixed_in
 
-    # parents ---------------------------------------------------------------------------------
+
+def _set_parents(prep: Prepared, bodies: list, stated: dict, fixed_in: dict,
+                 at: _Placement) -> None:
+    """**Parents**: each body's parent (stated, or found by :func:`_find_parent`), its joint's
+    name and the frame its reaction is reported in."""
+    model = prep.model
+    by_name = {me.name: b for b in bodies for me, _ in b.elements}
     for b in bodies:
         names = [me.name for me, _ in b.elements]
         stated_j = next((stated[n] for n in names if n in stated), None)
@@ -228,17 +260,20 @@ def build_bodies(prep: Prepared) -> BodyTree:
             if b.parent is b:
                 raise ModelError(f"joint of {b.name!r}: {stated_j.parent!r} is part of the same "
                                  f"body")
-            if not _is_point_ancestor(anchor, b.point, parent_of):
+            if not _is_point_ancestor(anchor, b.point, at.parent_of):
                 raise ModelError(f"joint of {b.name!r}: its joint point {b.point.name} is not "
                                  f"placed below {anchor.name}, the joint point of its stated "
                                  f"parent; place the point from the parent's points")
         else:
-            b.parent = _find_parent(b, fixed_in, parent_of, rigid)
+            b.parent = _find_parent(b, fixed_in, at.parent_of, at.rigid)
         b.joint = stated_j.name if stated_j is not None else b.name
         rf = stated_j.frame if stated_j is not None else None
         b.reaction_frame = prep.frame_nodes[rf] if rf is not None else b.frame
 
-    # order from the root, children in model order -----------------------------------------------
+
+def _from_the_root(model, bodies: list, at: _Placement) -> list:
+    """The bodies ordered from the root, children in model order, each with its index and
+    **joint motion** (the atoms from its parent's joint point)."""
     for b in bodies:
         if b.parent is not None:
             b.parent.children.append(b)
@@ -253,8 +288,8 @@ def build_bodies(prep: Prepared) -> BodyTree:
     for i, b in enumerate(ordered):
         b.index = i
         anchor = b.parent.point if b.parent is not None else model.origin
-        b.joint_atoms = atoms_between(anchor, b.point)
-    return BodyTree(ordered, root, rigid, fixed_in, own_atoms, atoms_between)
+        b.joint_atoms = at.atoms_between(anchor, b.point)
+    return ordered
 
 
 def _fixed_below(upper, lower, rep, parent_of, rigid_in) -> bool:

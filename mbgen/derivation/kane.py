@@ -51,22 +51,51 @@ def kane(prep: Prepared, wants: Wants) -> Equations:
     (Newtonian components) the equations should carry.  With
     ``wants.reactions`` the joint reactions are derived by the Newton–Euler
     inward pass (:func:`mbgen.derivation.reactions.reactions_for`).
+
+    ``M`` (its lower triangle) and the terms of ``F`` are gathered in three passes,
+    in this order: :func:`_translational`, :func:`_rotational`, :func:`_applied`.
     """
     model = prep.model
-    tree, layout = prep.tree, prep.layout
+    layout = prep.layout
     nu = layout.n_u
     grp = Grouping(prep)
+    M = [[S0] * nu for _ in range(nu)]
+    F: list[list] = [[] for _ in range(nu)]
+    _translational(prep, grp, M, F)
+    _rotational(prep, M, F)
+    _applied(prep, F)
+    for r in range(nu):
+        for s in range(r):
+            M[s][r] = M[r][s]
+    kinetic, potential = energies(prep, grp) if wants.energy else (None, None)
+    program, loads = reactions_for(prep) if wants.reactions else (Program(), None)
+    return Equations(
+        name=model.name,
+        layout=layout,
+        mass_matrix=sm.ImmutableMatrix(M),
+        forcing=sm.ImmutableMatrix([add(*f) for f in F]),
+        kinematics=sm.ImmutableMatrix([prep.qdot[q] for q in layout.coordinates]),
+        kinetic_energy=kinetic,
+        potential_energy=potential,
+        points=point_kinematics(prep, wants.points),
+        source=f"mbgen.Model {model.name!r}",
+        method="kane",
+        program=program,
+        reactions=loads,
+    )
 
+
+def _translational(prep: Prepared, grp: Grouping, M: list, F: list) -> None:
+    r"""The masses' translational terms, over pairs of atoms (see the module docstring):
+    sets ``M[r][s]`` (``s <= r``) and adds
+    :math:`-\sum (\sum m)\, v_{a,r}\cdot a^t_b` and gravity's share to ``F[r]``."""
+    tree = prep.tree
+    nu = len(M)
     # atoms with a nonzero partial velocity for each speed (mass atoms only)
     with_partial: list[list[int]] = [[] for _ in range(nu)]
     for i in sorted(grp.bodies_of):
         for r in tree.atom_partials(grp.atom[i]):
             with_partial[r].append(i)
-
-    M = [[S0] * nu for _ in range(nu)]
-    F = [[] for _ in range(nu)]
-
-    # translational inertia --------------------------------------------------
     for r in range(nu):
         for s in range(r + 1):
             terms = []
@@ -93,7 +122,12 @@ def kane(prep: Prepared, wants: Wants) -> Equations:
                 g = add(*(tree.dot(va, a.frame, gv, gf) for gf, gv in prep.gravity))
                 F[r].append(mul(grp.mass_sum(grp.bodies_of[i]), g))
 
-    # rotational inertia ---------------------------------------------------------
+
+def _rotational(prep: Prepared, M: list, F: list) -> None:
+    r"""The rigid bodies' rotational terms: adds :math:`\omega_{k,r}\cdot I_k\omega_{k,s}`
+    to ``M[r][s]`` (``s <= r``) and
+    :math:`-\omega_{k,r}\cdot(I_k\alpha^t_k + \omega_k\times I_k\omega_k)` to ``F[r]``."""
+    tree = prep.tree
     for me in prep.masses:
         if me.frame is None:
             continue
@@ -108,7 +142,12 @@ def kane(prep: Prepared, wants: Wants) -> Equations:
                     M[r][s] = add(M[r][s], dot3(v, Iw[s]))
             F[r].append(dot3(v, torque))
 
-    # applied loads --------------------------------------------------------------
+
+def _applied(prep: Prepared, F: list) -> None:
+    """The generalized forces of the applied loads (gravity aside: :func:`_translational`):
+    forces through the partial velocities of their points, torques through the partial
+    angular velocities of their frames, springs and dampers (:func:`_line_forces`)."""
+    tree = prep.tree
     for atoms, vec in prep.forces:
         for sign, a in atoms:
             for r, va in tree.atom_partials(a).items():
@@ -124,26 +163,6 @@ def kane(prep: Prepared, wants: Wants) -> Equations:
     for el, atoms in prep.lines:
         for r, f in _line_forces(tree, el, atoms).items():
             F[r].append(f)
-
-    for r in range(nu):
-        for s in range(r):
-            M[s][r] = M[r][s]
-    kinetic, potential = energies(prep, grp) if wants.energy else (None, None)
-    program, loads = reactions_for(prep) if wants.reactions else (Program(), None)
-    return Equations(
-        name=model.name,
-        layout=layout,
-        mass_matrix=sm.ImmutableMatrix(M),
-        forcing=sm.ImmutableMatrix([add(*f) for f in F]),
-        kinematics=sm.ImmutableMatrix([prep.qdot[q] for q in layout.coordinates]),
-        kinetic_energy=kinetic,
-        potential_energy=potential,
-        points=point_kinematics(prep, wants.points),
-        source=f"mbgen.Model {model.name!r}",
-        method="kane",
-        program=program,
-        reactions=loads,
-    )
 
 
 def _line_forces(tree, el, atoms) -> dict[int, sm.Expr]:

@@ -16,8 +16,10 @@ equal Kane's ``M`` and ``F``.  The derivation runs in passes over the tree, each
 in its own module:
 
 1. :mod:`mbgen.derivation.recursion` -- the outward pass (angular velocities,
-   acceleration remainders, motion subspaces), each body's spatial inertia and
-   wrench, the inward pass for ``F`` and composite rigid bodies for ``M``;
+   acceleration remainders, motion subspaces; each joint's relative motion from
+   :mod:`mbgen.derivation.relative`), each body's spatial inertia and wrench (one
+   frozen record of each per body), the inward pass for ``F`` and composite rigid
+   bodies for ``M``;
 2. :mod:`mbgen.derivation.articulated` -- the articulated-body recursion, which
    gives ``u'`` directly when every speed belongs to exactly one joint;
 3. :mod:`mbgen.derivation.reactions` -- the joint reactions ``f_b`` above;
@@ -41,7 +43,7 @@ from .common import Grouping, Wants, point_kinematics, potential_energy
 from .constraints import ordered
 from .prepare import Prepared
 from .reactions import constraint_loads, joint_reactions
-from .recursion import NewtonEuler
+from .recursion import outward_pass
 from .rnea_partials import residual_jacobian
 
 
@@ -53,7 +55,7 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
     the energies, points and joint reactions.
     """
     model, layout = prep.model, prep.layout
-    ne = NewtonEuler(prep)
+    ne = outward_pass(prep)
     F = ne.forcing()
     rows = ne.mass_matrix()
     nu = layout.n_u

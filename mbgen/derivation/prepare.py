@@ -9,6 +9,7 @@ with one atom per frame of every point offset.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 
 import sympy as sm
 
@@ -32,27 +33,68 @@ class MassElement:
     point: object = None          # the model's Point (particle, or mass centre)
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Prepared:
-    """Everything Kane's method needs, in plain symbols."""
+    """Everything a derivation needs, in plain symbols: one value per model, built by
+    :func:`prepare` and shared by the choice of method and every derivation of the model.
+
+    Attributes
+    ----------
+    model : Model
+    layout : Layout
+    tree : KinematicTree
+        Frames and atoms; it memoises what it computes, nothing else about it changes.
+    qdot : dict
+        Coordinate -> ``G(q, u, t)`` of ``q' = G``.
+    frame_nodes : dict
+        ReferenceFrame -> FrameNode.
+    point_atoms : dict
+        Point -> tuple of Atom (the offsets from the origin).
+    masses : tuple of MassElement
+    gravity : tuple of (FrameNode, Vec3), or None
+    forces : tuple of (signed atoms, vector terms)
+    torques : tuple of (FrameNode, sign, vector terms)
+    lines : tuple of (LineElement, signed atoms)
+    to_plain, known : dict, set
+        Functions of time (and coordinates' derivatives) -> plain symbols (and ``G``), and
+        every symbol an expression may hold: what :meth:`plain` reads.
+    outward : NewtonEuler or None
+        The Newton–Euler outward pass of the model where the choice of method has run it
+        (:func:`mbgen.derivation.choose_method`), for the derivations to fork rather than
+        run again (:func:`mbgen.derivation.recursion.outward_pass`); None before that.
+    """
 
     model: Model
     layout: Layout
     tree: KinematicTree
     qdot: dict
-    frame_nodes: dict            # ReferenceFrame -> FrameNode
-    point_atoms: dict            # Point -> tuple[Atom, ...]
-    masses: list[MassElement]
-    gravity: list | None         # [(FrameNode, Vec3)] or None
-    forces: list = field(default_factory=list)    # [(signed atoms, vector terms)]
-    torques: list = field(default_factory=list)   # [(FrameNode, sign, vector terms)]
-    lines: list = field(default_factory=list)     # [(LineElement, signed atoms)]
-    plain: object = None                           # callable expr -> plain expr
-    terms: object = None                           # callable Vector -> [(FrameNode, Vec3)]
+    frame_nodes: dict
+    point_atoms: dict
+    masses: tuple
+    gravity: tuple | None
+    forces: tuple = ()
+    torques: tuple = ()
+    lines: tuple = ()
+    to_plain: dict = field(default_factory=dict, repr=False)
+    known: frozenset = field(default_factory=frozenset, repr=False)
+    outward: object = field(default=None, repr=False)
+
+    def plain(self, expr, where: str) -> sm.Expr:
+        """``expr`` in plain symbols; :class:`ModelError` naming ``where`` if it holds
+        undeclared symbols or other functions of time."""
+        return _plain(expr, where, self.to_plain, self.known)
+
+    def terms(self, vector, where: str) -> list[tuple[FrameNode, Vec3]]:
+        """A sympy Vector as ``[(node, components)]``, one per frame, zeros dropped."""
+        return _terms(vector, where, self.frame_nodes, self.plain)
 
 
 def prepare(model: Model) -> Prepared:
     """Convert ``model`` to plain symbols and build its kinematic tree.
+
+    In order: the layout and ``q' = G`` (:func:`_solve_kinematics`), the frames
+    (:func:`_frame_nodes`, :func:`_angular_velocities`), the points' atoms, the masses
+    and the loads.
 
     Raises
     ------
@@ -79,23 +121,54 @@ def prepare(model: Model) -> Prepared:
     qdot = _solve_kinematics(model, base, q, u, layout)
     to_plain = {qf.diff(TIME): qdot[qs] for qf, qs in zip(q_f, q)} | base
     known = layout.symbols()
-
-    def plain(expr, where: str):
-        e = sm.sympify(expr).xreplace(to_plain)
-        funcs = applied_functions([e])
-        derivs = {n for n in walk_unique([e]) if isinstance(n, sm.Derivative)}
-        if funcs or derivs:
-            bad = sorted(map(str, funcs | derivs))
-            raise ModelError(f"{where} contains {', '.join(bad)}: only declared coordinates, "
-                             f"their first derivatives, speeds and inputs may depend on time")
-        unknown = free_symbols([e]) - known
-        if unknown:
-            names = ", ".join(sorted(map(str, unknown)))
-            raise ModelError(f"{where} contains unknown symbol(s) {names}; declare them with "
-                             f"model.constants('{names.replace(',', '')}')")
-        return e
+    plain = partial(_plain, to_plain=to_plain, known=known)
 
     tree = KinematicTree(q, u, qdot, time)
+    nodes = _frame_nodes(model, tree, plain)
+    terms = partial(_terms, nodes=nodes, plain=plain)
+    _angular_velocities(model, tree, nodes, terms)
+    point_atoms: dict = {}
+    for point, pd in model.points.items():
+        own = tuple(tree.add_atom(n, c, f"{point.name}/{n.name}")
+                    for n, c in terms(pd.offset, f"the offset of point {point.name}"))
+        point_atoms[point] = (point_atoms[pd.parent] if pd.parent is not None else ()) + own
+    masses = _masses(model, point_atoms, nodes, plain)
+    gravity, forces, torques, lines = _loads(model, point_atoms, nodes, plain, terms)
+    return Prepared(model, layout, tree, qdot, nodes, point_atoms, masses, gravity, forces,
+                    torques, lines, to_plain, known)
+
+
+def _plain(expr, where: str, to_plain: dict, known) -> sm.Expr:
+    e = sm.sympify(expr).xreplace(to_plain)
+    funcs = applied_functions([e])
+    derivs = {n for n in walk_unique([e]) if isinstance(n, sm.Derivative)}
+    if funcs or derivs:
+        bad = sorted(map(str, funcs | derivs))
+        raise ModelError(f"{where} contains {', '.join(bad)}: only declared coordinates, "
+                         f"their first derivatives, speeds and inputs may depend on time")
+    unknown = free_symbols([e]) - known
+    if unknown:
+        names = ", ".join(sorted(map(str, unknown)))
+        raise ModelError(f"{where} contains unknown symbol(s) {names}; declare them with "
+                         f"model.constants('{names.replace(',', '')}')")
+    return e
+
+
+def _terms(vector, where: str, nodes: dict, plain) -> list[tuple[FrameNode, Vec3]]:
+    if isinstance(vector, (int, float)) or vector == 0:
+        return []
+    out = []
+    for matrix, frame in vector.args:
+        if frame not in nodes:
+            raise ModelError(f"{where} uses frame {frame}, which is not part of the model")
+        comps = tuple(plain(c, where) for c in matrix)
+        if any(c != 0 for c in comps):
+            out.append((nodes[frame], comps))
+    return out
+
+
+def _frame_nodes(model: Model, tree: KinematicTree, plain) -> dict:
+    """ReferenceFrame -> FrameNode, parents first: simple rotations and direction cosines."""
     nodes: dict = {}
     for frame, fd in model.frames.items():
         if fd.parent is None:
@@ -107,20 +180,11 @@ def prepare(model: Model) -> Prepared:
         else:
             angle = plain(fd.angle, f"the rotation angle of frame {frame.name}")
             nodes[frame] = tree.add_rotation(frame.name, nodes[fd.parent], fd.axis, angle)
+    return nodes
 
-    def terms(vector, where: str) -> list[tuple[FrameNode, Vec3]]:
-        """A sympy Vector as ``[(node, components)]``, one per frame, zeros dropped."""
-        if isinstance(vector, (int, float)) or vector == 0:
-            return []
-        out = []
-        for matrix, frame in vector.args:
-            if frame not in nodes:
-                raise ModelError(f"{where} uses frame {frame}, which is not part of the model")
-            comps = tuple(plain(c, where) for c in matrix)
-            if any(c != 0 for c in comps):
-                out.append((nodes[frame], comps))
-        return out
 
+def _angular_velocities(model: Model, tree: KinematicTree, nodes: dict, terms) -> None:
+    """Stated angular velocities (``Model.orient(..., angular_velocity=)``) set on their nodes."""
     for frame, fd in model.frames.items():
         if fd.angular_velocity is not None:
             node = nodes[frame]
@@ -129,12 +193,9 @@ def prepare(model: Model) -> Prepared:
             tree.set_omega(node, tuple(sm.Add(*(v[i] for v in w)) for i in range(3)) if w
                            else (sm.S.Zero,) * 3)
 
-    point_atoms: dict = {}
-    for point, pd in model.points.items():
-        own = tuple(tree.add_atom(n, c, f"{point.name}/{n.name}")
-                    for n, c in terms(pd.offset, f"the offset of point {point.name}"))
-        point_atoms[point] = (point_atoms[pd.parent] if pd.parent is not None else ()) + own
 
+def _masses(model: Model, point_atoms: dict, nodes: dict, plain) -> tuple:
+    """The particles, then the rigid bodies, as :class:`MassElement` values."""
     masses = [MassElement(p.name, point_atoms[p.point], plain(p.mass, f"mass of {p.name}"),
                           point=p.point) for p in model.particles]
     for b in model.bodies:
@@ -142,31 +203,33 @@ def prepare(model: Model) -> Prepared:
                         for i in range(3))
         masses.append(MassElement(b.name, point_atoms[b.center], plain(b.mass, f"mass of {b.name}"),
                                   nodes[b.frame], inertia, b.center))
+    return tuple(masses)
 
-    prep = Prepared(model, layout, tree, qdot, nodes, point_atoms, masses, None)
-    prep.plain = plain
-    prep.terms = terms
+
+def _loads(model: Model, point_atoms: dict, nodes: dict, plain, terms) -> tuple:
+    """``(gravity, forces, torques, lines)`` of :class:`Prepared` from the model's loads."""
+    gravity, forces, torques, lines = None, [], [], []
     for load in model.loads:
         if isinstance(load, Gravity):
-            prep.gravity = terms(load.vector, "gravity")
+            gravity = tuple(terms(load.vector, "gravity"))
         elif isinstance(load, Force):
             atoms = signed_atoms(point_atoms[load.point],
                                  point_atoms[load.reaction] if load.reaction is not None else ())
-            prep.forces.append((atoms, terms(load.vector, f"force at {load.point}")))
+            forces.append((atoms, terms(load.vector, f"force at {load.point}")))
         elif isinstance(load, Torque):
             vec = terms(load.vector, f"torque on {load.frame}")
-            prep.torques.append((nodes[load.frame], 1, vec))
+            torques.append((nodes[load.frame], 1, vec))
             if load.reaction is not None:
-                prep.torques.append((nodes[load.reaction], -1, vec))
+                torques.append((nodes[load.reaction], -1, vec))
         elif isinstance(load, LineElement):
             el = LineElement(load.name, load.a, load.b,
                              plain(load.stiffness, f"stiffness of {load.name}"),
                              plain(load.damping, f"damping of {load.name}"),
                              plain(load.natural_length, f"natural length of {load.name}"))
-            prep.lines.append((el, signed_atoms(point_atoms[load.a], point_atoms[load.b])))
+            lines.append((el, signed_atoms(point_atoms[load.a], point_atoms[load.b])))
         else:  # pragma: no cover - Model only creates the types above
             raise ModelError(f"unknown load {load!r}")
-    return prep
+    return gravity, tuple(forces), tuple(torques), tuple(lines)
 
 
 def signed_atoms(plus, minus) -> tuple[tuple[int, Atom], ...]:

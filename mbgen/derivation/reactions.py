@@ -22,10 +22,10 @@ from collections import defaultdict
 import sympy as sm
 
 from ..symbolic.equations import JointLoads, acceleration_symbols, lambda_symbols
-from .constraints import ordered
+from .constraints import configuration, ordered
 from .joints import Body
 from .prepare import Prepared, signed_atoms
-from .recursion import NewtonEuler
+from .recursion import NewtonEuler, outward_pass
 from .spatial import split
 from .tree import ZERO3, cross, unit, vadd, vscale
 
@@ -48,7 +48,7 @@ def constraint_loads(ne: NewtonEuler, constraints) -> dict:
             continue
         node = prep.frame_nodes[c.frame]
         e = vscale(lam[k], unit(c.axis))
-        if c.kind == "holonomic":
+        if configuration(c):
             targets = [(c.points[0], bt.body_of_point(c.points[0]), 1),
                        (c.points[1], bt.body_of_point(c.points[1]), -1)]
         else:
@@ -94,9 +94,10 @@ def reactions_for(prep: Prepared) -> tuple:
     """``(program, JointLoads)`` of the joint reactions of a prepared model.
 
     For any derivation method: the reactions need only the body tree's
-    Newton–Euler quantities, built here in a program of their own.
+    Newton–Euler quantities, built here in a program of their own (on the outward pass that
+    the choice of method ran, where it did).
     """
-    ne = NewtonEuler(prep)
+    ne = outward_pass(prep)
     loads = joint_reactions(ne, extra=constraint_loads(ne, ordered(prep.model)))
     return ne.P.build(), loads
 

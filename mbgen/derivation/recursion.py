@@ -40,7 +40,10 @@ so the recursion's size is linear in the number of bodies.
 
 from __future__ import annotations
 
+import copy
 from collections import defaultdict
+from dataclasses import dataclass
+from typing import Mapping
 
 import sympy as sm
 
@@ -49,108 +52,67 @@ from ..symbolic.program import ProgramBuilder
 from .common import line_coefficient
 from .joints import GROUND, Body, BodyTree, build_bodies
 from .prepare import Prepared
+from .relative import Relative, cancelled, ops, through_matrix
 from .spatial import (ZERO6, Rotation, congruence, dot6, force_to_parent, join, matvec6,
                       motion_to_child, spatial_inertia, symmetric, vadd6, vneg6)
-from .tree import (S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, transpose, unit, vadd, vneg,
-                   vscale)
+from .tree import S0, ZERO3, Vec3, add, cross, dot3, is_zero, matvec, mul, unit, vadd, vneg, vscale
 
 TWO = sm.Integer(2)
 
 
-class _Relative:
-    r"""Angular velocity, its partials and acceleration remainder of frames relative to ``base``.
+@dataclass(frozen=True)
+class BodyKinematics:
+    r"""One body's outward-pass quantities at its joint point ``J`` (what Pinocchio keeps per
+    joint in ``data`` and ``jdata``: velocity, bias acceleration, ``jdata.S()``).
 
-    ``of(X)`` returns ``(omega, {r: partial}, alpha)`` of frame ``X`` relative to
-    ``base``, in ``X`` components, with ``alpha`` the time derivative (in
-    ``base``) of ``omega`` with every ``u' = 0``.  Frames below ``base`` recurse
-    through their simple rotations; others go through the common ancestor ``A``:
-    :math:`\omega_{X/P} = \omega_{X/A} - \omega_{P/A}` and
-    :math:`\alpha_{X/P} = \alpha_{X/A} - \alpha_{P/A} - \omega_{P/A}\times\omega_{X/P}`.
+    Attributes
+    ----------
+    omega : Vec3
+        Angular velocity :math:`\omega_b`, body components.
+    alpha, acc : Vec3
+        Angular acceleration and acceleration of ``J`` with every ``u' = 0`` (the ground
+        accelerating at ``-g``), body components.
+    r : Vec3
+        From the parent's joint point (the origin, for a root) to ``J``, parent components.
+    S : mapping of int to 6-tuple
+        The joint's motion subspace: speed index -> its column ``(angular, linear)``, body
+        components; only the speeds that move the joint.
+    v_rel : Vec3
+        The joint's own velocity of ``J`` relative to the parent's frame, parent components.
+    through : bool
+        A rotation given as a matrix lies between the parent's frame and the body's
+        (:func:`~mbgen.derivation.relative.through_matrix`).
     """
 
-    def __init__(self, tree, base):
-        self.tree, self.base = tree, base
-        self._down: dict = {}
-
-    def of(self, X):
-        tree, P = self.tree, self.base
-        A = tree.common_ancestor(X, P)
-        if A is P:
-            return self._from(A, X)
-        wx, px, ax = self._from(A, X)
-        wp, pp, ap = self._from(A, P)
-        wpx = tree.express(wp, P, X)
-        w = vadd(wx, vneg(wpx))
-        parts = dict(px)
-        for r, v in pp.items():
-            parts[r] = vadd(parts.get(r, ZERO3), vneg(tree.express(v, P, X)))
-        parts = {r: v for r, v in parts.items() if not is_zero(v)}
-        alpha = vadd(ax, vneg(tree.express(ap, P, X)), vneg(cross(wpx, w)))
-        return w, parts, alpha
-
-    def _from(self, A, X):
-        """Relative to ``A``, an ancestor of ``X`` (or ``X`` itself)."""
-        key = (A, X)
-        hit = self._down.get(key)
-        if hit is not None:
-            return hit
-        tree = self.tree
-        if X is A:
-            out = (ZERO3, {}, ZERO3)
-        elif X.omega_override is not None:
-            wa = tree.express(tree.omega(A), A, X)
-            w = vadd(X.omega_override, vneg(wa))
-            parts = {}
-            for r in range(len(tree.speeds)):
-                v = tree.d_du(X.omega_override, r)
-                pa = tree.omega_partials(A).get(r)
-                if pa is not None:
-                    v = vadd(v, vneg(tree.express(pa, A, X)))
-                if not is_zero(v):
-                    parts[r] = v
-            alpha = vadd(tree.alpha_rest(X), vneg(tree.express(tree.alpha_rest(A), A, X)),
-                         vneg(cross(wa, w)))
-            out = (w, parts, alpha)
-        else:
-            wy, py, ay = self._from(A, X.parent)
-            rate, partial, acc = tree.theta_dot(X)
-            RT = transpose(X.R_parent)
-            e = unit(X.axis)
-            wy_x = matvec(RT, wy)
-            w = vadd(wy_x, vscale(rate, e))
-            parts = {r: matvec(RT, v) for r, v in py.items()}
-            for r, c in partial.items():
-                parts[r] = vadd(parts.get(r, ZERO3), vscale(c, e))
-            parts = {r: v for r, v in parts.items() if not is_zero(v)}
-            alpha = vadd(matvec(RT, ay), vscale(acc, e), cross(wy_x, vscale(rate, e)))
-            out = (w, parts, alpha)
-        self._down[key] = out
-        return out
+    omega: Vec3
+    alpha: Vec3
+    acc: Vec3
+    r: Vec3
+    S: Mapping[int, tuple]
+    v_rel: Vec3
+    through: bool
 
 
-def _through_matrix(tree, base, node) -> bool:
-    """True when a frame between ``base`` and ``node`` is turned by a matrix (``Model.orient``)."""
-    top = tree.common_ancestor(base, node)
-    for n in (base, node):
-        while n is not top:
-            if n.axis is None:
-                return True
-            n = n.parent
-    return False
+@dataclass(frozen=True)
+class BodyInertia:
+    r"""One body's masses about its joint point ``J``, body components (Pinocchio's ``Y``).
 
+    Attributes
+    ----------
+    m : Expr
+        Mass.
+    h : Vec3
+        First moment :math:`\sum m_k \rho_k` about ``J``.
+    IJ : 3x3 rows
+        Rotational inertia about ``J``.
+    spatial : 6x6 rows
+        :math:`\mathcal I_b` (:func:`~mbgen.derivation.spatial.spatial_inertia`).
+    """
 
-def _cancel(v):
-    """Components put over a common denominator and cancelled, where that is smaller."""
-    out = []
-    for x in v:
-        # polynomial gcds over floating-point coefficients are not exact: those stay
-        y = sm.cancel(x) if x.free_symbols and not x.has(sm.Float) else x
-        out.append(y if _ops(y) <= _ops(x) else x)
-    return tuple(out)
-
-
-def _ops(*exprs) -> int:
-    return sum(sm.count_ops(x) for v in exprs for x in (v if isinstance(v, tuple) else (v,)))
+    m: object
+    h: Vec3
+    IJ: tuple
+    spatial: tuple
 
 
 class NewtonEuler:
@@ -160,7 +122,10 @@ class NewtonEuler:
     loads; :meth:`forcing` (the inward pass) and :meth:`mass_matrix` (composite
     rigid bodies) build on it, and so do the articulated-body recursion
     (:mod:`mbgen.derivation.articulated`) and the joint reactions
-    (:mod:`mbgen.derivation.reactions`).
+    (:mod:`mbgen.derivation.reactions`).  Per body, :attr:`kin` holds its
+    :class:`BodyKinematics`, :attr:`inertia` its :class:`BodyInertia` and :attr:`g` its
+    wrench ``g_b``; every later pass only adds to the program :attr:`P`, so one outward
+    pass serves several derivations through :meth:`fork`.
     """
 
     def __init__(self, prep: Prepared, bodies: BodyTree | None = None):
@@ -172,16 +137,32 @@ class NewtonEuler:
         self.P = ProgramBuilder("ne")
         self._rotations: dict = {}
         g = prep.gravity
-        self._gravity = (vadd(*(self.tree.express(c, n, self.bt.ground_frame) for n, c in g))
-                         if g else None)
+        #: gravity in ground components (None: none)
+        self.gravity = (vadd(*(self.tree.express(c, n, self.bt.ground_frame) for n, c in g))
+                        if g else None)
         self.tau: dict = defaultdict(list)         # generalized forces of loads on massless parts
         self._loads: dict = defaultdict(list)      # body -> [(moment, force)] in body components
         self._collect_loads()
-        self.kin: dict = {}
+        self.kin: dict[Body, BodyKinematics] = {}
         for b in self.bodies:
-            self._outward(b)
-        self.inertia = {b: self._inertia(b) for b in self.bodies}
+            self.kin[b] = self._outward(b)
+        self.inertia: dict[Body, BodyInertia] = {b: self._inertia(b) for b in self.bodies}
         self.g = {b: self._wrench(b) for b in self.bodies}
+
+    def fork(self) -> "NewtonEuler":
+        """A copy whose program grows apart from this one's, the outward pass not run again.
+
+        The per-body records are frozen and shared; the program builder and the cache of
+        rotations (which adds to the program) are copied, so that the passes run on the
+        copy (``forcing``, ``mass_matrix``, the recursion, the reactions) leave this one as
+        it was: each derivation of one model forks the outward pass that chose its method.
+        """
+        other = copy.copy(self)
+        other.P = ProgramBuilder(self.P.tag)
+        other.P.assignments = list(self.P.assignments)
+        other.P.checks = set(self.P.checks)
+        other._rotations = dict(self._rotations)
+        return other
 
     # ------------------------------------------------------------------ geometry
     def to_child(self, b: Body):
@@ -194,7 +175,7 @@ class NewtonEuler:
         dst = b.parent.frame if b.parent is not None else self.bt.ground_frame
         return lambda v: self.tree.express(v, b.frame, dst)
 
-    def _rotation(self, b: Body) -> Rotation:
+    def rotation(self, b: Body) -> Rotation:
         """Child-to-parent rotation of ``b`` (a simple rotation when the joint is one)."""
         hit = self._rotations.get(b)
         if hit is None:
@@ -211,7 +192,7 @@ class NewtonEuler:
 
     def child_congruence(self, c: Body, I):
         """``X_c^T I X_c``: the 6x6 inertia ``I`` of child ``c`` seen from its parent (lower)."""
-        return congruence(I, self._rotation(c), self.kin[c]["r"])
+        return congruence(I, self.rotation(c), self.kin[c].r)
 
     def _offset(self, atoms, frame):
         """Sum of atoms' components, expressed in ``frame``."""
@@ -219,16 +200,17 @@ class NewtonEuler:
         return vadd(ZERO3, *(tree.express(a.c, a.frame, frame) for a in atoms))
 
     # ------------------------------------------------------------------ outward pass
-    def _outward(self, b: Body) -> None:
+    def _outward(self, b: Body) -> BodyKinematics:
+        """The outward pass at ``b``, its parent's :class:`BodyKinematics` known."""
         tree, P = self.tree, self.P
         p = b.parent
         base = p.frame if p is not None else self.bt.ground_frame
         if p is not None:
-            wp, ap_ang, ap_lin = self.kin[p]["omega"], self.kin[p]["alpha"], self.kin[p]["acc"]
+            wp, ap_ang, ap_lin = self.kin[p].omega, self.kin[p].alpha, self.kin[p].acc
         else:   # gravity enters as an upward acceleration of the ground (see _wrench)
             wp = ap_ang = ZERO3
-            ap_lin = vneg(self._gravity) if self._gravity is not None else ZERO3
-        rel = _Relative(tree, base)
+            ap_lin = vneg(self.gravity) if self.gravity is not None else ZERO3
+        rel = Relative(tree, base)
         w_rel, w_parts, a_rel_ang = rel.of(b.frame)
         r = ZERO3
         v_rel = ZERO3
@@ -258,7 +240,8 @@ class NewtonEuler:
         acc = to_child(vadd(ap_lin, cross(ap_ang, r), cross(wp, cross(wp, r)),
                             vscale(TWO, cross(wp, v_rel)), a_rel))
         v_child = {k: to_child(v) for k, v in v_parts.items()}
-        if _through_matrix(tree, base, b.frame):
+        through = through_matrix(tree, base, b.frame)
+        if through:
             acc, v_child = self._in_child(to_child, (ap_lin, ap_ang, wp, r), v_rel, w_rel,
                                           acc, v_child)
         acc = P.vector(acc)
@@ -267,8 +250,7 @@ class NewtonEuler:
             col = join(w_parts.get(k, ZERO3), v_child.get(k, ZERO3))
             if not all(x == 0 for x in col):
                 S[k] = P.vector(col)
-        self.kin[b] = dict(omega=omega, alpha=alpha, acc=acc, r=r, S=S, v_rel=v_rel,
-                           through=_through_matrix(tree, base, b.frame))
+        return BodyKinematics(omega, alpha, acc, r, S, v_rel, through)
 
     def _in_child(self, to_child, parent, v_rel, w_rel, acc, v_child):
         r"""The joint's velocity terms taken in the child's frame, where that is smaller.
@@ -286,20 +268,20 @@ class NewtonEuler:
         world-frame speeds, MuJoCo's, keeps the parent-frame one).
         """
         ap_lin, ap_ang, wp, r = parent
-        v_c = _cancel(to_child(v_rel))
+        v_c = cancelled(to_child(v_rel))
         wp_b = to_child(wp)
         rest = vadd(self.tree.dt_rest(v_c), cross(w_rel, v_c), vscale(TWO, cross(wp_b, v_c)))
         alt = vadd(to_child(vadd(ap_lin, cross(ap_ang, r), cross(wp, cross(wp, r)))), rest)
-        if _ops(alt) < _ops(acc):
+        if ops(alt) < ops(acc):
             acc = alt
         cols = {k: self.tree.d_du(v_c, k) for k in range(self.nu)}
         cols = {k: v for k, v in cols.items() if not is_zero(v)}
-        if set(cols) == set(v_child) and _ops(*cols.values()) < _ops(*v_child.values()):
+        if set(cols) == set(v_child) and ops(*cols.values()) < ops(*v_child.values()):
             v_child = cols
         return acc, v_child
 
     # ------------------------------------------------------------------ inertia and loads
-    def _inertia(self, b: Body):
+    def _inertia(self, b: Body) -> BodyInertia:
         """Spatial inertia of ``b`` about its joint point, in its frame (6x6 rows)."""
         tree, P = self.tree, self.P
         m, h = [], [ZERO3]
@@ -326,7 +308,7 @@ class NewtonEuler:
         h = P.vector(vadd(*h))
         low = {(i, j): P.scalar(IJ[i][j]) for i in range(3) for j in range(i + 1)}
         IJ = tuple(tuple(low[(max(i, j), min(i, j))] for j in range(3)) for i in range(3))
-        return dict(m=mass, h=h, IJ=IJ, spatial=spatial_inertia(mass, h, IJ))
+        return BodyInertia(mass, h, IJ, spatial_inertia(mass, h, IJ))
 
     def _collect_loads(self) -> None:
         prep, bt, tree = self.prep, self.bt, self.tree
@@ -389,8 +371,8 @@ class NewtonEuler:
         tree rather than one per body.
         """
         k, inn = self.kin[b], self.inertia[b]
-        w, alpha, acc = k["omega"], k["alpha"], k["acc"]
-        m, h, IJ = inn["m"], inn["h"], inn["IJ"]
+        w, alpha, acc = k.omega, k.alpha, k.acc
+        m, h, IJ = inn.m, inn.h, inn.IJ
         n_in = vadd(matvec(IJ, alpha), cross(h, acc), cross(w, matvec(IJ, w)))
         f_in = vadd(vscale(m, acc), cross(alpha, h), cross(w, cross(w, h)))
         return self.P.vector(vadd6(self.applied_wrench(b), vneg6(join(n_in, f_in))))
@@ -409,19 +391,19 @@ class NewtonEuler:
             k = self.kin[b]
             if b.parent is not None:
                 p = self.kin[b.parent]
-                v = vadd(vel[b.parent], cross(p["omega"], k["r"]), k["v_rel"])
+                v = vadd(vel[b.parent], cross(p.omega, k.r), k.v_rel)
             else:
-                v = k["v_rel"]
+                v = k.v_rel
             v = self.to_child(b)(v)
-            vel[b] = P.vector(_cancel(v) if k["through"] else v)
-            V = join(k["omega"], vel[b])
-            terms.append(dot6(V, matvec6(self.inertia[b]["spatial"], V)))
+            vel[b] = P.vector(cancelled(v) if k.through else v)
+            V = join(k.omega, vel[b])
+            terms.append(dot6(V, matvec6(self.inertia[b].spatial, V)))
         return mul(sm.Rational(1, 2), add(*terms))
 
     # ------------------------------------------------------------------ equations of motion
     def children_sum(self, b: Body, of: dict):
         """``sum_c X_c^T of[c]`` over the children of ``b``."""
-        terms = [force_to_parent(of[c], self.to_parent(c), self.kin[c]["r"]) for c in b.children]
+        terms = [force_to_parent(of[c], self.to_parent(c), self.kin[c].r) for c in b.children]
         return tuple(add(*(t[i] for t in terms)) for i in range(6)) if terms else ZERO6
 
     def forcing(self, wrenches: dict | None = None) -> list:
@@ -431,7 +413,7 @@ class NewtonEuler:
             G[b] = self.P.vector(vadd6(wrenches[b], self.children_sum(b, G)))
         F = [list(self.tau.get(k, ())) for k in range(self.nu)]
         for b in self.bodies:
-            for k, s in self.kin[b]["S"].items():
+            for k, s in self.kin[b].S.items():
                 F[k].append(dot6(s, G[b]))
         return [add(*f) for f in F]
 
@@ -443,14 +425,14 @@ class NewtonEuler:
         body -> ``[(moment, force)]`` of further loads ``e_b``, e.g. constraint forces)."""
         P, accel, f = self.P, {}, {}
         for b in self.bodies:
-            a = (motion_to_child(accel[b.parent], self.to_child(b), self.kin[b]["r"])
+            a = (motion_to_child(accel[b.parent], self.to_child(b), self.kin[b].r)
                  if b.parent is not None else ZERO6)
-            for k, s in self.kin[b]["S"].items():
+            for k, s in self.kin[b].S.items():
                 a = vadd6(a, tuple(mul(udot[k], x) for x in s))
             accel[b] = P.vector(a)
         extra = extra or {}
         for b in reversed(self.bodies):
-            own = vadd6(matvec6(self.inertia[b]["spatial"], accel[b]), vneg6(self.g[b]))
+            own = vadd6(matvec6(self.inertia[b].spatial, accel[b]), vneg6(self.g[b]))
             for n, force in extra.get(b, ()):
                 own = vadd6(own, vneg6(join(n, force)))
             f[b] = P.vector(vadd6(own, self.children_sum(b, f)))
@@ -465,7 +447,7 @@ class NewtonEuler:
         f = self.body_forces(udot)
         rows = [list(self.tau.get(k, ())) for k in range(self.nu)]
         for b in self.bodies:
-            for k, s in self.kin[b]["S"].items():
+            for k, s in self.kin[b].S.items():
                 rows[k].append(mul(-1, dot6(s, f[b])))
         return [self.P.scalar(add(*r)) for r in rows]
 
@@ -474,27 +456,33 @@ class NewtonEuler:
         P = self.P
         IC = {}
         for b in reversed(self.bodies):
-            low = {(i, j): self.inertia[b]["spatial"][i][j] for i in range(6) for j in range(i + 1)}
+            low = {(i, j): self.inertia[b].spatial[i][j] for i in range(6) for j in range(i + 1)}
             for c in b.children:
                 con = self.child_congruence(c, IC[c])
                 low = {key: add(v, con[key]) for key, v in low.items()}
             IC[b] = symmetric({key: P.scalar(v) for key, v in low.items()})
         M = [[[] for _ in range(self.nu)] for _ in range(self.nu)]
         for j in self.bodies:
-            for s, col in self.kin[j]["S"].items():
+            for s, col in self.kin[j].S.items():
                 f = P.vector(matvec6(IC[j], col))
                 i = j
                 while i is not None:
-                    for r, row in self.kin[i]["S"].items():
+                    for r, row in self.kin[i].S.items():
                         term = dot6(row, f)
                         M[r][s].append(term)
                         if i is not j:
                             M[s][r].append(term)
                     if i.parent is not None:
-                        f = P.vector(force_to_parent(f, self.to_parent(i), self.kin[i]["r"]))
+                        f = P.vector(force_to_parent(f, self.to_parent(i), self.kin[i].r))
                     i = i.parent
         return [[add(*M[r][s]) if r >= s else None for s in range(self.nu)]
                 for r in range(self.nu)]
 
 
-__all__ = ["NewtonEuler"]
+def outward_pass(prep: Prepared) -> NewtonEuler:
+    """The :class:`NewtonEuler` of ``prep`` to derive with: a :meth:`~NewtonEuler.fork` of the
+    outward pass ``prep`` carries (the choice of method ran it), else a new one."""
+    return prep.outward.fork() if prep.outward is not None else NewtonEuler(prep)
+
+
+__all__ = ["BodyInertia", "BodyKinematics", "NewtonEuler", "outward_pass"]

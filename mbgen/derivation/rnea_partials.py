@@ -112,15 +112,15 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
     used: set = set()      # coordinates already a joint's
     for b in ne.bodies:
         k = ne.kin[b]
-        if len(k["S"]) != 1 or k["through"]:
+        if len(k.S) != 1 or k.through:
             return None
-        (s_index, col), = k["S"].items()
+        (s_index, col), = k.S.items()
         angle = _turning(ne, b, moving)
         if angle is False or any(look.varies(x) for x in col):
             return None
         if angle is not None:    # revolute: fixed offset, no sliding
             q = angle if angle in coords and is_zero(col[3:]) else None
-            if any(look.varies(x) for x in k["r"]) or not is_zero(k["v_rel"]):
+            if any(look.varies(x) for x in k.r) or not is_zero(k.v_rel):
                 return None
         else:                    # prismatic
             q = _sliding(ne, b, col, look) if is_zero(col[:3]) else None
@@ -157,7 +157,7 @@ def _sliding(ne, b, col, look):
     """The coordinate ``q`` of a prismatic joint: ``r = r0 + q d`` in parent components with
     ``d = R s`` (``s`` the column's linear part, ``R`` the constant child-to-parent rotation)
     and ``v_rel = d u``; checked at two random points of the constants (None: not so)."""
-    r = [look.inline(x) for x in ne.kin[b]["r"]]
+    r = [look.inline(x) for x in ne.kin[b].r]
     free = set().union(*(x.free_symbols for x in r)) & look.moving
     if len(free) != 1:
         return None
@@ -165,11 +165,11 @@ def _sliding(ne, b, col, look):
     d = [x.diff(q) for x in r]
     if any(x.free_symbols & look.moving for x in d):
         return None
-    R = ne._rotation(b).matrix
+    R = ne.rotation(b).matrix
     Rs = matvec(R, col[3:])
     u = ne.prep.qdot.get(q)
     checks = [a - e for a, e in zip(d, Rs)]
-    checks += [sm.sympify(a) - mul(u, e) for a, e in zip(ne.kin[b]["v_rel"], d)]
+    checks += [sm.sympify(a) - mul(u, e) for a, e in zip(ne.kin[b].v_rel, d)]
     consts = sorted(set().union(*(sm.sympify(x).free_symbols for x in checks)) - look.moving,
                     key=str)
     rng = random.Random(len(consts))
@@ -222,7 +222,7 @@ class _World:
 
     def __init__(self, ne, joints, udot):
         self.ne, self.P = ne, ne.P
-        g = ne._gravity
+        g = ne.gravity
         ground_acc = join(ZERO3, vneg(g) if g is not None else ZERO3)
         self.R, self.c, self.J, self.v, self.a = {}, {}, {}, {}, {}
         self.Y, self.B, self.f = {}, {}, {}
@@ -234,17 +234,17 @@ class _World:
     def _forward(self, b, k, udot, ground_acc):
         ne, P = self.ne, self.P
         p = b.parent
-        Rb = ne._rotation(b).matrix
+        Rb = ne.rotation(b).matrix
         if p is None:
-            R, c = Rb, ne.kin[b]["r"]
+            R, c = Rb, ne.kin[b].r
             vp, ap = ZERO6, ground_acc
         else:
             R = matmul3(self.R[p], Rb)
-            c = vadd(self.c[p], matvec(self.R[p], ne.kin[b]["r"]))
+            c = vadd(self.c[p], matvec(self.R[p], ne.kin[b].r))
             vp, ap = self.v[p], self.a[p]
         R = tuple(tuple(P.scalar(x) for x in row) for row in R)
         c = P.vector(c)
-        sw, sv = split(ne.kin[b]["S"][k])
+        sw, sv = split(ne.kin[b].S[k])
         w = P.vector(matvec(R, sw))
         J = join(w, P.vector(vadd(matvec(R, sv), cross(c, w))))
         Vq = P.vector(mcross(vp, J))
@@ -288,9 +288,9 @@ class _World:
         r"""``(m, h_O, I_O)`` about the world origin: :math:`h_O = R h + m c`,
         :math:`I_O = R I_J R^T + (m\,c\cdot c + 2\,c\cdot h)\,1 - (m\,c c^T + c h^T + h c^T)`."""
         P, inn = self.P, self.ne.inertia[b]
-        m = inn["m"]
-        h = P.vector(matvec(R, inn["h"]))
-        RI = matmul3(R, inn["IJ"])
+        m = inn.m
+        h = P.vector(matvec(R, inn.h))
+        RI = matmul3(R, inn.IJ)
         RT = tuple(tuple(R[j][i] for j in range(3)) for i in range(3))
         IJ = matmul3(RI, RT)
         diag = add(mul(m, dot3(c, c)), mul(TWO, dot3(c, h)))

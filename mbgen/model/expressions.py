@@ -32,13 +32,13 @@ Strings cannot express derivatives; give ``q'`` as a sympy expression
 from __future__ import annotations
 
 import ast
-import difflib
 import math
 from typing import Mapping
 
 import sympy as sm
 
 from ..errors import ModelError
+from ..names import did_you_mean
 from ..symbolic.graph import walk_unique
 
 __all__ = ["expression", "parse", "FUNCTIONS", "MAX_LENGTH", "MAX_DIGITS"]
@@ -152,11 +152,10 @@ class _Converter:
                 return self.symbols[node.id]
             if node.id in CONSTANTS:
                 return CONSTANTS[node.id]
-            close = difflib.get_close_matches(node.id, list(self.symbols) + list(CONSTANTS), 1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            hint = did_you_mean(node.id, list(self.symbols) + list(CONSTANTS))
             raise ModelError(f"{self.what}: {_short(self.text)} names {node.id!r}, which is not "
-                             f"a symbol of the model{hint}; declare it first (e.g. "
-                             f"model.constants({node.id!r}))")
+                             f"a symbol of the model (declare it first, e.g. "
+                             f"model.constants({node.id!r})){hint}")
         if isinstance(node, ast.BinOp):
             a = self.convert(node.left, depth + 1)
             b = self.convert(node.right, depth + 1)

@@ -26,7 +26,6 @@ type of the option's default, finite and integral where the default is.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import importlib
 import importlib.util
 import inspect
@@ -44,12 +43,12 @@ import numpy as np
 from .. import scenes
 from ..abi import Output
 from ..errors import ModelError, SceneError
-from ..names import check_name
+from ..names import check_name, did_you_mean
 from ..symbolic.equations import Equations
 from .builder import Model
 from .files import require_regular_file
 from .limits import allow_large_models, check_size
-from .mjcf import compile_mjcf, from_mujoco, scene_values
+from .mjcf import compile_mjcf, file_model_name, from_mujoco, scene_values
 from .urdf import build_model, read_urdf
 
 
@@ -214,11 +213,6 @@ def _shown(value) -> str:
     return text if len(text) <= 60 else text[:50] + "..."
 
 
-def _did_you_mean(name, choices) -> str:
-    close = difflib.get_close_matches(str(name), list(choices), 1)
-    return f"; did you mean {close[0]!r}?" if close else ""
-
-
 def model_names(model) -> dict[str, list[str]] | None:
     """Names a scene may refer to, by kind (None: an object we cannot inspect)."""
     if isinstance(model, Model):
@@ -255,7 +249,7 @@ def _check_symbol_names(scn: "Scene") -> None:
                 raise SceneError(
                     f"scene {scn.name!r}: {field_name} names {str(name)!r}, which is not "
                     f"{noun} of model {getattr(scn.model, 'name', '?')!r}"
-                    f"{_did_you_mean(name, known[kind])} ({kind}: {listed or 'none'})")
+                    f"{did_you_mean(name, known[kind])} ({kind}: {listed or 'none'})")
 
 
 def _check_targets(scn: "Scene") -> None:
@@ -343,11 +337,12 @@ def urdf_scene(path, *, floating: bool = False) -> Scene:
 def mjcf_scene(path) -> Scene:
     """The scene of a MuJoCo model file (``mbgen check robot.xml``; :func:`mbgen.from_mjcf`).
 
-    ``g`` is ``|opt.gravity|``; it starts at MuJoCo's ``qpos0`` at rest and runs for a
-    second; outputs as :func:`urdf_scene`'s.
+    Named after the file (``cartpole.xml``: ``cartpole``); ``g`` is ``|opt.gravity|`` (0
+    under ``<flag gravity="disable"/>``); it starts at MuJoCo's ``qpos0`` at rest and runs
+    for a second; outputs as :func:`urdf_scene`'s.
     """
     mj = compile_mjcf(path)
-    model = from_mujoco(mj)
+    model = from_mujoco(mj, name=file_model_name(path))
     parameters, initial = scene_values(mj)
     return Scene(name=model.name, model=model, parameters=parameters, initial_state=initial,
                  t_span=(0.0, 1.0), outputs=(Output.RHS, Output.DOPRI5),

@@ -3,7 +3,8 @@
 :class:`ModelBase` is the interface of the three back ends (:mod:`mbgen.runtime.compiled`,
 :mod:`mbgen.runtime.python`, :mod:`mbgen.runtime.lambdified`).  A back end implements
 ``_evaluate(output, t, x, p, r)``; the output accessors (``rhs``, ``mass_matrix``, ...,
-one per row of :data:`ACCESSORS`), :meth:`ModelBase.consistent` and :meth:`ModelBase.bind`
+one per expression output, their docstrings from the outputs' rows of
+:data:`mbgen.abi.OUTPUT_INFO`), :meth:`ModelBase.consistent` and :meth:`ModelBase.bind`
 are built on it.
 
 Every call returns a **new** array, validates ``t``, ``x``, ``p`` and ``r`` (a
@@ -20,7 +21,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..abi import Output
+from ..abi import OUTPUT_INFO, Output, OutputInfo
 from ..errors import (ArgumentError, ConstraintError, MbgenError, NonFiniteResultError,
                       SingularConstraintError, SingularMassMatrixError)
 from ..symbolic.layout import Layout
@@ -56,6 +57,23 @@ def on_loop_bound(J, q, tol: float) -> np.ndarray:
     s = np.where(s > 0, s, s.max(axis=-1, keepdims=True))
     q = np.abs(np.asarray(q, dtype=float))
     return tol * s + ROUNDING * np.finfo(float).eps * (A @ q[..., None])[..., 0]
+
+
+def accessor_doc(info: OutputInfo) -> str:
+    """The accessor's docstring from the output's row: what it computes, the note, its shape."""
+    note = f"{info.note}.\n\n" if info.note else ""
+    return f"{info.doc}.\n\n{note}Returns\n-------\nndarray, shape {info.shape_text}\n"
+
+
+def _accessor(output: Output) -> Callable[..., np.ndarray]:
+    """The method ``model.<output>(t, x, p=None, r=None)``: ``_evaluate`` of ``output``."""
+    def accessor(self, t, x, p=None, r=None) -> np.ndarray:
+        return self._evaluate(output, t, x, p, r)
+
+    accessor.__name__ = output.value
+    accessor.__qualname__ = f"ModelBase.{output.value}"
+    accessor.__doc__ = accessor_doc(OUTPUT_INFO[output])
+    return accessor
 
 
 class ModelBase:
@@ -151,6 +169,24 @@ class ModelBase:
         return ()
 
     # ------------------------------------------------------------------ outputs
+    # One accessor per expression output, named here so that IDEs and type checkers see it;
+    # what it computes and its shape are the output's row (tests/runtime/test_run_backends.py
+    # checks that every output has its line).
+    rhs = _accessor(Output.RHS)
+    mass_matrix = _accessor(Output.MASS_MATRIX)
+    forcing = _accessor(Output.FORCING)
+    energy = _accessor(Output.ENERGY)
+    jacobian = _accessor(Output.JACOBIAN)
+    parameter_jacobian = _accessor(Output.PARAMETER_JACOBIAN)
+    time_derivative = _accessor(Output.TIME_DERIVATIVE)
+    positions = _accessor(Output.POSITIONS)
+    velocities = _accessor(Output.VELOCITIES)
+    reactions = _accessor(Output.REACTIONS)
+    input_jacobian = _accessor(Output.INPUT_JACOBIAN)
+    constraint_forces = _accessor(Output.CONSTRAINT_FORCES)
+    holonomic = _accessor(Output.HOLONOMIC)
+    holonomic_jacobian = _accessor(Output.HOLONOMIC_JACOBIAN)
+
     def _evaluate(self, output: Output, t, x, p, r) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
@@ -257,55 +293,8 @@ class ModelBase:
                 f"p={list(self.parameter_names)}, outputs={[o.value for o in self.outputs]}>")
 
 
-#: One row per output a model can evaluate: the accessor ``model.<output>(t, x, p=None,
-#: r=None)`` and its docstring (what it computes, its shape).
-ACCESSORS: dict[Output, str] = {
-    Output.RHS: "``dxdt = [G; M^-1 F]``, shape ``(n_x,)``.",
-    Output.MASS_MATRIX: "``M(q, t)``, shape ``(n_u, n_u)``.",
-    Output.FORCING: "``F(q, u, r, t)``, shape ``(n_u,)``.",
-    Output.ENERGY: "``[T, V]``: kinetic and potential energy.",
-    Output.JACOBIAN: ("``df/dx`` of the right-hand side, shape ``(n_x, n_x)`` "
-                      "(``jac=`` for solve_ivp)."),
-    Output.PARAMETER_JACOBIAN: "``df/dp`` of the right-hand side, shape ``(n_x, n_p)``.",
-    Output.TIME_DERIVATIVE: ("``df/dt`` of the right-hand side (explicit time dependence), "
-                             "shape ``(n_x,)``."),
-    Output.POSITIONS: "Newtonian positions of the reported points, shape ``(k, 3)``.",
-    Output.VELOCITIES: "Newtonian velocities of the reported points, shape ``(k, 3)``.",
-    Output.INPUT_JACOBIAN: ("``df/dr`` of the right-hand side, shape ``(n_x, n_r)`` "
-                            "(``B`` of a linearisation)."),
-    Output.CONSTRAINT_FORCES: (
-        "Constraint multipliers ``lambda`` of ``M u' = F + A^T lambda``, shape ``(m,)``.\n\n"
-        "        For a point constraint (``no_slip``, ``coincident``) the force on the body at\n"
-        "        the point along the frame axis; for a stated one the generalized force\n"
-        "        conjugate to it.  Order: the model's constraints.\n"
-        "        "),
-    Output.HOLONOMIC: ("Residual ``f_h(q, t)`` of the configuration constraints, "
-                       "shape ``(m_h,)``."),
-    Output.HOLONOMIC_JACOBIAN: "``df_h/dq``, shape ``(m_h, n_q)``.",
-    Output.REACTIONS: (
-        "Joint reactions, shape ``(n_joints, 6)``: per joint (in :attr:`reaction_names`\n"
-        "        order, from the root) the force ``Fx, Fy, Fz`` and the moment ``Mx, My, Mz`` "
-        "about the\n"
-        "        joint point that the parent exerts on the child, in the joint's frame\n"
-        "        (:attr:`reaction_frames`)."),
-}
-
-
-def _accessor(output: Output, doc: str) -> Callable:
-    """The method ``model.<output>(t, x, p=None, r=None)``: ``_evaluate`` of ``output``."""
-    def accessor(self, t, x, p=None, r=None) -> np.ndarray:
-        return self._evaluate(output, t, x, p, r)
-
-    accessor.__name__ = output.value
-    accessor.__qualname__ = f"ModelBase.{output.value}"
-    accessor.__doc__ = doc
-    return accessor
-
-
-for _output, _doc in ACCESSORS.items():
-    setattr(ModelBase, _output.value, _accessor(_output, _doc))
-del _output, _doc
-
+#: The docstring of every accessor ``model.<output>(t, x, p=None, r=None)``, by output.
+ACCESSORS: dict[Output, str] = {o: accessor_doc(info) for o, info in OUTPUT_INFO.items()}
 
 
 class GeneratedModel(ModelBase):

@@ -31,14 +31,33 @@ from .batch import integrate as batch_integrate
 from .integration import SUCCESS, Trajectory
 
 
+#: The rendered code's values that ``CompiledModel``'s older signature repeated, each with
+#: how a repeated value is compared (a mapping as a dict, a sequence as a tuple).
+_AS_RENDERED = {"layout": lambda value: value, "defaults": dict, "outputs": tuple}
+
+
 class CompiledModel(GeneratedModel):
     """The generated C, compiled with cffi; see :func:`mbgen.compile`."""
 
     backend = "c"
     batch_loop = True
 
-    def __init__(self, rendered, module, layout: Layout, defaults, outputs):
-        super().__init__(rendered, module, layout, defaults, outputs)
+    def __init__(self, rendered, module, layout: Layout | None = None, defaults=None,
+                 outputs=None):
+        """The compiled ``module`` of ``rendered`` (:func:`mbgen.build.extension.load`).
+
+        Its layout, default parameters and outputs are the rendered code's.  The older
+        form ``CompiledModel(rendered, module, rendered.layout, rendered.defaults,
+        rendered.outputs)`` still works: each of the three given must equal the rendered
+        code's (:class:`~mbgen.errors.ArgumentError` otherwise), since the C knows no other.
+        """
+        given = {"layout": layout, "defaults": defaults, "outputs": outputs}
+        for what, same in _AS_RENDERED.items():
+            if given[what] is not None and same(given[what]) != same(getattr(rendered, what)):
+                raise ArgumentError(f"CompiledModel({what}=...) differs from the rendered "
+                                    f"code's (rendered.{what}); leave it out")
+        super().__init__(rendered, module, rendered.layout, rendered.defaults,
+                         rendered.outputs)
         self.ffi, self.lib = module.ffi, module.lib
         #: The Python path of every function (what the C entries fall back to).
         self._python_calls: dict = {}

@@ -22,7 +22,8 @@ Jacobians are derivatives of ``G`` and of ``R = F - M a`` (the accelerations
 Every expression is lambdified on first use.
 
 Each output is one row of :data:`REFERENCES`: the method that computes it,
-with or without constraints.  Only the outputs the equations can give are
+with or without constraints (what the output is, its shape and what it needs: its
+row of :data:`mbgen.abi.OUTPUT_INFO`).  Only the outputs the equations can give are
 offered (:func:`mbgen.symbolic.availability.applicable`).
 """
 

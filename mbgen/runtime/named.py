@@ -43,7 +43,6 @@ Blank lines and lines starting with ``#`` are skipped; a mistake is a
 from __future__ import annotations
 
 import csv
-import difflib
 import math
 import numbers
 from dataclasses import dataclass
@@ -53,18 +52,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from ..errors import ArgumentError, ArgumentTypeError, UnknownNameError, UsageError
-
-
-def did_you_mean(name: str, names: Sequence[str]) -> str:
-    """``"; did you mean 'c'?"`` for the closest of ``names`` (empty when none is close)."""
-    lower = {}
-    for n in names:  # compared without case: 'f' finds 'F'
-        lower.setdefault(str(n).lower(), n)
-    close = [lower[c] for c in difflib.get_close_matches(str(name).lower(), list(lower), n=3,
-                                                         cutoff=0.5)]
-    if not close:
-        return ""
-    return "; did you mean " + " or ".join(repr(c) for c in close) + "?"
+from ..names import did_you_mean
 
 
 def check_names(given, names: Sequence[str], what: str, model: str = "") -> None:

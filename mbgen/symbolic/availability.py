@@ -3,18 +3,20 @@
 An output applies to :class:`~mbgen.symbolic.equations.Equations` when the
 equations carry what it reads: the energy needs ``kinetic_energy``, the points'
 positions need points, the parameter Jacobian needs a parameter that the motion
-uses, and so on.  :data:`REQUIREMENTS` holds, per output, the conditions in the
-order they are checked, each with the message of the
-:class:`~mbgen.errors.ModelError` raised when it fails; an output without a row
-always applies.  The code generator (:mod:`mbgen.codegen.outputs`) raises that
-error and the reference (:mod:`mbgen.runtime.lambdified`) offers only
-:func:`applicable` outputs: both read this one table.
+uses, and so on.  What each output needs is its row's ``needs``
+(:data:`mbgen.abi.OUTPUT_INFO`, checked in order); :data:`CONDITIONS` holds, per
+:class:`~mbgen.abi.Need`, the test and the message of the
+:class:`~mbgen.errors.ModelError` raised when it fails.  The code generator
+(:mod:`mbgen.codegen.outputs`) raises that error and the reference
+(:mod:`mbgen.runtime.lambdified`) offers only :func:`applicable` outputs: both read
+:data:`REQUIREMENTS`, the rows' needs as conditions.
 
 The motion is ``M``, ``F``, ``G``, the recursion's accelerations and the
 constraints' velocity and acceleration terms (:func:`motion_exprs`); the symbols
 it uses (through the program) decide :func:`dynamic_parameters` (the columns of
 the parameter Jacobian) and :func:`time_symbols` (whether ``df/dt`` is needed).
-:data:`SENSITIVITIES` says what each sensitivity output ``df/dv`` differentiates by.
+:data:`SENSITIVITIES` says what each sensitivity output ``df/dv`` differentiates by
+(from its row's ``wrt``).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable
 
-from ..abi import EXPRESSION_OUTPUTS, Output
+from ..abi import EXPRESSION_OUTPUTS, OUTPUT_INFO, Need, Output
 from ..errors import ModelError
 from .equations import Equations
 from .layout import Layout
@@ -45,7 +47,8 @@ def time_symbols(eq: Equations) -> set:
 
 
 def dynamic_parameters(eq: Equations) -> tuple:
-    """Parameters that ``M``, ``F``, ``G`` (or the recursion) use: the others have zero sensitivity."""
+    """Parameters that ``M``, ``F``, ``G`` (or the recursion) use: the others have zero
+    sensitivity."""
     used = eq.uses(motion_exprs(eq))
     return tuple(p for p in eq.layout.parameters if p in used)
 
@@ -77,46 +80,41 @@ class Requirement:
     message: Callable[[Equations, Output], str]
 
 
-ENERGY = Requirement(
-    lambda eq: eq.kinetic_energy is not None,
-    lambda eq, o: f"the equations of {eq.name!r} carry no energy expressions; " + _advice(
-        eq, o, "derive with energy=True or leave Output.ENERGY out"))
-DYNAMIC_PARAMETERS = Requirement(
-    lambda eq: bool(dynamic_parameters(eq)),
-    lambda eq, o: f"the equations of motion of {eq.name!r} have no parameters, so no "
-                  f"parameter Jacobian")
-POINTS = Requirement(
-    lambda eq: bool(eq.points),
-    lambda eq, o: f"the equations of {eq.name!r} carry no points; " + _advice(
-        eq, o, "list the points to report in the scene (Scene.points) or derive with "
-               "points=..."))
-REACTIONS = Requirement(
-    lambda eq: eq.reactions is not None and bool(eq.reactions.names),
-    lambda eq, o: f"the equations of {eq.name!r} carry no joint reactions; " + _advice(
-        eq, o, "derive with reactions=True (Output.REACTIONS asks for it) from an "
-               "mbgen.Model with at least one body"))
-INPUTS = Requirement(
-    lambda eq: bool(eq.layout.inputs),
-    lambda eq, o: f"the model {eq.name!r} has no inputs, so no input Jacobian")
-CONSTRAINED = Requirement(
-    lambda eq: eq.constraints is not None,
-    lambda eq, o: f"the model {eq.name!r} has no constraints, so no {o.value}")
-CONFIGURATION = Requirement(
-    lambda eq: eq.constraints.m_h > 0,
-    lambda eq, o: f"the model {eq.name!r} has no configuration (holonomic) constraints")
-
-#: What each output needs of the equations, checked in order (absent: always applies).
-REQUIREMENTS: dict[Output, tuple[Requirement, ...]] = {
-    Output.ENERGY: (ENERGY,),
-    Output.PARAMETER_JACOBIAN: (DYNAMIC_PARAMETERS,),
-    Output.POSITIONS: (POINTS,),
-    Output.VELOCITIES: (POINTS,),
-    Output.REACTIONS: (REACTIONS,),
-    Output.INPUT_JACOBIAN: (INPUTS,),
-    Output.CONSTRAINT_FORCES: (CONSTRAINED,),
-    Output.HOLONOMIC: (CONSTRAINED, CONFIGURATION),
-    Output.HOLONOMIC_JACOBIAN: (CONSTRAINED, CONFIGURATION),
+#: The test of every need, and the message when it fails.
+CONDITIONS: dict[Need, Requirement] = {
+    Need.ENERGY: Requirement(
+        lambda eq: eq.kinetic_energy is not None,
+        lambda eq, o: f"the equations of {eq.name!r} carry no energy expressions; " + _advice(
+            eq, o, "derive with energy=True or leave Output.ENERGY out")),
+    Need.DYNAMIC_PARAMETERS: Requirement(
+        lambda eq: bool(dynamic_parameters(eq)),
+        lambda eq, o: f"the equations of motion of {eq.name!r} have no parameters, so no "
+                      f"parameter Jacobian"),
+    Need.POINTS: Requirement(
+        lambda eq: bool(eq.points),
+        lambda eq, o: f"the equations of {eq.name!r} carry no points; " + _advice(
+            eq, o, "list the points to report in the scene (Scene.points) or derive with "
+                   "points=...")),
+    Need.REACTIONS: Requirement(
+        lambda eq: eq.reactions is not None and bool(eq.reactions.names),
+        lambda eq, o: f"the equations of {eq.name!r} carry no joint reactions; " + _advice(
+            eq, o, "derive with reactions=True (Output.REACTIONS asks for it) from an "
+                   "mbgen.Model with at least one body")),
+    Need.INPUTS: Requirement(
+        lambda eq: bool(eq.layout.inputs),
+        lambda eq, o: f"the model {eq.name!r} has no inputs, so no input Jacobian"),
+    Need.CONSTRAINTS: Requirement(
+        lambda eq: eq.constraints is not None,
+        lambda eq, o: f"the model {eq.name!r} has no constraints, so no {o.value}"),
+    Need.CONFIGURATION: Requirement(
+        lambda eq: eq.constraints.m_h > 0,
+        lambda eq, o: f"the model {eq.name!r} has no configuration (holonomic) constraints"),
 }
+
+#: What each output needs of the equations, checked in order (absent: always applies):
+#: its row's ``needs`` as conditions.
+REQUIREMENTS: dict[Output, tuple[Requirement, ...]] = {
+    o: tuple(CONDITIONS[n] for n in row.needs) for o, row in OUTPUT_INFO.items() if row.needs}
 
 
 def require(eq: Equations, output: Output) -> None:
@@ -151,10 +149,14 @@ def _dynamic_in(eq: Equations, layout: Layout) -> tuple:
     return tuple(p for p in layout.parameters if p in used)
 
 
-#: The sensitivity outputs: what each differentiates by.
-SENSITIVITIES: dict[Output, Sensitivity] = {
-    Output.JACOBIAN: Sensitivity(lambda eq, L: L.states),
-    Output.PARAMETER_JACOBIAN: Sensitivity(_dynamic_in),
-    Output.TIME_DERIVATIVE: Sensitivity(lambda eq, L: (L.time,), vector=True),
-    Output.INPUT_JACOBIAN: Sensitivity(lambda eq, L: L.inputs),
+#: What ``df/dv`` differentiates by, per argument ``v`` (a row's ``wrt``).
+BY_ARGUMENT: dict[str, Sensitivity] = {
+    "x": Sensitivity(lambda eq, L: L.states),
+    "p": Sensitivity(_dynamic_in),
+    "t": Sensitivity(lambda eq, L: (L.time,), vector=True),
+    "r": Sensitivity(lambda eq, L: L.inputs),
 }
+
+#: The sensitivity outputs: what each differentiates by (the rows with a ``wrt``).
+SENSITIVITIES: dict[Output, Sensitivity] = {
+    o: BY_ARGUMENT[row.wrt] for o, row in OUTPUT_INFO.items() if row.wrt}

@@ -15,7 +15,7 @@ from mbgen.build.extension import (IEEE_BREAKERS, LARGE_FUNCTION_CHARS, NATIVE, 
                                    compiled_path, compiler, load, module_name, native_target)
 from mbgen.runtime.compiled import CompiledModel
 from mbgen.studies.ensemble import worker_module
-from mbgen.errors import BuildError
+from mbgen.errors import ArgumentError, BuildError
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
 
@@ -87,14 +87,29 @@ def test_native_and_portable_modules_give_the_same_bits(tmp_path, monkeypatch):
     monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
     res = run(load_scene("spatial_arm", n=4), ("rhs", "jacobian"), build=False)
     r = res.rendered
-    native, portable = (CompiledModel(r, load(r, native=flag), r.layout, r.defaults, r.outputs)
-                        for flag in (True, False))
+    native, portable = (CompiledModel(r, load(r, native=flag)) for flag in (True, False))
     assert compiled_path(r, True) != compiled_path(r, False)
     rng = np.random.default_rng(3)
     for _ in range(20):
         x = rng.uniform(-2, 2, native.n_x)
         assert np.array_equal(native.rhs(0.0, x), portable.rhs(0.0, x))
         assert np.array_equal(native.jacobian(0.0, x), portable.jacobian(0.0, x))
+
+
+def test_a_compiled_model_is_its_rendered_code_and_module(tmp_path, monkeypatch):
+    """``CompiledModel(rendered, module)``; the older form, which repeated the rendered code's
+    layout, defaults and outputs, still works and refuses values the C does not have."""
+    monkeypatch.setenv("MBGEN_CACHE_DIR", str(tmp_path))
+    r = run(load_scene("disc_pendulum"), ("rhs",), build=False).rendered
+    module = load(r)
+    new, old = CompiledModel(r, module), CompiledModel(r, module, r.layout, r.defaults, r.outputs)
+    assert new.layout == old.layout == r.layout and new.outputs == old.outputs == r.outputs
+    assert new.parameter_defaults == old.parameter_defaults
+    assert CompiledModel(r, module, outputs=["rhs"]).outputs == r.outputs   # names are outputs
+    with pytest.raises(ArgumentError, match=r"rendered\.outputs"):
+        CompiledModel(r, module, outputs=("rhs", "energy"))
+    with pytest.raises(ArgumentError, match=r"rendered\.defaults"):
+        CompiledModel(r, module, r.layout, {})
 
 
 def test_ensemble_workers_build_portable_modules(tmp_path, monkeypatch):

@@ -17,7 +17,7 @@ from mbgen.codegen.targets.fmu import fmu_files
 from mbgen.codegen.targets import Targets
 from mbgen.integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from mbgen.model.scene import load_scene
-from mbgen.pipeline import run
+from mbgen.pipeline import COMPARISONS, run
 from mbgen.runtime.compiled import CompiledModel
 from mbgen.runtime.simulate import simulate, simulate_in_c
 from mbgen.runtime.stepper import Stepper
@@ -206,7 +206,7 @@ def test_stage_lines_on_a_terminal_only(tmp_path, capsys, monkeypatch):
     assert ".." not in capsys.readouterr().err     # a pipe or a log: results only
     terminal = _Terminal()
     monkeypatch.setattr("sys.stderr", terminal)
-    monkeypatch.setattr("mbgen.pipeline._CHOSEN", {})   # forget the comparison just made
+    COMPARISONS.clear()                                  # forget the comparison just made
     assert main(["generate", "disc_pendulum", "-o", str(out)]) == EXIT_OK
     compared = [f"  .. {stage} ({method})" for method in ("Newton-Euler", "Kane's method")
                 for stage in ("derive", "bake the scene's slice", "CSE")]   # their rhs

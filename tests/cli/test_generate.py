@@ -139,3 +139,62 @@ def test_inputs_for_an_example_that_is_not_there(tmp_path, capsys):
     assert "'f' is not one of the inputs of 'n_link_cart'; did you mean 'F'" in \
         capsys.readouterr().err
 
+
+
+# ------------------------------------------------------------------ --target (issue 29, item 2)
+def _written(folder: Path) -> set:
+    return {p.name for p in folder.iterdir() if not p.name.startswith(".")}
+
+
+def test_target_names_the_files_written(tmp_path, capsys):
+    """One registry row per target: ``--target`` picks rows, each adds the rows it needs."""
+    for targets, files in ((None, {"disc_pendulum.h", "disc_pendulum.c", "disc_pendulum.py",
+                                   "example.c"}),
+                           ("c", {"disc_pendulum.h", "disc_pendulum.c"}),
+                           ("python", {"disc_pendulum.py"}),
+                           ("python,step", {"disc_pendulum.h", "disc_pendulum.c",
+                                            "disc_pendulum.py"})):
+        out = tmp_path / str(targets)
+        extra = ["--target", targets] if targets else []
+        assert main(["generate", "disc_pendulum", "-o", str(out), *extra]) == EXIT_OK
+        assert _written(out) == files, targets
+        if "disc_pendulum.h" in files:
+            header = (out / "disc_pendulum.h").read_text()
+            assert ("disc_pendulum_dopri5_memory" in header) == (targets == "python,step")
+    capsys.readouterr()
+    assert main(["generate", "disc_pendulum", "--target", "c,pyton", "-o",
+                 str(tmp_path / "x")]) == EXIT_USAGE
+    assert "unknown target 'pyton'; did you mean 'python'" in capsys.readouterr().err
+    assert main(["generate", "disc_pendulum", "--target", "example", "--outputs", "rhs", "-o",
+                 str(tmp_path / "y")]) == EXIT_USAGE
+    assert "example.c runs the scene's first integrator" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_batch_target_compiles_with_the_model(tmp_path, capsys):
+    """The loops the Python extension compiles, written out: they compile strictly beside
+    the model's source (integrator loops included)."""
+    out = tmp_path / "out"
+    assert main(["generate", "stiff_chain", "--target", "batch", "-o", str(out)]) == EXIT_OK
+    assert _written(out) == {"stiff_chain.h", "stiff_chain.c", "stiff_chain_batch.c"}
+    text = (out / "stiff_chain_batch.c").read_text()
+    assert "int stiff_chain_rosenbrock_batch(" in text and '#include "stiff_chain.h"' in text
+    for src in ("stiff_chain_batch.c", "stiff_chain.c"):
+        done = subprocess.run([CC, *C_FLAGS, "-c", src], cwd=out, capture_output=True,
+                              text=True)
+        assert done.returncode == 0 and not done.stderr, done.stderr
+
+
+def test_the_library_front_is_the_command(tmp_path):
+    """``mbgen.generate`` writes what ``mbgen generate`` writes, and says what it did."""
+    scene = load_scene("disc_pendulum")
+    done = mbgen.generate(scene, "c,example", tmp_path / "lib")
+    assert done.targets == ("c", "example") and done.archives == ()
+    assert [p.name for p in done.files] == ["disc_pendulum.c", "disc_pendulum.h", "example.c"]
+    assert set(done.written) == set(done.files)
+    assert main(["generate", "disc_pendulum", "--target", "c,example", "-o",
+                 str(tmp_path / "cli")]) == EXIT_OK
+    for path in done.files:
+        assert path.read_text() == (tmp_path / "cli" / path.name).read_text()
+    again = mbgen.generate(scene, ["example", "c"], tmp_path / "lib")
+    assert again.written == () and again.files == done.files

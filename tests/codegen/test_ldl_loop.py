@@ -11,7 +11,6 @@ import numpy as np
 import mbgen
 
 import mbgen.codegen.targets.model
-import mbgen.codegen.header
 from mbgen.verify.check import check
 from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
@@ -24,7 +23,6 @@ def _loops(rendered) -> bool:
 
 def test_threshold_as_a_parameter(monkeypatch):
     monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
-    monkeypatch.setattr(mbgen.codegen.header, "UNROLL_MAX", 1)
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "mass_matrix"))
     assert _loops(result.rendered) and "for j in range(n):" in result.rendered.python
     report = check(None, result=result, samples=6)
@@ -45,7 +43,6 @@ def test_the_row_wise_column_solve_gives_the_per_column_solves_bits(monkeypatch)
     loops along a row vectorise): per column the operations of ``ldl_solve`` in its order,
     so the C Jacobian is the generated Python's (one column at a time) bit for bit."""
     monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
-    monkeypatch.setattr(mbgen.codegen.header, "UNROLL_MAX", 1)
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "parameter_jacobian"))
     assert "double acc[8];" in result.rendered.source
     py = mbgen.python_model(result.rendered)

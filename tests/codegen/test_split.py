@@ -61,8 +61,7 @@ def pair(request):
 
 
 def compiled(rendered):
-    return CompiledModel(rendered, load(rendered), rendered.layout, rendered.defaults,
-                         rendered.outputs)
+    return CompiledModel(rendered, load(rendered))
 
 
 def test_the_long_functions_are_split_and_say_so(pair):

@@ -11,7 +11,10 @@ Seams checked here:
   absolute coordinates gets Kane without Newton–Euler; a model whose joints
   Newton–Euler cannot infer gets Kane;
 * ``method=``, the scene's ``method`` and ``--derivation`` override the choice;
-* a process remembers a comparison: regenerating derives only the method kept;
+* a process remembers a comparison: regenerating derives only the method kept; the memo
+  is an object a run is handed (``comparisons=``);
+* the choice hands its prepared model and Newton–Euler outward pass to the derivation:
+  ``prepare`` and the outward pass run once per compile, compared or not;
 * the generated header, the Python module, the notebook summaries of
   ``Equations`` and ``CompiledModel`` say which method and why.
 """
@@ -25,9 +28,11 @@ import mbgen
 from mbgen import Output
 from mbgen.cli import main
 from mbgen.derivation import CHAIN, COMPARE_SPEEDS, METHODS, Method, choose_method, derive
+from mbgen.derivation import prepare as prepare_module
+from mbgen.derivation.recursion import NewtonEuler
 from mbgen.model.scene import builtin_names, load_scene
 from mbgen.codegen.optimize import optimize
-from mbgen.pipeline import equations_of, operations, run
+from mbgen.pipeline import Comparisons, equations_of, operations, run
 from mbgen.scenes import n_link_cart, spatial_arm, stiff_chain
 from mbgen.symbolic.equations import METHOD_TITLES
 
@@ -101,6 +106,79 @@ def test_regenerating_derives_only_the_method_kept(monkeypatch):
     assert more.equations.derivation == first.equations.derivation
     with pytest.raises(AssertionError, match="Kane's method was derived"):  # another slice:
         run(unnamed("car_trailer"), [Output.RHS], build=False, fixed={})  # compared afresh
+
+
+def test_the_memo_is_the_comparisons_a_run_is_handed(monkeypatch):
+    memo = Comparisons()
+    first = run(unnamed("car_trailer"), build=False, comparisons=memo)
+    assert len(memo) == 1
+    no_kane(monkeypatch)
+    again = run(unnamed("car_trailer"), build=False, comparisons=memo)
+    assert again.equations.derivation == first.equations.derivation
+    for afresh in (None, Comparisons()):    # None: nothing remembered, nothing looked up
+        with pytest.raises(AssertionError, match="Kane's method was derived"):
+            run(unnamed("car_trailer"), build=False, comparisons=afresh)
+
+
+def test_comparisons_keep_at_most_their_size():
+    memo = Comparisons(size=2)
+    for k in range(3):
+        memo.remember(("slice", k), Method.KANE, "why")
+    assert len(memo) == 2 and memo.get(("slice", 0)) is None
+    assert memo.get(("slice", 2)) == (Method.KANE, "why")
+    memo.clear()
+    assert len(memo) == 0
+
+
+# ------------------------------------------------------------------ each runs once
+@pytest.fixture
+def counted(monkeypatch):
+    """How often ``prepare`` and the Newton-Euler outward pass (a ``NewtonEuler``) run."""
+    counts = {"prepare": 0, "outward": 0}
+    real_prepare, real_init = prepare_module.prepare, NewtonEuler.__init__
+
+    def prepare(model):
+        counts["prepare"] += 1
+        return real_prepare(model)
+
+    def init(self, *args, **kw):
+        counts["outward"] += 1
+        real_init(self, *args, **kw)
+
+    monkeypatch.setattr(prepare_module, "prepare", prepare)
+    monkeypatch.setattr(NewtonEuler, "__init__", init)
+    return counts
+
+
+@pytest.mark.parametrize("how", ["structure", "compared", "named", "derive"])
+def test_prepare_and_the_outward_pass_run_once(counted, how):
+    """Before, the choice ran both and the derivation both again (twice more while
+    comparing): 2 and 2 on a long chain, 3 and 2 on a small model."""
+    reactions = [Output.RHS, Output.REACTIONS]     # Kane's reactions use the outward pass too
+    if how == "structure":
+        eq = run(unnamed("spatial_arm", n=CHAIN), build=False).equations
+        assert eq.method == "newton_euler" and "Kane's method not derived" in eq.method_reason
+    elif how == "compared":
+        eq = run(unnamed("car_trailer"), reactions, build=False,
+                 comparisons=Comparisons()).equations
+        assert "against Kane's" in eq.method_reason
+    elif how == "named":
+        run(unnamed("car_trailer"), reactions, build=False, method=Method.KANE)
+    else:
+        assert derive(n_link_cart.build_model(2), reactions=True).method == "kane"
+    assert counted == {"prepare": 1, "outward": 1}
+
+
+def test_every_derivation_forks_the_outward_pass_it_is_handed():
+    """The choice's outward pass, forked: the derivations' programs grow apart from it."""
+    choice = choose_method(spatial_arm.build_model(3))
+    ne = choice.prepared.outward
+    before = list(ne.P.assignments)
+    for method in Method:
+        derive(choice.prepared, method, reactions=True)
+    assert ne.P.assignments == before
+    assert derive(choice.prepared, Method.NEWTON_EULER) == derive(spatial_arm.build_model(3),
+                                                                  Method.NEWTON_EULER)
 
 
 # ------------------------------------------------------------------ decided by structure

@@ -14,6 +14,7 @@ Seams checked here:
 * the recursion's operation count grows linearly with the number of bodies.
 """
 
+from dataclasses import FrozenInstanceError
 from functools import cache
 
 import numpy as np
@@ -24,6 +25,8 @@ from sympy.physics import mechanics as me
 import mbgen
 from mbgen import Model
 from mbgen.derivation import Method, derive
+from mbgen.derivation.prepare import prepare
+from mbgen.derivation.recursion import BodyInertia, BodyKinematics, NewtonEuler
 from mbgen.errors import ModelError
 from mbgen.codegen.optimize import Form
 from mbgen.model.scene import builtin_names
@@ -194,6 +197,17 @@ def test_joints_are_inferred_from_the_frame_and_point_tree():
     assert J.points[1:] == tuple(f"P{i}" for i in range(n))         # at the previous bob
     dp = derive(scene("disc_pendulum").model, Method.NEWTON_EULER, reactions=True).reactions
     assert dp.parents == (None,) and dp.points == ("E",) and dp.frames == ("B",)
+
+
+def test_per_body_quantities_are_frozen_records_by_name():
+    """Pinocchio's shape: each pass's per-body quantities are named fields, not dict keys."""
+    ne = NewtonEuler(prepare(scene("spatial_arm").model))
+    for b in ne.bodies:
+        kin, inertia = ne.kin[b], ne.inertia[b]
+        assert isinstance(kin, BodyKinematics) and isinstance(inertia, BodyInertia)
+        assert list(kin.S) == [b.index] and len(inertia.spatial) == 6
+        with pytest.raises(FrozenInstanceError):
+            kin.S = {}
 
 
 def test_stated_joint_names_frame_and_errors():

@@ -97,7 +97,7 @@ def kanes_method(model):
 CONSTRAINED_ORACLES = {
     "four_bar": ("scenes/test_constrained_scenes.py::"
                  "test_four_bar_position_analysis_is_what_consistent_finds",
-                 "derive/test_constraints.py::"
+                 "derivation/test_constraints.py::"
                  "test_four_bar_consistent_state_projection_and_energy"),  # energy conserved
     "slider_crank": ("scenes/test_constrained_scenes.py::"
                      "test_slider_crank_power_balance_with_the_driving_torque",),
@@ -137,7 +137,7 @@ def test_every_builtin_scene_is_compared_in_the_default_command():
     assert set(SLOW_ORACLES) == SLOW
     for name in CONSTRAINED_ORACLES:
         assert load_scene(name).model.constraints_, f"{name} is unconstrained: compare it here"
-    here = "derive/test_sympy_oracle.py::test_rhs_matches_sympy_kanes_method"
+    here = "derivation/test_sympy_oracle.py::test_rhs_matches_sympy_kanes_method"
     oracles = {name: SLOW_ORACLES.get(name, (f"{here}[{name}]",)) for name in SCENES}
     oracles.update(CONSTRAINED_ORACLES)
     tests = Path(__file__).resolve().parents[1]

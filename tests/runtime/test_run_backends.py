@@ -1,17 +1,21 @@
-"""The back ends of mbgen.runtime: one interface, one accessor per output, one result type."""
+"""The back ends of mbgen.runtime: one interface, one accessor per output, one result type,
+one "did you mean"."""
 
 from __future__ import annotations
 
 import dataclasses
 import importlib
 import inspect
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import mbgen
-from mbgen.abi import EXPRESSION_OUTPUTS, Output
-from mbgen.runtime.base import ACCESSORS, ModelBase
+from mbgen import names
+from mbgen.abi import EXPRESSION_OUTPUTS, OUTPUT_INFO, Output
+from mbgen.runtime import named
+from mbgen.runtime.base import ACCESSORS, ModelBase, accessor_doc
 from mbgen.runtime.integration import Integration, Trajectory
 
 
@@ -42,12 +46,15 @@ def test_every_back_end_is_public_and_evaluates():
 
 
 def test_every_output_has_one_accessor():
+    """Named in the class body (IDEs and type checkers see them), documented by the rows."""
     assert set(ACCESSORS) == set(EXPRESSION_OUTPUTS)
     for output, doc in ACCESSORS.items():
-        method = getattr(ModelBase, output.value)
+        method = vars(ModelBase)[output.value]
         assert method.__name__ == output.value and method.__doc__ == doc
+        assert doc == accessor_doc(OUTPUT_INFO[output])
         assert str(inspect.signature(method)) == "(self, t, x, p=None, r=None) -> 'np.ndarray'"
-    assert "shape ``(n_x, n_x)``" in mbgen.CompiledModel.jacobian.__doc__
+    doc = inspect.getdoc(mbgen.CompiledModel.jacobian)
+    assert doc.startswith("Jacobian df/dx") and doc.endswith("ndarray, shape (n_x, n_x)")
 
 
 def test_one_result_type_for_integrate_and_simulate():
@@ -114,3 +121,16 @@ def test_c_and_python_agree_bit_for_bit_on_an_ill_conditioned_saddle_point():
         want = getattr(model, output)(0.0, x, p)
         assert np.array_equal(getattr(py, output)(0.0, x, p), want), output
     assert np.max(np.abs(model.constraint_forces(0.0, x, p))) > 1e6
+
+
+def test_one_did_you_mean_for_every_unknown_name():
+    """Names given by name (here), scene fields, expressions and the CLI's input tables all
+    answer an unknown name by mbgen.names.did_you_mean: one rule, case-blind, up to three."""
+    assert named.did_you_mean is names.did_you_mean
+    assert names.did_you_mean("f", ["F", "g"]) == "; did you mean 'F'?"
+    assert names.did_you_mean("q", ["q1", "q2", "q3", "q4"]).count(" or ") == 2  # three
+    assert names.did_you_mean("zzz", ["g", "l0"]) == ""
+    package = Path(mbgen.__file__).parent
+    users = sorted(p.relative_to(package).as_posix() for p in package.rglob("*.py")
+                   if "get_close_matches" in p.read_text(encoding="utf-8"))
+    assert users == ["names.py"], users

@@ -29,7 +29,6 @@ import pytest
 import sympy as sm
 
 import mbgen
-import mbgen.codegen.header
 import mbgen.codegen.targets.model
 from mbgen.abi import INTEGRATOR_STATUS_CODES
 from mbgen.codegen.solver import PIVOT_ULPS
@@ -97,7 +96,6 @@ def test_a_zero_length_crank_is_singular_in_every_back_end():
 
 def test_a_zero_length_crank_is_singular_on_the_dense_loop_path(monkeypatch):
     monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 0)
-    monkeypatch.setattr(mbgen.codegen.header, "UNROLL_MAX", 0)
     result = mbgen.run(four_bar.scene(), ("rhs", "holonomic", "holonomic_jacobian"))
     assert "for (j = 0; j < 1; ++j)" in result.rendered.source
     c, py = result.compiled, mbgen.python_model(result.rendered)

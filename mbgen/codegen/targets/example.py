@@ -13,7 +13,9 @@ time as :meth:`~mbgen.runtime.compiled.CompiledModel.integrate` does with an
 :meth:`mbgen.runtime.compiled.CompiledModel.integrate`, so the two can be compared.
 
 Rendered after the pipeline from the scene's values and the kernel (not by
-:func:`~mbgen.codegen.render.render`): :data:`EXAMPLE` names its template.
+:func:`~mbgen.codegen.render.render`): :data:`EXAMPLE`'s :meth:`~Example.export`, for
+``mbgen generate`` (``--target example``, on by default when the scene has an integrator),
+:func:`mbgen.generate` and ``generated/``.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from ...integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from ...model.scene import Scene
 from ...names import model_prefix
 from ..templating import environment
-from .base import Target
+from .base import Job, Target
 
 #: Rows of the example's trajectory.
 N_OUT = 21
@@ -44,6 +46,21 @@ class Example(Target):
 
     name = "example"
     files = (("example.c.j2", "example.c"),)
+    needs = ("c",)
+    takes_inputs = True
+
+    def wanted(self, kernel, targets) -> bool:
+        return False
+
+    def unavailable(self, kernel) -> str | None:
+        if kernel.integrators:
+            return None
+        return ("example.c runs the scene's first integrator, and the outputs have none; add "
+                "one, e.g. --outputs rhs,dopri5")
+
+    def export(self, job: Job) -> dict[str, str]:
+        text = render_example(job.scene, job.kernel, job.inputs)
+        return {} if text is None else {self.files[0][1]: text}
 
 
 #: The example target.

@@ -1,8 +1,9 @@
 r"""FMI 2.0 export, the render half: an FMU's model description and C glue from ``templates/fmu/``.
 
 :func:`fmu_files` returns ``{path inside the FMU: text}`` for a scene and its kernel
-rendered with the step API target; :func:`mbgen.export.export_fmu` runs the pipeline,
-and :mod:`mbgen.build.fmu` compiles the sources and writes the zip::
+rendered with the step API target; :data:`FMU`'s :meth:`~Fmu.archive` (``mbgen generate
+--target fmu``, ``mbgen fmu``, :func:`mbgen.export.export_fmu`) has
+:mod:`mbgen.build.fmu` compile the sources and write the zip::
 
     modelDescription.xml            variables, capabilities, model structure
     sources/<prefix>.h, .c          the model (with the step API target)
@@ -61,7 +62,7 @@ API).  Model exchange cannot, as the importer's integrator owns the state: so
 
 Why no third-party FMI package: FMPy ships the standard headers but is an
 importer (a test dependency here, not a run-time one); pythonfmu and PyFMI
-wrap Python or import FMUs.  The glue is one template of plain C (~500 lines)
+wrap Python or import FMUs.  The glue is one template of plain C (~800 lines)
 and the types are a page of the standard, so the FMU needs nothing but a C
 compiler.
 """
@@ -70,13 +71,16 @@ from __future__ import annotations
 
 import hashlib
 
+from pathlib import Path
+
 from ..._version import __version__
 from ...abi import CONSTRAINT_STATUS_CODES, INTEGRATOR_STATUS_CODES, STATUS_CODES, Output
+from ...build.fmu import build_binary, write_fmu
 from ...errors import ModelError
 from ...integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from ..escape import xml_attr
 from ..templating import environment
-from .base import Target
+from .base import Job, Target
 from .step import adaptive_method
 
 #: Model exchange: residual (relative to 1 + max|q_r|) above which a step event projects.
@@ -141,11 +145,23 @@ FMU_OUTPUTS = (Output.ENERGY, Output.POSITIONS, Output.VELOCITIES, Output.MASS_M
 
 
 class Fmu(Target):
-    """The FMU's texts: rendered after the pipeline from the scene (see :func:`fmu_files`)."""
+    """The FMU: its texts rendered after the pipeline from the scene (:func:`fmu_files`), compiled
+    and zipped into ``<prefix>.fmu``, an archive written whole into the output folder."""
 
     name = "fmu"
     files = (("modelDescription.xml.j2", "modelDescription.xml"),
              ("fmi2.h.j2", "sources/{prefix}_fmi2.h"), ("fmu.c.j2", "sources/{prefix}_fmu.c"))
+    uses = ("step",)
+    note = "FMI 2.0, model exchange and co-simulation"
+
+    def wanted(self, kernel, targets) -> bool:
+        return False
+
+    def archive(self, job: Job, folder: Path) -> Path:
+        """Compile the sources and write ``<folder>/<prefix>.fmu`` (:mod:`mbgen.build.fmu`)."""
+        files = fmu_files(job.scene, job.kernel, job.rendered)
+        prefix = job.rendered.prefix
+        return write_fmu(folder, prefix, files, build_binary(files, prefix))
 
 
 #: The FMU target.

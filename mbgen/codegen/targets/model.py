@@ -1,16 +1,25 @@
-"""The model target: ``<prefix>.h``, ``<prefix>.c`` and ``<prefix>.py`` from ``templates/model/``.
+"""The model's targets: ``c`` (``<prefix>.h``, ``<prefix>.c``) and ``python`` (``<prefix>.py``),
+both from ``templates/model/``.
 
 Every function of the kernel becomes a plain-data view (:func:`function_views`:
 strings, numbers, lists of tuples, never sympy objects) printed once in C and once
-in Python; :data:`MODEL`'s context adds what the whole files state (names, sizes,
-the ``#define`` sizes, the ``L D L^T`` solver's lines).  The other targets' sections
-are merged in by :func:`mbgen.codegen.render.render`.
+in Python (:class:`Views`); :data:`C`'s context adds what the whole files state (names,
+sizes, the ``#define`` sizes, the ``L D L^T`` solver's lines) and :data:`PYTHON`'s the
+Python views.  The other targets' sections are merged in by
+:func:`mbgen.codegen.render.render`.
 
 The C prototypes are produced once here and used both by the header template and
 by the cdef string, so they cannot drift apart.
+
+Stack bounds (:meth:`ModelC.stack_bounds`): a function's own automatic storage
+(:func:`function_bytes`; a split function's largest part, :func:`part_bytes`) over the
+deepest routine it calls: ``all_finite``, the ``L D L^T`` and its row-wise column solve,
+a constrained model's velocity and KKT solves over the LU.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from ..._version import __version__
 from ...abi import Output
@@ -19,8 +28,10 @@ from ...symbolic.equations import acceleration_symbols, lambda_symbols
 from ..outputs import Form
 from ..printing import SORT_TERMS_MAX_OPS, CPrinter, PyPrinter, math_functions
 from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines, solve_program
+from ..header import SMALL, frame
 from ..split import split_view
-from .base import Target
+from .base import Job, Target
+from .runtime import routine_bounds, routine_context
 
 
 def signature_args(kernel: Kernel) -> tuple[str, ...]:
@@ -83,8 +94,22 @@ def _c_prototype(fn_view: dict, args) -> str:
     return f"int {fn_view['name']}({', '.join(params)})"
 
 
-def function_views(kernel: Kernel, prefix: str) -> tuple[list[dict], list[dict]]:
-    """``(C views, Python views)`` of every function of ``kernel``; a C view has its prototype."""
+@dataclass(frozen=True)
+class Views:
+    """The functions of a kernel as plain data, once for C and once for Python.
+
+    Attributes
+    ----------
+    c, python : list of dict
+        One view per function (:func:`function_views`); a C view has its ``prototype``.
+    """
+
+    c: list
+    python: list
+
+
+def function_views(kernel: Kernel, prefix: str) -> Views:
+    """The C and Python views of every function of ``kernel``."""
     eq = kernel.equations
     L = kernel.layout
     names = dict(L.identifiers)
@@ -110,20 +135,39 @@ def function_views(kernel: Kernel, prefix: str) -> tuple[list[dict], list[dict]]
             split_view(v, L.identifiers[L.time], (), split_chars=float("inf"))
         else:
             split_view(v, L.identifiers[L.time], ("F",) if v["solve"] else ())
-    return c_views, py_views
+    return Views(c_views, py_views)
 
 
-class ModelFiles(Target):
-    """The model's functions in C (header and source) and in Python."""
+def function_bytes(view: dict) -> int:
+    """Automatic storage one model function declares (its parts' own: :func:`part_bytes`)."""
+    temps = sum(len(view[s]) for s in ("temps", "post_temps") if s not in view["split"])
+    imports = sum(len(v) for v in view["main_imports"].values())
+    doubles = int(view["main_uses_time"]) + len(view["main_loads"]) + temps + imports \
+        + view["work"] + sum(b["size"] for b in view["pre"] + view["post"] if b["local"])
+    ints = int(bool(view["solve"])) + int(bool(view["columns"])) + 1 \
+        + int(any(p["status"] for p in view["parts"]))
+    return frame(doubles, ints) - frame()
 
-    name = "model"
-    files = (("model.h.j2", "{prefix}.h"), ("model.c.j2", "{prefix}.c"),
-             ("model.py.j2", "{prefix}.py"))
 
-    def context(self, kernel: Kernel, views: list[dict], prefix: str, py_views=()) -> dict:
-        """What the model's templates print: names, sizes, functions (``views`` in C,
-        ``py_views`` in Python), the solver's unrolled lines; ``declarations`` and
-        ``sections`` start with the model's own (prototypes; none)."""
+def part_bytes(view: dict) -> int:
+    """The largest automatic storage of one part of a split function (0: not split)."""
+    return max((frame(int(p["uses_time"]) + len(p["loads"]) + len(p["imports"])
+                      + len(p["temps"]), 1) - frame() for p in view["parts"]), default=0)
+
+
+class ModelC(Target):
+    """The model's functions in C: the header and the source, always rendered."""
+
+    name = "c"
+    folder = "model"
+    files = (("model.h.j2", "{prefix}.h"), ("model.c.j2", "{prefix}.c"))
+    requires = ("ldl", "ldl_columns", "lu", "lu_solve_t")
+    bundled = True
+
+    def context(self, kernel: Kernel, views: Views, prefix: str) -> dict:
+        """What the model's templates print: names, sizes, functions, the solver's unrolled
+        lines, the routines' constants; ``declarations`` and ``sections`` start with the
+        model's own (prototypes; none)."""
         eq = kernel.equations
         L = kernel.layout
         upper = prefix.upper()
@@ -134,7 +178,7 @@ class ModelFiles(Target):
                    (f"{upper}_N_X", L.n_x, "length of the state x = [q, u]"),
                    (f"{upper}_N_P", L.n_p, "number of parameters"),
                    (f"{upper}_N_R", L.n_r, "number of inputs")]
-        prototypes = [v["prototype"] + ";" for v in views]
+        prototypes = [v["prototype"] + ";" for v in views.c]
         if has_defaults:
             prototypes.append(f"void {prefix}_default_parameters(double *p);")
         exprs = [e for fn in kernel.functions for _, e in
@@ -167,8 +211,7 @@ class ModelFiles(Target):
             default_values=[repr(float(d)) for d in defaults] if has_defaults else [],
             has_defaults=has_defaults,
             defines=defines,
-            functions=views,
-            py_functions=list(py_views),
+            functions=views.c,
             math_functions=funcs,
             ops_before=kernel.ops_before,
             ops_after=kernel.ops_after,
@@ -193,10 +236,51 @@ class ModelFiles(Target):
             any_kkt=constrained and any_solve,
             declarations=prototypes,
             sections=[],
+            **routine_context(kernel, 0 if unrolled else max(
+                (fn.spec.columns for fn in kernel.functions), default=0)),
         )
 
+    def stack_bounds(self, kernel, ctx: dict, known: dict) -> dict[str, int]:
+        """Every model function over its deepest callee; ``default_parameters``."""
+        routines = routine_bounds(kernel, ctx, known)
+        c = kernel.equations.constraints
+        solves = 0   # velocity_solve, kkt_factor, kkt_solve: their arrays over the LU, the LDL
+        if c is not None:
+            solves = frame(c.m + ctx["n_all"] + 10, 10) + max(routines["lu"], routines["ldl"])
+        bounds = {}
+        for v in ctx["functions"]:
+            callees = [SMALL, solves, frame() + part_bytes(v) if v["parts"] else 0]
+            if v["solve"] or v["columns"]:
+                callees.append(routines["ldl"])
+            if v["columns"] and not ctx["unrolled"]:
+                callees.append(routines["ldl_columns"])
+            bounds[v["name"]] = frame() + function_bytes(v) + max(callees)
+        if ctx["has_defaults"]:
+            bounds[f"{ctx['prefix']}_default_parameters"] = frame()
+        return bounds
 
-#: The model target.
-MODEL = ModelFiles()
+    def export(self, job: Job) -> dict[str, str]:
+        return {name: job.rendered.files[name] for _, name in self.templates(job.rendered.prefix)}
 
-__all__ = ["MODEL", "ModelFiles", "function_views", "signature_args"]
+
+class ModelPython(ModelC):
+    """The model's functions in Python (``<prefix>.py``), printed from the same kernel."""
+
+    name = "python"
+    files = (("model.py.j2", "{prefix}.py"),)
+    requires = ()
+
+    def context(self, kernel: Kernel, views: Views, prefix: str) -> dict:
+        return dict(py_functions=list(views.python))
+
+    def stack_bounds(self, kernel, ctx: dict, known: dict) -> dict[str, int]:
+        return {}
+
+
+#: The model's C (header and source).
+C = ModelC()
+#: The model's Python module.
+PYTHON = ModelPython()
+
+__all__ = ["C", "PYTHON", "ModelC", "ModelPython", "Views", "function_views", "signature_args",
+           "function_bytes", "part_bytes"]

@@ -49,6 +49,13 @@ whole-trajectory integrators, the adaptive methods evaluate the next step's
 first stage at the projected state.  The dependent speeds are not states (the
 RHS computes them), so the state stays consistent step after step.  The
 projection needs the integrators rendered (a scene with an integrator output).
+
+The step functions call the runtime routines (:mod:`mbgen.codegen.targets.runtime`) the
+whole-trajectory integrators call -- the error norm, the first step, Rosenbrock's LU --
+so with both targets on each is defined once.  Stack bounds
+(:meth:`Step.stack_bounds`): a step's own scalars (its arrays are in the memory struct)
+over the RHS, the projection, the first step, an implicit method's Jacobian, ``df/dt``
+and LU.
 """
 
 from __future__ import annotations
@@ -56,8 +63,11 @@ from __future__ import annotations
 from ...abi import INTEGRATOR_STATUS_CODES, Output
 from ...errors import ModelError
 from ...integrators import METHODS, method
+from ..header import SMALL, frame
 from ..integrators import method_view, projection, require
 from .base import HEADER, SOURCE, Target
+from .integrators import project_bound
+from .runtime import routine_bounds
 
 #: Default attempted-step limit per call (``mem->max_steps = 0``).
 DEFAULT_MAX_STEPS = 1000000
@@ -128,12 +138,35 @@ class Step(Target):
     name = "step"
     files = (("step.h.j2", HEADER), ("step.c.j2", SOURCE))
     status_codes = INTEGRATOR_STATUS_CODES
+    requires = ("initial_step", "lu")
+    needs = ("c",)
 
     def wanted(self, kernel, targets) -> bool:
         return targets.step
 
-    def context(self, kernel, views: list[dict], prefix: str) -> dict:
+    def context(self, kernel, views, prefix: str) -> dict:
         return step_context(kernel, prefix)
+
+    def stack_bounds(self, kernel, ctx: dict, known: dict) -> dict[str, int]:
+        """``<prefix>_<m>_init``, ``<prefix>_<m>_step`` of every step method; with
+        configuration constraints ``<prefix>_project_state``."""
+        prefix = ctx["prefix"]
+        routines = routine_bounds(kernel, ctx, known)
+        project = project_bound(kernel, prefix, known, routines)
+        project_state = frame(14, 2) + project if project else 0
+        rhs = max(known.get(f"{prefix}_rhs", 0), project)
+        bounds = {f"{prefix}_project_state": project_state} if project else {}
+        for m in ctx["step"]["names"]:
+            T = method(m)
+            calls = [rhs, SMALL, project_state]
+            if T.adaptive:
+                calls.append(routines["initial_step"])
+            if T.implicit:
+                calls += [known.get(f"{prefix}_{need.value}", 0) for need in T.needs]
+                calls += [known.get(f"{prefix}_time_derivative", 0), routines["lu"]]
+            bounds[f"{prefix}_{m}_init"] = frame(2) + SMALL
+            bounds[f"{prefix}_{m}_step"] = frame(24, 6) + max(calls)
+        return bounds
 
 
 #: The step target.
