@@ -36,30 +36,41 @@ from importlib import import_module as _import_module
 
 from . import _moved
 from ._version import __version__
-from .derivation import Method, derive
-from .symbolic.equations import Equations
-from .errors import (BuildError, CheckFailed, ConstraintError, IntegrationError, MbgenError,
-                     ModelError, NonFiniteResultError, SceneError, SingularConstraintError,
-                     SingularMassMatrixError, UnknownNameError, UsageError)
-from .derivation.from_sympy import from_sympy
-from .symbolic.layout import Layout
-from .runtime.linearize import Linearization, linearize, tangent_jacobian
-from .runtime.named import InputTable
-from .model.builder import Model, t
-from .codegen.optimize import CseBackend
 from .abi import Output
-from .pipeline import compile, equations_of, run
-from .runtime.lambdified import LambdifiedModel
-from .runtime.compiled import CompiledModel
-from .runtime.python import PythonModel, python_model
+from .codegen.optimize import CseBackend
+from .codegen.targets import Targets
+from .derivation import Method, derive
+from .derivation.from_sympy import from_sympy
+from .errors import (
+    BuildError,
+    CheckFailed,
+    ConstraintError,
+    IntegrationError,
+    MbgenError,
+    ModelError,
+    NonFiniteResultError,
+    SceneError,
+    SingularConstraintError,
+    SingularMassMatrixError,
+    UnknownNameError,
+    UsageError,
+)
+from .export import export_fmu, generate
+from .model.builder import Model, t
+from .model.mjcf import from_mjcf, from_mujoco
 from .model.scene import Scene, load_scene
 from .model.urdf import from_urdf
-from .model.mjcf import from_mjcf, from_mujoco
-from .codegen.targets import Targets
-from .export import export_fmu, generate
-from .studies.ensemble import ensemble
+from .pipeline import compile, equations_of, run
+from .runtime.compiled import CompiledModel
 from .runtime.integration import Trajectory
+from .runtime.lambdified import LambdifiedModel
+from .runtime.linearize import Linearization, linearize, tangent_jacobian
+from .runtime.named import InputTable
+from .runtime.python import PythonModel, python_model
 from .runtime.stepper import Stepper
+from .studies.ensemble import ensemble
+from .symbolic.equations import Equations
+from .symbolic.layout import Layout
 
 #: Public names imported on first use: ``simulate`` pulls in scipy.integrate (about 0.3 s)
 #: and the pictures need the ``plot`` extra, so ``import mbgen`` does not pay for them.
@@ -79,10 +90,13 @@ def __dir__():
     return sorted(set(__all__) | {n for n in globals() if n.startswith("__")})
 
 
-__all__ = ["__version__", "linearize", "tangent_jacobian", "Linearization", "Model", "t", "derive", "from_sympy", "from_urdf", "from_mjcf", "from_mujoco", "Output", "CseBackend", "compile", "equations_of", "run",
-           "python_model", "LambdifiedModel", "CompiledModel", "PythonModel", "Scene",
+__all__ = ["__version__", "linearize", "tangent_jacobian", "Linearization", "Model", "t",
+           "derive", "from_sympy", "from_urdf", "from_mjcf", "from_mujoco", "Output",
+           "CseBackend", "compile", "equations_of", "run", "python_model", "LambdifiedModel",
+           "CompiledModel", "PythonModel", "Scene",
            "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
-           "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError", "SingularConstraintError", "NonFiniteResultError",
+           "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError",
+           "SingularConstraintError", "NonFiniteResultError",
            "CheckFailed", "IntegrationError", "Targets", "export_fmu", "generate", "ensemble",
            "UnknownNameError", "UsageError", "InputTable", "simulate", "Trajectory", "Stepper",
            "plot_simulation", "animate_scene"]

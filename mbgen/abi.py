@@ -24,9 +24,10 @@ Status codes
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import Enum
-from typing import TYPE_CHECKING, Iterable
+from typing import TYPE_CHECKING
 
 from .errors import ModelError
 
@@ -59,7 +60,7 @@ class Output(str, Enum):
         return self in INTEGRATORS
 
     @classmethod
-    def parse(cls, values: Iterable) -> tuple["Output", ...]:
+    def parse(cls, values: Iterable) -> tuple[Output, ...]:
         """Outputs from enum members or their names, in canonical (declaration) order."""
         if isinstance(values, (str, Output)):
             values = (values,)

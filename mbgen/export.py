@@ -32,9 +32,10 @@ FMU layout (:mod:`mbgen.codegen.targets.fmu`, :mod:`mbgen.build.fmu`)::
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 from .codegen.targets import DEFAULT, Job, select, switches
 from .errors import UsageError

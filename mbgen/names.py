@@ -32,7 +32,7 @@ from __future__ import annotations
 import difflib
 import keyword
 import re
-from typing import Iterable
+from collections.abc import Iterable
 
 from .errors import ModelError
 

@@ -28,25 +28,24 @@ times come from the one sequence in :func:`run`.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Callable, Iterable, Mapping, Sequence
 
+from .abi import Output, Rendered
 from .build.extension import compiled_path, load
-from .derivation import NAMED, Method, choose_method, derive, method_of
-from .derivation.prepare import Prepared
-from .symbolic.equations import Equations
-from .symbolic.graph import reachable
-from .errors import ModelError
-from .model.builder import Model
 from .codegen.optimize import CseBackend, Form, Kernel, optimize
-from .abi import Output
-from .abi import Rendered
-from .codegen.render import render
 from .codegen.outputs import needs_jacobian
-from .runtime.compiled import CompiledModel
-from .model.scene import Scene, source_label
+from .codegen.render import render
 from .codegen.slicing import bake
 from .codegen.solver import solve_ops
+from .derivation import NAMED, Method, choose_method, derive, method_of
+from .derivation.prepare import Prepared
+from .errors import ModelError
+from .model.builder import Model
+from .model.scene import Scene, source_label
+from .runtime.compiled import CompiledModel
+from .symbolic.equations import Equations
+from .symbolic.graph import reachable
 
 
 @dataclass(frozen=True)
@@ -170,7 +169,7 @@ class _Trial:
     baked: Equations
     kernel: Kernel
 
-    def because(self, reason: str) -> "_Trial":
+    def because(self, reason: str) -> _Trial:
         """The same, with ``reason`` as every stage's ``Equations.method_reason``."""
         return _Trial(replace(self.equations, method_reason=reason),
                       replace(self.baked, method_reason=reason),
@@ -230,7 +229,7 @@ class _Stages:
 
     @classmethod
     def of(cls, source, outs, clock, parameters, name, fixed, inputs, sliced: bool,
-           cse_backend, form) -> "_Stages":
+           cse_backend, form) -> _Stages:
         """:func:`run`'s arguments with a scene's defaults filled in: its slice (unless not
         ``sliced``), its prefix, and its points, or every point, where positions are asked."""
         scene = source if isinstance(source, Scene) else None

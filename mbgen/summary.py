@@ -12,7 +12,7 @@ entries, and every name is HTML-escaped.
 from __future__ import annotations
 
 import html
-from typing import Iterable, Sequence
+from collections.abc import Iterable, Sequence
 
 #: Symbol lists longer than this show their first and last few names.
 MAX_NAMES = 12

@@ -9,11 +9,15 @@ import sympy as sm
 import mbgen
 from mbgen import Model
 from mbgen.build.extension import load
-from mbgen.errors import (BuildError, ModelError, NonFiniteResultError, SceneError,
-                          SingularMassMatrixError)
-from mbgen.pipeline import run
+from mbgen.errors import (
+    BuildError,
+    ModelError,
+    NonFiniteResultError,
+    SceneError,
+    SingularMassMatrixError,
+)
 from mbgen.model.scene import load_scene
-
+from mbgen.pipeline import run
 from models import pendulum
 
 

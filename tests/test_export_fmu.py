@@ -4,10 +4,10 @@ validation, and co-simulation and model-exchange trajectories against integrate.
 import dataclasses
 import os
 import shutil
-from ctypes import byref, c_double, c_int
 import subprocess
-import zipfile
 import xml.etree.ElementTree as ET
+import zipfile
+from ctypes import byref, c_double, c_int
 
 import numpy as np
 import pytest
@@ -15,20 +15,26 @@ import sympy as sm
 
 import mbgen
 import models
-from mbgen.model.scene import load_scene
 from mbgen.build.fmu import write_fmu
-from mbgen.export import export_fmu
 from mbgen.codegen.targets import Targets
 from mbgen.codegen.targets.fmu import FMI2_ALLOWED, FMI2_STATES
+from mbgen.export import export_fmu
 from mbgen.integrators import DEFAULT_ATOL, DEFAULT_RTOL
+from mbgen.model.scene import load_scene
 from mbgen.runtime.stepper import Stepper
 
 fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra: pip install -e '.[test]'")
 from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402
 from fmpy.fmi1 import FMICallException  # noqa: E402
-from fmpy.fmi2 import (FMU2Model, FMU2Slave, fmi2CallbackAllocateMemoryTYPE,  # noqa: E402
-                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                       fmi2CallbackLoggerTYPE, fmi2Error)
+from fmpy.fmi2 import (  # noqa: E402
+    FMU2Model,
+    FMU2Slave,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    fmi2Error,
+)
 from fmpy.logging import addLoggerProxy  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 

@@ -23,7 +23,6 @@ import pytest
 
 from mbgen import fileio
 from mbgen.errors import OutputBusyError, OutputConflictError, OutputPathError, SceneError
-from mbgen.fileio import generations
 
 #: A child process that writes generation ``tag`` (``n`` files, each naming its tag) into
 #: ``folder`` with the options of its JSON argument: it kills itself (SIGKILL) when it

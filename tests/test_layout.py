@@ -1,13 +1,14 @@
 """The package's shape: stages in folders, imports one way, rooms read in one sitting.
 
-Guards the layout: at most 12 modules at ``mbgen/``'s root (besides
-``__init__``, ``__main__``, ``_version``); no module over 500 lines but the
-``Model`` builder (under 700); no import cycle between modules, function-level
-imports included; no import of another module's ``_private`` name; at most 40
-function-level imports of mbgen modules; the import-linter contracts of
-``pyproject.toml`` kept (stages import downward, no cycle between siblings);
-the wheel's package list equal to the folders; every package's docstring says how
-to add one more of what it holds; the tests mirror the package (tests/<area>/test_<subject>.py).
+Guards the layout: at most 12 modules at ``mbgen/``'s root (besides ``__init__``,
+``__main__``, ``_version``); no module over 600 lines but the ``Model`` builder (under 800);
+ruff clean (pyflakes, pycodestyle, isort, bugbear, pyupgrade, McCabe complexity at most 12,
+as ``pyproject.toml`` configures it); no import cycle between modules, function-level
+imports included; no import of another module's ``_private`` name; at most 40 function-level
+imports of mbgen modules; the import-linter contracts of ``pyproject.toml`` kept (stages
+import downward, no cycle between siblings); the wheel's package list equal to the folders;
+every package's docstring says how to add one more of what it holds; the tests mirror the
+package (tests/<area>/test_<subject>.py).
 """
 
 from __future__ import annotations
@@ -23,9 +24,11 @@ ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "mbgen"
 ROOT_EXEMPT = {"__init__.py", "__main__.py", "_version.py"}
 MAX_ROOT_MODULES = 12
-MAX_LINES = 500
+#: A soft bound now that ruff bounds each function's complexity (issue 29: a 500-line cap
+#: made three modules pack lines to stay at exactly 500); a module past it is split by topic.
+MAX_LINES = 600
 #: the user's vocabulary may stay whole (issue 17)
-LONG_ALLOWED = {"mbgen/model/builder.py": 700}
+LONG_ALLOWED = {"mbgen/model/builder.py": 800}
 MAX_DEFERRED = 40
 
 
@@ -43,41 +46,48 @@ def modules() -> dict[str, tuple[Path, bool]]:
 def imports():
     """``(importer, imported module, names, deferred, line)`` of every import of mbgen."""
     mods = modules()
-
-    def resolve(name: str) -> str:
-        while name not in mods and "." in name:
-            name = name.rsplit(".", 1)[0]
-        return name
-
     out = []
     for m, (p, is_pkg) in mods.items():
         tree = ast.parse(p.read_text(encoding="utf-8"))
-
-        def visit(node, deferred):
-            for ch in ast.iter_child_nodes(node):
-                d = deferred or isinstance(ch, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
-                if isinstance(ch, ast.ImportFrom):
-                    if ch.level:
-                        base = m.split(".") if is_pkg else m.split(".")[:-1]
-                        base = base[:len(base) - ch.level + 1]
-                        src = ".".join(base + ([ch.module] if ch.module else []))
-                    else:
-                        src = ch.module or ""
-                    if src.split(".")[0] == "mbgen":
-                        for a in ch.names:
-                            full = f"{src}.{a.name}"
-                            if full in mods:
-                                out.append((m, full, (), d, ch.lineno))
-                            else:
-                                out.append((m, resolve(src), (a.name,), d, ch.lineno))
-                elif isinstance(ch, ast.Import):
-                    for a in ch.names:
-                        if a.name.split(".")[0] == "mbgen":
-                            out.append((m, resolve(a.name), (), d, ch.lineno))
-                visit(ch, d)
-
-        visit(tree, False)
+        _visit(tree, False, m, is_pkg, mods, out)
     return out
+
+
+def _resolve(name: str, mods) -> str:
+    """The module of ``mods`` that holds ``name`` (a module or a name in one)."""
+    while name not in mods and "." in name:
+        name = name.rsplit(".", 1)[0]
+    return name
+
+
+def _visit(node, deferred, m, is_pkg, mods, out) -> None:
+    """Append the imports of mbgen below ``node`` of module ``m`` to ``out`` (see
+    :func:`imports`); ``deferred``: ``node`` is in a function."""
+    for ch in ast.iter_child_nodes(node):
+        d = deferred or isinstance(ch, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda))
+        if isinstance(ch, ast.ImportFrom):
+            src = _source(ch, m, is_pkg)
+            if src.split(".")[0] == "mbgen":
+                for a in ch.names:
+                    full = f"{src}.{a.name}"
+                    if full in mods:
+                        out.append((m, full, (), d, ch.lineno))
+                    else:
+                        out.append((m, _resolve(src, mods), (a.name,), d, ch.lineno))
+        elif isinstance(ch, ast.Import):
+            for a in ch.names:
+                if a.name.split(".")[0] == "mbgen":
+                    out.append((m, _resolve(a.name, mods), (), d, ch.lineno))
+        _visit(ch, d, m, is_pkg, mods, out)
+
+
+def _source(node: ast.ImportFrom, m: str, is_pkg: bool) -> str:
+    """The absolute module a ``from ... import`` in module ``m`` imports from."""
+    if node.level:
+        base = m.split(".") if is_pkg else m.split(".")[:-1]
+        base = base[:len(base) - node.level + 1]
+        return ".".join(base + ([node.module] if node.module else []))
+    return node.module or ""
 
 
 def test_root_holds_few_modules():
@@ -101,6 +111,12 @@ def test_no_import_cycle_between_modules():
     for a, b, _, _, _ in imports():
         if a != b and not (b == "mbgen" and a.startswith("mbgen.scenes")):
             graph.setdefault(a, set()).add(b)
+    comps = _cycles(graph)
+    assert not comps, f"import cycles: {comps}"
+
+
+def _cycles(graph: dict[str, set]) -> list[list[str]]:
+    """The strongly connected components of more than one node of ``graph`` (Tarjan)."""
     index, low, stack, on, comps = {}, {}, [], set(), []
     counter = [0]
     sys.setrecursionlimit(10000)
@@ -130,7 +146,7 @@ def test_no_import_cycle_between_modules():
     for v in list(graph):
         if v not in index:
             strong(v)
-    assert not comps, f"import cycles: {comps}"
+    return comps
 
 
 def test_no_private_name_crosses_a_module():
@@ -143,6 +159,16 @@ def test_few_function_level_imports():
     """Each one is there for start-up time or an optional extra; the rest import at the top."""
     seen = sorted({(a, line) for a, b, _, deferred, line in imports() if deferred})
     assert len(seen) <= MAX_DEFERRED, f"{len(seen)} function-level imports: {seen}"
+
+
+def test_ruff_is_clean():
+    """The lint configured in ``pyproject.toml`` (``[tool.ruff]``) finds nothing in the
+    package and its tests; ``ruff check --fix`` mends most of what it finds."""
+    import subprocess
+    done = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", "--quiet",
+                           str(PKG), str(ROOT / "tests")], cwd=ROOT, capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stdout[-4000:] + done.stderr[-2000:]
 
 
 def test_import_contracts_kept():

@@ -58,13 +58,13 @@ import shlex
 import subprocess
 import sys
 import tempfile
-import tomllib
 import traceback
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+import tomllib
 
 from mbgen.cli import main as mbgen_main
 
@@ -452,7 +452,8 @@ def test_opt_outs_are_explicit_and_reported():
     assert total > len(report), "no code block runs at all"
     if report:
         warnings.warn(f"{len(report)} of {total} python/shell blocks opted out of running: "
-                      + "; ".join(report), UserWarning)
+                      + "; ".join(report), UserWarning,
+                      stacklevel=1)  # the test's own line: its caller is pytest
 
 
 def test_the_runner_sees_a_failing_block(tmp_path, monkeypatch):

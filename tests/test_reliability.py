@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import fake_dask
 import mbgen
 from mbgen import fileio
 from mbgen.abi import Output, status_name
@@ -39,9 +40,18 @@ from mbgen.build.fmu import write_fmu
 from mbgen.cli import EXIT_MODEL, EXIT_OK, EXIT_USAGE, main
 from mbgen.codegen.optimize import Form
 from mbgen.codegen.targets import Targets
-from mbgen.errors import (ArgumentError, ArgumentTypeError, BuildError, CacheError,
-                          ConstraintError, MjcfError, OutputPathError, SingularMassMatrixError,
-                          UrdfInertiaError, UrdfSyntaxError)
+from mbgen.errors import (
+    ArgumentError,
+    ArgumentTypeError,
+    BuildError,
+    CacheError,
+    ConstraintError,
+    MjcfError,
+    OutputPathError,
+    SingularMassMatrixError,
+    UrdfInertiaError,
+    UrdfSyntaxError,
+)
 from mbgen.export import export_fmu
 from mbgen.model import urdf_xml
 from mbgen.model.limits import allow_large_models
@@ -51,9 +61,14 @@ from mbgen.runtime.stepper import Stepper
 from mbgen.scenes import four_bar
 from mbgen.studies import cluster
 from mbgen.verify.check import CheckReport, check, compare, reference_model
-import fake_dask
-from models import (count_joint_parent_reads, massless_link_scene, pendulum, read_in_thread,
-                    scene_file, two_input_cart)
+from models import (
+    count_joint_parent_reads,
+    massless_link_scene,
+    pendulum,
+    read_in_thread,
+    scene_file,
+    two_input_cart,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -1,17 +1,17 @@
 """Benchmarks: what mbgen costs and how fast its code runs, against sympy and Pinocchio.
 
-Nothing here is imported by the library; ``mbgen bench WHAT`` (:mod:`mbgen.cli.bench`)
-runs them.  :mod:`~mbgen.bench.arm` (the spatial arm, mbgen vs sympy vs Pinocchio; its
-Pinocchio side in :mod:`~mbgen.bench.arm_pinocchio`), :mod:`~mbgen.bench.constraints`
-(the Whipple bicycle and the four-bar), :mod:`~mbgen.bench.robot` (one robot file: mbgen
-vs Pinocchio vs MuJoCo; its peers in :mod:`~mbgen.bench.robot_peers`), :mod:`~mbgen.bench.scaling` (the n-link
-pendulum, mbgen vs sympy), :mod:`~mbgen.bench.stages` (every pipeline stage of a scene
-under a budget) and :mod:`~mbgen.bench.targets` (batch RHS, ensembles, FMU round trip:
-``python -m mbgen.bench.targets``) and :mod:`~mbgen.bench.crossing` (a call of the arm's
-RHS from Python, through the C entry and through cffi, against ``pin.aba``: ``python -m
-mbgen.bench.crossing``).  :mod:`~mbgen.bench.timing` times calls from Python
-and in a C loop; :mod:`~mbgen.bench.children` runs a side in a child process under a
-time budget and a memory cap.
+Nothing here is imported by the library; ``mbgen bench WHAT`` (:mod:`mbgen.cli.bench`) runs
+them.  :mod:`~mbgen.bench.arm` (the spatial arm, mbgen vs sympy vs Pinocchio; its Pinocchio
+side in :mod:`~mbgen.bench.arm_pinocchio`), :mod:`~mbgen.bench.constraints` (the Whipple
+bicycle and the four-bar), :mod:`~mbgen.bench.robot` (one robot file: mbgen vs Pinocchio vs
+MuJoCo; its peers in :mod:`~mbgen.bench.robot_peers`), :mod:`~mbgen.bench.scaling` (the
+n-link pendulum, mbgen vs sympy), :mod:`~mbgen.bench.stages` (every pipeline stage of a
+scene under a budget) and :mod:`~mbgen.bench.targets` (batch RHS, ensembles, FMU round trip:
+``python -m mbgen.bench.targets``) and :mod:`~mbgen.bench.crossing` (a call of the arm's RHS
+from Python, through the C entry and through cffi, against ``pin.aba``: ``python -m
+mbgen.bench.crossing``).  :mod:`~mbgen.bench.timing` times calls from Python and in a C
+loop; :mod:`~mbgen.bench.children` runs a side in a child process under a time budget and a
+memory cap.
 
 How to add a benchmark
 ----------------------

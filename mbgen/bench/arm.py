@@ -46,9 +46,9 @@ import json
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import Callable, Sequence
 
 import numpy as np
 import sympy as sm
@@ -66,9 +66,16 @@ from ..viz.plots import require_matplotlib
 from . import children
 from .arm_casadi import have_casadi
 from .arm_jacobian import format_extra, relative_difference, run_casadi, run_jacobian
-from .arm_pinocchio import (build_aba_driver, import_pinocchio, pinocchio_aba_derivatives,
-                            pinocchio_arm, run_aba_derivatives_driver, run_aba_driver)
+from .arm_pinocchio import (
+    build_aba_driver,
+    import_pinocchio,
+    pinocchio_aba_derivatives,
+    pinocchio_arm,
+    run_aba_derivatives_driver,
+    run_aba_driver,
+)
 from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, pipeline_timer
+
 
 @dataclass
 class ArmRow:
@@ -147,7 +154,8 @@ def _mbgen_child(n: int, repeats: int, method: str, emit) -> None:
 
 # ----------------------------------------------------------------------------- sympy (child)
 def sympy_arm(n: int):
-    """The arm in ``sympy.physics.mechanics`` with symbolic parameters: ``(KanesMethod, values)``."""
+    """The arm in ``sympy.physics.mechanics`` with symbolic parameters:
+    ``(KanesMethod, values)``."""
     q, u = me.dynamicsymbols(f"q1:{n + 1}"), me.dynamicsymbols(f"u1:{n + 1}")
     g = sm.Symbol("g")
     N = me.ReferenceFrame("N")
@@ -234,7 +242,8 @@ def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
                 budget_s: float = 300.0, sympy_budget_s: float = 120.0,
                 memory_gb: float = 12.0, pinocchio: bool = True, cxx: bool = True,
                 method: str = "newton_euler", jacobian: bool = False, casadi: bool = True,
-                jacobian_method: str = "newton_euler", progress: Callable[[str], None] | None = None) -> list[ArmRow]:
+                jacobian_method: str = "newton_euler",
+                progress: Callable[[str], None] | None = None) -> list[ArmRow]:
     """Run the benchmark; one :class:`ArmRow` per ``n`` (see the module docstring).
 
     Parameters
@@ -287,7 +296,7 @@ def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
                 _fill(row, res)
                 mbgen_stopped = row.status != "ok"
             else:
-                row.status = "not run (stopped at a smaller n)" if budget_s > 0 else "not run"
+                row.status = _not_run(budget_s)
             block = None
             if not jac_stopped:
                 say(f"n={n}: mbgen Jacobian")
@@ -304,46 +313,73 @@ def arm_scaling(ns: Sequence[int] = (2, 4, 8, 16, 32), *, repeats: int = 7,
                 _fill(row, res)
                 sympy_stopped = row.sympy_status != "ok"
             else:
-                row.sympy_status = ("not run (stopped at a smaller n)" if sympy_budget_s > 0
-                                    else "not run")
+                row.sympy_status = _not_run(sympy_budget_s)
             ddq = None
             if pinocchio:
                 say(f"n={n}: Pinocchio")
-                pin = import_pinocchio()
-                model = pinocchio_arm(n)
-                data, tau = model.createData(), np.zeros(n)
-                row.pin_py_ns = per_call_ns(lambda: pin.aba(model, data, q, v, tau), repeats)
-                ddq = np.array(pin.aba(model, data, q, v, tau))
-                if aba_exe is not None:
-                    row.pin_cxx_ns, ddq_cxx = run_aba_driver(aba_exe, n, q, v)
-                    if not np.allclose(ddq_cxx, ddq, rtol=1e-9, atol=1e-9):
-                        raise BenchmarkError(f"n={n}: Pinocchio's C++ loop and pin.aba disagree")
-                if ours is not None:
-                    row.max_abs_diff_pin = float(np.max(np.abs(np.array(ours) - ddq)))
-                if block is not None:
-                    if aba_exe is not None:
-                        row.pin_daba_ns, theirs_jac = run_aba_derivatives_driver(aba_exe, n, q, v)
-                    else:
-                        theirs_jac = pinocchio_aba_derivatives(n, q, v)
-                    row.jac_rel_diff_pin = relative_difference(block, theirs_jac)
+                ddq = _pinocchio_columns(row, q, v, repeats, aba_exe, ours, block)
             if not cas_stopped:
                 say(f"n={n}: CasADi")
-                cas_ddq, cas_block = run_casadi(row, np.concatenate([q, v]), repeats, jacobian,
-                                                budget_s, memory_gb)
+                _casadi_columns(row, q, v, repeats, jacobian, budget_s, memory_gb,
+                                ddq if ddq is not None else ours, block)
                 cas_stopped = row.cas_status != "ok"
-                reference = ddq if ddq is not None else ours
-                if cas_ddq is not None and reference is not None:
-                    row.max_abs_diff_cas = float(np.max(np.abs(cas_ddq - np.array(reference))))
-                if cas_block is not None and block is not None:
-                    row.casjac_rel_diff = relative_difference(cas_block, block)
-            elif casadi and budget_s > 0 and have_casadi():
-                row.cas_status = "not run (stopped at a smaller n)"
-            elif casadi and not have_casadi():
-                row.cas_status = "not run: casadi is not installed"
+            else:
+                _casadi_not_run(row, casadi, budget_s)
             if ours is not None and theirs is not None:
                 row.max_abs_diff_sympy = float(np.max(np.abs(np.array(ours) - np.array(theirs))))
             rows.append(row)
     return rows
+
+
+def _not_run(budget_s: float) -> str:
+    """Status of a side not run for this ``n``: stopped at a smaller one, or off (budget 0)."""
+    return "not run (stopped at a smaller n)" if budget_s > 0 else "not run"
+
+
+def _casadi_not_run(row: ArmRow, casadi: bool, budget_s: float) -> None:
+    """Status of the CasADi side when it is not run for ``row``."""
+    if casadi and budget_s > 0 and have_casadi():
+        row.cas_status = "not run (stopped at a smaller n)"
+    elif casadi and not have_casadi():
+        row.cas_status = "not run: casadi is not installed"
+
+
+def _pinocchio_columns(row: ArmRow, q: np.ndarray, v: np.ndarray, repeats: int,
+                       aba_exe: Path | None, ours, block) -> np.ndarray:
+    """Time Pinocchio's ``aba`` for ``row`` (from Python, and in the C++ loop ``aba_exe``
+    when built), compare it with mbgen's accelerations ``ours`` and Jacobian ``block``
+    (either may be None); return Pinocchio's accelerations."""
+    n = row.n
+    pin = import_pinocchio()
+    model = pinocchio_arm(n)
+    data, tau = model.createData(), np.zeros(n)
+    row.pin_py_ns = per_call_ns(lambda: pin.aba(model, data, q, v, tau), repeats)
+    ddq = np.array(pin.aba(model, data, q, v, tau))
+    if aba_exe is not None:
+        row.pin_cxx_ns, ddq_cxx = run_aba_driver(aba_exe, n, q, v)
+        if not np.allclose(ddq_cxx, ddq, rtol=1e-9, atol=1e-9):
+            raise BenchmarkError(f"n={n}: Pinocchio's C++ loop and pin.aba disagree")
+    if ours is not None:
+        row.max_abs_diff_pin = float(np.max(np.abs(np.array(ours) - ddq)))
+    if block is not None:
+        if aba_exe is not None:
+            row.pin_daba_ns, theirs_jac = run_aba_derivatives_driver(aba_exe, n, q, v)
+        else:
+            theirs_jac = pinocchio_aba_derivatives(n, q, v)
+        row.jac_rel_diff_pin = relative_difference(block, theirs_jac)
+    return ddq
+
+
+def _casadi_columns(row: ArmRow, q: np.ndarray, v: np.ndarray, repeats: int, jacobian: bool,
+                    budget_s: float, memory_gb: float, reference, block) -> None:
+    """Run the CasADi child for ``row`` and compare its accelerations with ``reference``
+    (Pinocchio's, else mbgen's) and its Jacobian with mbgen's ``block`` (either may be None)."""
+    cas_ddq, cas_block = run_casadi(row, np.concatenate([q, v]), repeats, jacobian,
+                                    budget_s, memory_gb)
+    if cas_ddq is not None and reference is not None:
+        row.max_abs_diff_cas = float(np.max(np.abs(cas_ddq - np.array(reference))))
+    if cas_block is not None and block is not None:
+        row.casjac_rel_diff = relative_difference(cas_block, block)
 
 
 def _fill(row: ArmRow, results: dict) -> None:
@@ -361,7 +397,8 @@ def growth_exponents(rows: Sequence[ArmRow]) -> dict[str, float]:
                       "jac_rel_diff_pin", "casjac_rel_diff"):
             continue
         pts = [(r.n, getattr(r, f.name)) for r in rows
-               if isinstance(getattr(r, f.name), (int, float)) and not isinstance(getattr(r, f.name), bool)
+               if isinstance(getattr(r, f.name), (int, float))
+               and not isinstance(getattr(r, f.name), bool)
                and getattr(r, f.name) > 0]
         if len(pts) >= 2 and len({n for n, _ in pts}) >= 2:
             x = np.log([n for n, _ in pts])

@@ -1,4 +1,5 @@
-"""CasADi's side of the arm benchmark: the arm's ABA traced on ``casadi.SX``, generated and compiled.
+"""CasADi's side of the arm benchmark: the arm's ABA traced on ``casadi.SX``, generated
+and compiled.
 
 The ``pin`` wheel has no ``pinocchio.casadi``, so :func:`aba_sx` writes the
 articulated-body algorithm out here, from the textbook's three passes (velocities and

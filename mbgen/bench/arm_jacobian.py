@@ -28,9 +28,9 @@ from __future__ import annotations
 import json
 import sys
 import tempfile
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -193,7 +193,8 @@ _CASJAC_COLUMNS = (
 
 LEGEND = """\
 Jacobian: mbgen's <prefix>_jacobian (df/dx, n_x x n_x) generated alone from the scene by
-Newton-Euler (gen s: derive..compile) and timed in a C loop; dABA C++: pinocchio::computeABADerivatives in the C++
+Newton-Euler (gen s: derive..compile) and timed in a C loop; \
+dABA C++: pinocchio::computeABADerivatives in the C++
 loop; mb/pin: the ratio of the two; rel diff: max |mbgen - Pinocchio| / max |Pinocchio| over
 [ddq_dq, ddq_dv] and mbgen's lower n rows, at the timed state.
 CasADi: the arm's ABA traced on casadi.SX (Function option cse), Function.generate, cc -c with

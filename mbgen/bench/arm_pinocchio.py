@@ -140,7 +140,8 @@ def run_aba_derivatives_driver(exe: Path, n: int, q: np.ndarray, v: np.ndarray
 
 
 def pinocchio_aba_derivatives(n: int, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``[ddq_dq, ddq_dv]`` (``n x 2n``) of the unactuated arm from ``pin.computeABADerivatives``."""
+    """``[ddq_dq, ddq_dv]`` (``n x 2n``) of the unactuated arm from
+    ``pin.computeABADerivatives``."""
     pin = import_pinocchio()
     model = pinocchio_arm(n)
     data = model.createData()      # the arrays returned are views into data: keep it alive

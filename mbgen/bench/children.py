@@ -15,7 +15,7 @@ import resource
 import subprocess
 import sys
 import tempfile
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 
 def memory_cap(memory_gb: float) -> Callable[[], None]:

@@ -43,9 +43,9 @@ import statistics
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
 
 import numpy as np
 import sympy as sm
@@ -226,7 +226,8 @@ STAGES = {"mbgen": ["derive_s", "bake_s", "cse_s", "render_s", "compile_s", "rhs
 
 
 def _child_main(argv: Sequence[str]) -> int:
-    """``python -m mbgen.bench.constraints SIDE REPEATS`` with the operating point as JSON on stdin."""
+    """``python -m mbgen.bench.constraints SIDE REPEATS``, the operating point as JSON on
+    stdin."""
     side, repeats = argv[0], int(argv[1])
     point = json.loads(sys.stdin.read())
 
@@ -243,8 +244,8 @@ def _run_child(side: str, point: dict, repeats: int, budget_s: float,
     """One side in a child process: ``(results so far, status, seconds)``."""
     start = time.perf_counter()
     results, rc, error = children.run_json_child(
-        ["-m", "mbgen.bench.constraints", side, str(repeats)], budget_s=budget_s, memory_gb=memory_gb,
-        stdin=json.dumps(point), prefix="mbgen-conbench-")
+        ["-m", "mbgen.bench.constraints", side, str(repeats)], budget_s=budget_s,
+        memory_gb=memory_gb, stdin=json.dumps(point), prefix="mbgen-conbench-")
     seconds = time.perf_counter() - start
     return results, children.status(results, STAGES[side], rc, error, budget_s), seconds
 
@@ -340,8 +341,8 @@ def format_bench(b: ConstraintBench) -> str:
             ("CSE (s)", _s(mb, "cse_s"), ""),
             ("render (s)", _s(mb, "render_s"), ""),
             ("compile (s)", _s(mb, "compile_s"), ""),
-            ("ops before -> after CSE", f"{mb.get('ops_before', '-')} -> {mb.get('ops_after', '-')}",
-             ""),
+            ("ops before -> after CSE",
+             f"{mb.get('ops_before', '-')} -> {mb.get('ops_after', '-')}", ""),
             ("lambdify reduced M, F (s)", "", _s(sr, "sympy_lambdify_mf_s")),
             ("explicit RHS: rhs() (s)", "", _s(sr, "sympy_rhs_s")),
             ("lambdify(rhs) (s)", "", _s(sr, "sympy_lambdify_s")),

@@ -1,4 +1,5 @@
-"""``mbgen bench robot FILE``: one robot's RHS against Pinocchio's ``aba`` and MuJoCo's ``mj_forward``.
+"""``mbgen bench robot FILE``: one robot's RHS against Pinocchio's ``aba`` and MuJoCo's
+``mj_forward``.
 
 FILE is a ``.urdf`` file, an MJCF ``.xml`` file, or a robot of ``example-robot-data`` by
 name (:data:`mbgen.bench.robot_peers.ROBOTS`: ``panda``, ``ur5``, ``solo12`` and ``g1``
@@ -30,9 +31,9 @@ from __future__ import annotations
 import json
 import sys
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -41,7 +42,8 @@ from ..abi import Output
 from ..model.mjcf import compile_mjcf, from_mujoco, scene_values
 from ..model.scene import Scene, urdf_scene
 from ..pipeline import run
-from . import children, robot_peers as peers
+from . import children
+from . import robot_peers as peers
 from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, pipeline_timer, staged
 
 STAGES = ("derive_s", "bake_s", "cse_s", "render_s", "compile_s")
@@ -139,7 +141,8 @@ def _quat_matrix(qx, qy, qz, qw) -> np.ndarray:
     return np.array([
         [qw * qw + qx * qx - qy * qy - qz * qz, 2 * (qx * qy - qw * qz), 2 * (qx * qz + qw * qy)],
         [2 * (qx * qy + qw * qz), qw * qw - qx * qx + qy * qy - qz * qz, 2 * (qy * qz - qw * qx)],
-        [2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), qw * qw - qx * qx - qy * qy + qz * qz]]) / n
+        [2 * (qx * qz - qw * qy), 2 * (qy * qz + qw * qx), qw * qw - qx * qx - qy * qy + qz * qz],
+    ]) / n
 
 
 def _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say) -> None:

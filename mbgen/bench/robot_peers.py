@@ -180,4 +180,5 @@ def run_mj_driver(exe: Path, mjb: Path, qpos, qvel, qfrc) -> tuple[float, np.nda
 
 
 __all__ = ["ROBOTS", "SWITCHED_OFF", "build_aba_driver", "build_mj_driver", "clean_urdf",
-           "mujoco_of_urdf", "mujoco_spec_of_urdf", "robot_file", "run_aba_driver", "run_mj_driver", "switch_off"]
+           "mujoco_of_urdf", "mujoco_spec_of_urdf", "robot_file", "run_aba_driver", "run_mj_driver",
+           "switch_off"]

@@ -1,4 +1,5 @@
-"""Every pipeline stage's time for one scene, each under its own budget (``mbgen bench SCENE --stages``).
+"""Every pipeline stage's time for one scene, each under its own budget
+(``mbgen bench SCENE --stages``).
 
 The pipeline runs in a child process that reports each stage as it starts and
 ends (seconds, the child's peak memory, operations before and after CSE); the
@@ -22,8 +23,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 from ..abi import Output
 from ..build.extension import load

@@ -15,14 +15,14 @@ import gc
 import statistics
 import subprocess
 import time
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Callable, Mapping
 
 import numpy as np
 
 from ..build.extension import compiler
-from ..codegen.templating import environment
 from ..codegen.optimize import Kernel
+from ..codegen.templating import environment
 from ..errors import BenchmarkError, BuildError
 from ..pipeline import StageTimer
 

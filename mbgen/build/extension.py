@@ -45,11 +45,22 @@ import tempfile
 import threading
 from pathlib import Path
 
+from ..abi import Rendered
 from ..errors import BuildError, CacheError
 from ..fileio import write_files
-from ..abi import Rendered
-from .cache import (cache_dir, disk_error, disk_full, loadable, mentions_full_disk, owner_line,
-                    record_path, remove_stale_builds, verified, writable, write_record)
+from .cache import (
+    cache_dir,
+    disk_error,
+    disk_full,
+    loadable,
+    mentions_full_disk,
+    owner_line,
+    record_path,
+    remove_stale_builds,
+    verified,
+    writable,
+    write_record,
+)
 
 #: Flags for the generated C.  -ffp-contract=off keeps results bitwise close to
 #: the Python module (no fused multiply-add contraction).  -g0 takes back the -g that
@@ -105,7 +116,7 @@ def wants_native(default: bool = True) -> bool:
     return default if not env else env == "1"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def native_target(cc: str) -> str:
     """What ``-march=native`` means to ``cc`` on this machine: a hash of the macros it then
     predefines (the instruction set), part of the cache key so that a cache shared between
@@ -178,7 +189,7 @@ CROSSING_SOURCE = Path(__file__).with_name("crossing.c")
 CROSSING_CDEF = "int mbgen_crossing(uintptr_t request);\n"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def crossing_source() -> str:
     """The C of the Python crossing (:data:`CROSSING_SOURCE`), read once."""
     return CROSSING_SOURCE.read_text(encoding="utf-8")

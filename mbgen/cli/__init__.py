@@ -50,12 +50,21 @@ import argparse
 import importlib
 import os
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 from .._version import __version__
-from ..errors import (EXIT_BUILD, EXIT_CHECK, EXIT_INCONCLUSIVE, EXIT_MODEL, EXIT_NUMERIC,
-                      EXIT_OK, EXIT_USAGE, MbgenError)
+from ..errors import (
+    EXIT_BUILD,
+    EXIT_CHECK,
+    EXIT_INCONCLUSIVE,
+    EXIT_MODEL,
+    EXIT_NUMERIC,
+    EXIT_OK,
+    EXIT_USAGE,
+    MbgenError,
+)
 
 
 class Command(NamedTuple):

@@ -30,12 +30,12 @@ from dataclasses import replace
 from pathlib import Path
 
 from ..derivation import Method
-from ..symbolic.equations import METHOD_TITLES
 from ..errors import OutputPathError, SceneError, UsageError
 from ..model.scene import load_scene, model_names
 from ..names import did_you_mean
 from ..runtime.named import InputTable, check_names, merge_inputs, read_input_csv, vector
-from ..studies.ensemble import MAX_POINTS
+from ..studies.ensemble import MAX_POINTS as MAX_POINTS  # the commands' limit (docstring)
+from ..symbolic.equations import METHOD_TITLES
 from ..verify import golden
 
 

@@ -7,8 +7,14 @@ import argparse
 
 from ..errors import EXIT_OK, UsageError
 from ..viz.animate import FORMATS, animate_scene
-from ._common import (add_scene_arguments, check_count, check_file, end_time, positive_float,
-                      scene_from)
+from ._common import (
+    add_scene_arguments,
+    check_count,
+    check_file,
+    end_time,
+    positive_float,
+    scene_from,
+)
 
 
 def configure(p: argparse.ArgumentParser) -> None:

@@ -16,20 +16,36 @@ what draws the plot; it never stops with a traceback after the sweep.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from ..bench import arm, constraints, robot, scaling, stages
 from ..errors import EXIT_OK, MissingExtraError, UsageError
 from ..fileio import write_atomic
 from ..model.scene import load_scene
-from ..studies.workprecision import (BACKENDS, C_METHODS, DEFAULT_RTOLS, DEFAULT_TIME_BUDGET_S,
-                                     REFERENCE_BUDGET_FACTOR, REFERENCE_BUDGET_MIN_S,
-                                     SOLVE_IVP_METHODS, work_precision)
+from ..studies.workprecision import (
+    BACKENDS,
+    C_METHODS,
+    DEFAULT_RTOLS,
+    DEFAULT_TIME_BUDGET_S,
+    REFERENCE_BUDGET_FACTOR,
+    REFERENCE_BUDGET_MIN_S,
+    SOLVE_IVP_METHODS,
+    work_precision,
+)
 from ..viz.plots import EXTRA, require_matplotlib
-from ._common import (OldSpelling, add_number_arguments, check_count, check_folder,
-                      nonnegative_float, note, options, progress, with_numbers)
+from ._common import (
+    OldSpelling,
+    add_number_arguments,
+    check_count,
+    check_folder,
+    nonnegative_float,
+    note,
+    options,
+    progress,
+    with_numbers,
+)
 
 #: Most timed repeats per point (``--repeats``): a median of more says nothing new.
 MAX_REPEATS = 1000

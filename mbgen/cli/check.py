@@ -9,16 +9,23 @@ import sys
 
 from ..errors import EXIT_CHECK, EXIT_INCONCLUSIVE, EXIT_OK, EXIT_USAGE
 from ..verify.check import check
-from ._common import (add_number_arguments, add_scene_arguments, nonnegative_float, scene_from,
-                      with_numbers)
+from ._common import (
+    add_number_arguments,
+    add_scene_arguments,
+    nonnegative_float,
+    scene_from,
+    with_numbers,
+)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
     add_scene_arguments(p, method_flag=True)
     p.add_argument("--samples", type=int, default=20, help="random states (default 20, >= 1)")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--rtol", type=nonnegative_float, default=1e-9, help="relative tolerance (default 1e-9)")
-    p.add_argument("--atol", type=nonnegative_float, default=1e-12, help="absolute tolerance (default 1e-12)")
+    p.add_argument("--rtol", type=nonnegative_float, default=1e-9,
+                   help="relative tolerance (default 1e-9)")
+    p.add_argument("--atol", type=nonnegative_float, default=1e-12,
+                   help="absolute tolerance (default 1e-12)")
     add_number_arguments(p, states=False, inputs=False)
 
 

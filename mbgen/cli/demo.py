@@ -18,9 +18,9 @@ from ..codegen.targets.example import build_command, render_example
 from ..errors import EXIT_CHECK, EXIT_OK
 from ..fileio import write_generated
 from ..model.scene import load_scene
-from ..runtime.python import python_model
 from ..pipeline import run as run_pipeline
 from ..runtime.lambdified import LambdifiedModel
+from ..runtime.python import python_model
 from ..runtime.simulate import simulate, simulate_in_c
 from ..verify.check import check
 from ._common import check_output_folder, progress

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import argparse
 
-from ..export import generate
 from ..errors import EXIT_OK, UsageError
+from ..export import generate
 from ._common import add_scene_arguments, check_folder, scene_from
 
 

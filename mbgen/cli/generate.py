@@ -28,8 +28,15 @@ from ..errors import EXIT_OK, ModelError, UsageError
 from ..export import DEFAULT_OUTPUT, generate
 from ..fileio import plain_name
 from ..verify.audit import audit
-from ._common import (add_number_arguments, add_scene_arguments, check_output_folder,
-                      input_signals, resolve_inputs, scene_from, stage_lines)
+from ._common import (
+    add_number_arguments,
+    add_scene_arguments,
+    check_output_folder,
+    input_signals,
+    resolve_inputs,
+    scene_from,
+    stage_lines,
+)
 
 
 def configure(p: argparse.ArgumentParser) -> None:

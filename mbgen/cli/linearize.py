@@ -13,8 +13,15 @@ from ..errors import EXIT_OK
 from ..fileio import write_atomic
 from ..pipeline import compile
 from ..runtime.linearize import linearize
-from ._common import (add_number_arguments, add_scene_arguments, check_folder,
-                      constant_inputs, initial_state, scene_from, with_numbers)
+from ._common import (
+    add_number_arguments,
+    add_scene_arguments,
+    check_folder,
+    constant_inputs,
+    initial_state,
+    scene_from,
+    with_numbers,
+)
 
 
 def configure(p: argparse.ArgumentParser) -> None:

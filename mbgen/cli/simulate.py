@@ -20,10 +20,25 @@ from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from ..pipeline import compile
 from ..runtime.simulate import C_METHODS, IMPLICIT, choose_method, holonomic_outputs, simulate
 from ..viz.plots import plot_simulation
-from ._common import (MAX_POINTS, add_integrator_argument, add_number_arguments,
-                      add_scene_arguments, check_count, check_file, end_time, initial_state,
-                      input_signals, nonnegative_float, note, positive_int, progress,
-                      resolve_inputs, scene_from, stage_lines, with_numbers)
+from ._common import (
+    MAX_POINTS,
+    add_integrator_argument,
+    add_number_arguments,
+    add_scene_arguments,
+    check_count,
+    check_file,
+    end_time,
+    initial_state,
+    input_signals,
+    nonnegative_float,
+    note,
+    positive_int,
+    progress,
+    resolve_inputs,
+    scene_from,
+    stage_lines,
+    with_numbers,
+)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -96,7 +111,8 @@ def _print_constraint_start(model, x0, traj) -> None:
     dependent = getattr(model, "dependent_coordinates", ())
     if not dependent:
         return
-    moved = [f"{n} {x0[model.state_names.index(n)]:.6g} -> {traj.x[0][model.state_names.index(n)]:.10g}"
+    moved = [f"{n} {x0[model.state_names.index(n)]:.6g} "
+             f"-> {traj.x[0][model.state_names.index(n)]:.10g}"
              for n in dependent]
     print("consistent start (dependent coordinates solved from the constraints): "
           + ", ".join(moved))

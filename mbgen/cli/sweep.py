@@ -19,8 +19,15 @@ from ..model.scene import model_names
 from ..runtime.named import check_names
 from ..runtime.simulate import C_METHODS, RK4_STEPS
 from ..studies.ensemble import MAX_MEMBERS, MAX_POINTS, ensemble, parse_grid, parse_samples
-from ._common import (add_integrator_argument, add_scene_arguments, check_count, check_file,
-                      end_time, nonnegative_float, scene_from)
+from ._common import (
+    add_integrator_argument,
+    add_scene_arguments,
+    check_count,
+    check_file,
+    end_time,
+    nonnegative_float,
+    scene_from,
+)
 
 #: The distributions ``--samples`` names (those :func:`mbgen.studies.ensemble.ensemble` draws
 #: from by name).

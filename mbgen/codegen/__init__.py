@@ -11,10 +11,11 @@ prints a kernel with :mod:`~mbgen.codegen.printing` into the Jinja templates of
 :mod:`mbgen.integrators` in :mod:`~mbgen.codegen.integrators`), the step API, the batch
 loops, the FMU and the embedding example.  :mod:`~mbgen.codegen.split` cuts a long C
 function into parts that share a work array (a compiler's time stays linear in the model),
-:mod:`~mbgen.codegen.solver` unrolls the mass matrix's ``L D L^T`` solve, :mod:`~mbgen.codegen.header` states the header's index
-macros, content hash and the units of the stack bounds (each target states its own; the C
-helpers are runtime routines emitted once, :mod:`mbgen.codegen.targets.runtime`),
-:mod:`~mbgen.codegen.escape` escapes user text where it lands.
+:mod:`~mbgen.codegen.solver` unrolls the mass matrix's ``L D L^T`` solve,
+:mod:`~mbgen.codegen.header` states the header's index macros, content hash and the units of
+the stack bounds (each target states its own; the C helpers are runtime routines emitted
+once, :mod:`mbgen.codegen.targets.runtime`), :mod:`~mbgen.codegen.escape` escapes user text
+where it lands.
 
 Nothing here compiles or runs the code (:mod:`mbgen.build`, :mod:`mbgen.runtime`) or derives
 equations (:mod:`mbgen.derivation`); the pipeline (:mod:`mbgen.pipeline`) calls the stages.

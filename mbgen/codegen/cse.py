@@ -27,14 +27,21 @@ through :func:`mbgen.symbolic.graph.to_symengine` and
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import Enum
-from typing import Sequence
 
 import sympy as sm
 
+from ..symbolic.graph import (
+    postorder_unique,
+    symbols_back,
+    symengine_rebuilt,
+    to_symengine,
+    to_sympy,
+    walk_unique,
+    xreplace_dag,
+)
 from .printing import printed_base_count
-from ..symbolic.graph import (postorder_unique, symbols_back, symengine_rebuilt, to_sympy,
-                              to_symengine, walk_unique, xreplace_dag)
 
 
 class CseBackend(str, Enum):

@@ -109,7 +109,8 @@ def py_string(text) -> str:
 
 
 def py_list(texts) -> str:
-    """``texts`` (strings) as a Python list literal, ``['a', 'b']``, each item by :func:`py_string`."""
+    """``texts`` (strings) as a Python list literal, ``['a', 'b']``, each item by
+    :func:`py_string`."""
     return "[" + ", ".join(py_string(t) for t in texts) + "]"
 
 

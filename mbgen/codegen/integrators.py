@@ -168,7 +168,8 @@ def integrator_context(kernel) -> dict:
         non_autonomous=non_autonomous,
         args=extra_args,
         params=extra_params,
-        table=bool(L.n_r),   # inputs r(t) from a table in the options (mbgen.runtime.named.InputTable)
+        # inputs r(t) from a table in the options (mbgen.runtime.named.InputTable)
+        table=bool(L.n_r),
         n_r=L.n_r,
         p_arg=", p" if L.n_p else "",
         n=max(L.n_x, 1),

@@ -15,14 +15,14 @@ from dataclasses import dataclass, replace
 
 import sympy as sm
 
-from .cse import CseBackend, eliminate
-from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
-from ..errors import ModelError
-from ..symbolic.layout import Layout
 from ..abi import INTEGRATORS, Output
+from ..errors import ModelError
+from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
+from ..symbolic.graph import count_ops_dag, count_ops_tree, free_symbols, reachable
+from ..symbolic.layout import Layout
+from .cse import CseBackend, eliminate
 from .outputs import Block, Form, Spec, spec, with_dependencies
 from .solver import solve_ops
-from ..symbolic.graph import count_ops_dag, count_ops_tree, free_symbols, reachable
 
 __all__ = ["Output", "CseBackend", "Block", "Form", "KernelFunction", "Kernel", "optimize"]
 

@@ -51,9 +51,9 @@ How to add an output
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from enum import Enum
-from typing import Callable, Iterable
 
 import sympy as sm
 

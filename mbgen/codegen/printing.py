@@ -19,9 +19,8 @@ repeated bases (:mod:`mbgen.codegen.cse`) all ask it.
 
 from __future__ import annotations
 
-from typing import Mapping
-
 import math
+from collections.abc import Mapping
 
 import sympy as sm
 from sympy.printing.c import C99CodePrinter

@@ -27,11 +27,11 @@ from ..abi import CONSTRAINT_STATUS_CODES, STATUS_CODES, FunctionInfo, Output, R
 from ..names import model_prefix
 from . import header as head
 from .optimize import Kernel
-from .templating import environment
 from .targets import TARGETS, Targets
 from .targets.base import EXTENSION, HEADER, SOURCE
 from .targets.model import function_views
 from .targets.runtime import Runtime
+from .templating import environment
 
 
 def render(kernel: Kernel, targets=None) -> Rendered:

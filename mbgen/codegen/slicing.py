@@ -2,7 +2,8 @@
 
 ``bake(equations, fixed, inputs)`` is a pure stage between derivation and
 optimisation.  Intermediate quantities of a recursive derivation (the
-equations' program) that become numbers are folded into what uses them.  Fixed parameters become numbers (integral values stay exact, so
+equations' program) that become numbers are folded into what uses them.  Fixed
+parameters become numbers (integral values stay exact, so
 ``2*g`` with ``g = 10`` folds to ``20``; a zero offset removes every term it
 multiplies), inputs that a scene leaves out become zero, and both leave the
 layout, so they vanish from the arithmetic and from the generated ABI.
@@ -12,16 +13,16 @@ Parameters that no emitted expression uses are removed later, in
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from typing import Mapping, Sequence
 
 import sympy as sm
 
-from ..symbolic.equations import Equations, PointKinematics
 from ..errors import ModelError
+from ..symbolic.equations import Equations, PointKinematics
+from ..symbolic.graph import xreplace_dag
 from ..symbolic.layout import Layout
 from ..symbolic.program import Program
-from ..symbolic.graph import xreplace_dag
 
 
 def number(value: float) -> sm.Expr:

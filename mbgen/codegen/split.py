@@ -87,13 +87,7 @@ def split_view(view: dict, time_name: str, arrays: tuple[str, ...],
         return view
     view["split"] = tuple(s for s in SECTIONS if view[s])
     loads = {ident: (ident, arr, idx) for ident, arr, idx in view["loads"]}
-    parts, owner = [], {}
-    for section in view["split"]:
-        for chunk in _chunks(view[section], part_chars):
-            k = len(parts)
-            parts.append(dict(section=section, temps=chunk))
-            for sym, _, _ in chunk:
-                owner[sym] = k
+    parts, owner = _cut(view, part_chars)
     work: dict[str, int] = {}
 
     def export(sym):
@@ -123,6 +117,19 @@ def split_view(view: dict, time_name: str, arrays: tuple[str, ...],
     view["parts"] = parts
     view["work"] = len(work)
     return view
+
+
+def _cut(view: dict, part_chars: int) -> tuple[list[dict], dict[str, int]]:
+    """``(parts, owner)``: the parts (``section``, ``temps``) the split sections of ``view``
+    are cut into, in order, and the index of the part that computes each temporary."""
+    parts, owner = [], {}
+    for section in view["split"]:
+        for chunk in _chunks(view[section], part_chars):
+            k = len(parts)
+            parts.append(dict(section=section, temps=chunk))
+            for sym, _, _ in chunk:
+                owner[sym] = k
+    return parts, owner
 
 
 def _fill_part(part: dict, name: str, args, time_name: str, arrays, loads: dict, owner: dict,

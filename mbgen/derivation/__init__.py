@@ -81,8 +81,8 @@ With no method named, :func:`choose_method` looks at the joint tree
 4. otherwise it leaves the choice open.  The pipeline (:func:`mbgen.pipeline.run`,
    so ``mbgen.compile`` and ``mbgen generate``) then derives both and keeps,
    for every output asked, the one whose right-hand side has fewer operations
-   (after CSE, the L D L^T solve included); a tie goes to Kane.  :func:`derive` alone, which cannot count generated operations, takes
-   Kane's method.
+   (after CSE, the L D L^T solve included); a tie goes to Kane.  :func:`derive` alone,
+   which cannot count generated operations, takes Kane's method.
 
 The equations record which method was used and why (``Equations.method`` and
 ``Equations.method_reason``; ``Equations.derivation`` says both in words).  The
@@ -93,17 +93,17 @@ derivation, or per comparison of both.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from typing import Callable
 
-from ..symbolic.equations import Equations
 from ..errors import ModelError
 from ..model.builder import Model
+from ..symbolic.equations import Equations
+from . import kane, newton_euler, prepare
 from .choice import CHAIN, COMPARE_SPEEDS, Structure, structure
 from .common import Wants
 from .constraints import constrain
-from . import kane, newton_euler, prepare
 from .prepare import Prepared
 
 
@@ -122,7 +122,8 @@ METHODS: dict[Method, Callable[[Prepared, Wants], Equations]] = {
 
 #: ``Equations.method_reason`` of a method the caller named.
 NAMED = "named: method="
-#: ``Equations.method_reason`` of :func:`derive`'s default when :func:`choose_method` leaves it open.
+#: ``Equations.method_reason`` of :func:`derive`'s default when :func:`choose_method` leaves
+#: it open.
 UNDECIDED = ("no method named; a small model: derive() takes Kane's, mbgen.compile keeps the "
              "cheaper of both")
 
@@ -233,7 +234,8 @@ def derive(model: Model | Prepared, method: Method | None = None, *, energy: boo
 
 
 def method_of(method) -> Method:
-    """``method`` (a :class:`Method` or its value) as a :class:`Method` with a row in :data:`METHODS`."""
+    """``method`` (a :class:`Method` or its value) as a :class:`Method` with a row in
+    :data:`METHODS`."""
     try:
         found = Method(method)
         METHODS[found]

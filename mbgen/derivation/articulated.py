@@ -26,8 +26,7 @@ from dataclasses import dataclass
 from ..symbolic.program import ProgramBuilder
 from .joints import Body
 from .recursion import NewtonEuler
-from .spatial import (ZERO6, dot6, force_to_parent, matvec6, motion_to_child, symmetric, vadd6,
-                      vneg6)
+from .spatial import ZERO6, dot6, force_to_parent, matvec6, motion_to_child, symmetric, vadd6, vneg6
 from .tree import S0, add, mul
 
 
@@ -58,7 +57,7 @@ class ArticulatedJoint:
     speeds: tuple
     U: list
     u: list
-    solve: "_SmallSolve | None"
+    solve: _SmallSolve | None
 
 
 def speed_owners(ne: NewtonEuler) -> dict | None:

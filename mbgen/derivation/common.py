@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import sympy as sm
 
-from ..symbolic.equations import PointKinematics
 from ..errors import ModelError
+from ..symbolic.equations import PointKinematics
 from ..symbolic.graph import count_ops_dag
 from .prepare import Prepared
 from .tree import S0, add, dot3, matvec, mul, vadd, vneg

@@ -27,14 +27,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 import sympy as sm
 
-from ..symbolic.equations import Constraints, Equations, acceleration_symbols
 from ..errors import ModelError
+from ..symbolic.equations import Constraints, Equations, acceleration_symbols
+from ..symbolic.graph import free_symbols, xreplace_dag
 from ..symbolic.layout import Layout
 from ..symbolic.program import Program
-from ..symbolic.graph import free_symbols, xreplace_dag
 from .prepare import Prepared, signed_atoms
 from .tree import cross, unit
-
 
 #: ``Constraint.kind`` of a configuration constraint ``f(q, t) = 0``; the other kind,
 #: ``"motion"``, is ``f(q, u, t) = 0`` (:class:`mbgen.model.elements.Constraint`).

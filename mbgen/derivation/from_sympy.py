@@ -75,21 +75,22 @@ from __future__ import annotations
 
 import re
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import replace
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics.mechanics import KanesMethod, LagrangesMethod, System, dynamicsymbols
 
-from . import sympy_constraints
-from ..symbolic.equations import Equations
 from ..errors import ModelError
-from ..symbolic.layout import Layout
 from ..model.scene import UNNAMED
 from ..names import model_prefix
+from ..symbolic.equations import Equations
 from ..symbolic.graph import walk_unique, xreplace_dag
+from ..symbolic.layout import Layout
+from . import sympy_constraints
 from .sympy_constraints import Stated
 
 SUPPORTED = ("a KanesMethod after kanes_equations(), a LagrangesMethod after "

@@ -66,7 +66,7 @@ class Body:
     frame: FrameNode
     point: object
     elements: list = field(default_factory=list)
-    parent: "Body | None" = None
+    parent: Body | None = None
     joint_atoms: tuple = ()
     joint: str = ""
     reaction_frame: FrameNode | None = None
@@ -88,7 +88,7 @@ class BodyTree:
     own_atoms: object      # callable Point -> atoms of the point's own offset
     atoms_between: object  # callable (upper Point, lower Point) -> atoms from upper to lower
 
-    def body_of_point(self, point) -> "Body | None | str":
+    def body_of_point(self, point) -> Body | None | str:
         """The body a load at ``point`` acts on: the deepest body the point is fixed in.
 
         Returns a Body, ``GROUND`` (the point does not move: the load does no
@@ -99,7 +99,7 @@ class BodyTree:
             return max(holders, key=lambda b: b.index)
         return GROUND if GROUND in self.fixed_in.get(point, ()) else None
 
-    def body_of_frame(self, node: FrameNode) -> "Body | None":
+    def body_of_frame(self, node: FrameNode) -> Body | None:
         """The body a torque on frame ``node`` acts on (None: a massless frame, or the ground)."""
         rep = self.rigid[node]
         holders = [b for b in self.bodies if self.rigid[b.frame] is rep]
@@ -310,14 +310,16 @@ def _is_point_ancestor(upper, lower, parent_of) -> bool:
     return False
 
 
-def _find_parent(b: Body, fixed_in, parent_of, rigid) -> "Body | None":
+def _find_parent(b: Body, fixed_in, parent_of, rigid) -> Body | None:
     q = b.point
     while q is not None:
         holders = fixed_in.get(q, [])
         cands = [h for h in holders if h is not GROUND and h is not b and
                  (h.point is not b.point or _is_ancestor(h.frame, b.frame))]
         if cands:
-            key = (lambda h: (_depth(h.point, parent_of), h.frame.depth))
+            def key(h):
+                return _depth(h.point, parent_of), h.frame.depth
+
             best = max(cands, key=key)
             tied = [h for h in cands if h is not best and key(h) == key(best)]
             if tied:

@@ -14,10 +14,11 @@ from functools import partial
 import sympy as sm
 
 from ..errors import ModelError
-from ..symbolic.layout import Layout
-from ..model.builder import Model, t as TIME
+from ..model.builder import Model
+from ..model.builder import t as TIME
 from ..model.elements import Force, Gravity, LineElement, Torque
 from ..symbolic.graph import applied_functions, free_symbols, walk_unique
+from ..symbolic.layout import Layout
 from .tree import Atom, FrameNode, KinematicTree, Vec3
 
 

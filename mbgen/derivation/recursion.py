@@ -42,8 +42,8 @@ from __future__ import annotations
 
 import copy
 from collections import defaultdict
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import sympy as sm
 
@@ -53,8 +53,20 @@ from .common import line_coefficient
 from .joints import GROUND, Body, BodyTree, build_bodies
 from .prepare import Prepared
 from .relative import Relative, cancelled, ops, through_matrix
-from .spatial import (ZERO6, Rotation, congruence, dot6, force_to_parent, join, matvec6,
-                      motion_to_child, spatial_inertia, symmetric, vadd6, vneg6)
+from .spatial import (
+    ZERO6,
+    Rotation,
+    congruence,
+    dot6,
+    force_to_parent,
+    join,
+    matvec6,
+    motion_to_child,
+    spatial_inertia,
+    symmetric,
+    vadd6,
+    vneg6,
+)
 from .tree import S0, ZERO3, Vec3, add, cross, dot3, is_zero, matvec, mul, unit, vadd, vneg, vscale
 
 TWO = sm.Integer(2)
@@ -149,7 +161,7 @@ class NewtonEuler:
         self.inertia: dict[Body, BodyInertia] = {b: self._inertia(b) for b in self.bodies}
         self.g = {b: self._wrench(b) for b in self.bodies}
 
-    def fork(self) -> "NewtonEuler":
+    def fork(self) -> NewtonEuler:
         """A copy whose program grows apart from this one's, the outward pass not run again.
 
         The per-body records are frozen and shared; the program builder and the cache of
@@ -311,37 +323,8 @@ class NewtonEuler:
         return BodyInertia(mass, h, IJ, spatial_inertia(mass, h, IJ))
 
     def _collect_loads(self) -> None:
-        prep, bt, tree = self.prep, self.bt, self.tree
-        root = bt.ground_frame
-
-        def at_point(point, vector_terms, sign):
-            target = bt.body_of_point(point)
-            if target is GROUND or not vector_terms:
-                return
-            if target is None:   # a massless point: generalized forces from its partial velocities
-                for a in prep.point_atoms[point]:
-                    for k, va in tree.atom_partials(a).items():
-                        f = add(*(tree.dot(va, a.frame, c, n) for n, c in vector_terms))
-                        self.tau[k].append(f if sign > 0 else mul(-1, f))
-                return
-            f = vadd(*(tree.express(c, n, target.frame) for n, c in vector_terms))
-            f = vscale(sm.Integer(sign), f)
-            rho = self._offset(bt.atoms_between(target.point, point), target.frame)
-            self._loads[target].append((cross(rho, f), f))
-
-        def on_frame(node, vector_terms, sign):
-            if not vector_terms or bt.rigid[node] is bt.rigid[root]:
-                return
-            target = bt.body_of_frame(node)
-            if target is None:
-                T = vadd(*(tree.express(c, n, node) for n, c in vector_terms))
-                for k, w in tree.omega_partials(node).items():
-                    f = dot3(w, T)
-                    self.tau[k].append(f if sign > 0 else mul(-1, f))
-                return
-            T = vadd(*(tree.express(c, n, target.frame) for n, c in vector_terms))
-            self._loads[target].append((vscale(sm.Integer(sign), T), ZERO3))
-
+        prep, tree = self.prep, self.tree
+        at_point, on_frame = self._load_at_point, self._load_on_frame
         for load in prep.model.loads:
             if isinstance(load, Force):
                 vec = prep.terms(load.vector, f"force at {load.point}")
@@ -361,6 +344,40 @@ class NewtonEuler:
             vec = [(n, vscale(coef, c)) for n, c in d]
             at_point(el.a, vec, 1)
             at_point(el.b, vec, -1)
+
+    def _load_at_point(self, point, vector_terms, sign) -> None:
+        """The force ``sign * vector_terms`` at ``point``: a load on the body that carries
+        the point, or (a massless point) generalized forces from its partial velocities."""
+        prep, bt, tree = self.prep, self.bt, self.tree
+        target = bt.body_of_point(point)
+        if target is GROUND or not vector_terms:
+            return
+        if target is None:   # a massless point: generalized forces from its partial velocities
+            for a in prep.point_atoms[point]:
+                for k, va in tree.atom_partials(a).items():
+                    f = add(*(tree.dot(va, a.frame, c, n) for n, c in vector_terms))
+                    self.tau[k].append(f if sign > 0 else mul(-1, f))
+            return
+        f = vadd(*(tree.express(c, n, target.frame) for n, c in vector_terms))
+        f = vscale(sm.Integer(sign), f)
+        rho = self._offset(bt.atoms_between(target.point, point), target.frame)
+        self._loads[target].append((cross(rho, f), f))
+
+    def _load_on_frame(self, node, vector_terms, sign) -> None:
+        """The torque ``sign * vector_terms`` on frame ``node``: a load on the body fixed in
+        it, or (no body) generalized forces from its partial angular velocities."""
+        bt, tree = self.bt, self.tree
+        if not vector_terms or bt.rigid[node] is bt.rigid[bt.ground_frame]:
+            return
+        target = bt.body_of_frame(node)
+        if target is None:
+            T = vadd(*(tree.express(c, n, node) for n, c in vector_terms))
+            for k, w in tree.omega_partials(node).items():
+                f = dot3(w, T)
+                self.tau[k].append(f if sign > 0 else mul(-1, f))
+            return
+        T = vadd(*(tree.express(c, n, target.frame) for n, c in vector_terms))
+        self._loads[target].append((vscale(sm.Integer(sign), T), ZERO3))
 
     def _wrench(self, b: Body):
         """``g_b``: applied minus inertial (with ``u' = 0``) force about ``J_b``, body components.

@@ -57,8 +57,7 @@ import sympy as sm
 
 from ..symbolic.program import Program, derivatives
 from .joints import Body
-from .spatial import (ZERO6, dot6, fcross, join, matmul3, mcross, scale6, skew, split,
-                      vadd6)
+from .spatial import ZERO6, dot6, fcross, join, matmul3, mcross, scale6, skew, split, vadd6
 from .tree import S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, vadd, vneg, vscale
 
 TWO = sm.Integer(2)

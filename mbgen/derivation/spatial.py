@@ -161,7 +161,7 @@ class Rotation:
         self._double = None
 
     @classmethod
-    def simple(cls, axis: int, c, s, builder) -> "Rotation":
+    def simple(cls, axis: int, c, s, builder) -> Rotation:
         R = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
         a, b = {1: (1, 2), 2: (2, 0), 3: (0, 1)}[axis]
         rows = [list(r) for r in R]

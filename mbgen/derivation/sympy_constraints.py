@@ -45,13 +45,14 @@ the C status ``CONSTRAINT_SINGULAR``.
 
 from __future__ import annotations
 
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sm
 
-from ..symbolic.equations import Constraints
 from ..errors import ModelError
+from ..symbolic.equations import Constraints
 from ..symbolic.graph import differentiate, free_symbols, xreplace_dag
 
 _TRIES = 3  # random states per rank test
@@ -131,7 +132,8 @@ def _rank(a: np.ndarray) -> int:
 
 # --------------------------------------------------------------------------- forms
 def _jacobian(exprs: list, variables: Sequence[sm.Symbol]) -> list[list]:
-    """``[[d e/d v for v in variables] for e in exprs]`` (symengine, one memo: linear in the graph)."""
+    """``[[d e/d v for v in variables] for e in exprs]`` (symengine, one memo: linear in the
+    graph)."""
     return differentiate(list(exprs), list(variables)) if exprs else []
 
 

@@ -34,13 +34,14 @@ Atoms are shared by every point placed after them, which is what lets
 
     v &= \dot c + \omega_F \times c \\
     v_r &= \partial \dot c / \partial u_r + \omega_{F,r} \times c \\
-    a^t &= \ddot c^t + \alpha^t_F \times c + 2\,\omega_F\times\dot c + \omega_F\times(\omega_F\times c)
+    a^t &= \ddot c^t + \alpha^t_F \times c + 2\,\omega_F\times\dot c
+           + \omega_F\times(\omega_F\times c)
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import sympy as sm
 
@@ -127,7 +128,7 @@ class FrameNode:
     """A frame of the tree.  ``R_parent`` is ``R_PF`` (F components -> parent components)."""
 
     name: str
-    parent: "FrameNode | None" = None
+    parent: FrameNode | None = None
     axis: int | None = None
     angle: sm.Expr | None = None
     omega_override: Vec3 | None = None
@@ -283,7 +284,8 @@ class KinematicTree:
         return self._memo(("omega", node), make)
 
     def omega_partials(self, node: FrameNode) -> dict[int, Vec3]:
-        """Partial angular velocities ``{r: d omega / d u_r}`` (nonzero only), ``node`` components."""
+        """Partial angular velocities ``{r: d omega / d u_r}`` (nonzero only), in ``node``'s
+        components."""
         def make():
             if node.omega_override is not None:
                 out = {}
@@ -348,7 +350,8 @@ class KinematicTree:
         return out
 
     def dot(self, a: Vec3, fa: FrameNode, b: Vec3, fb: FrameNode):
-        """Dot product of ``a`` (in ``fa``) and ``b`` (in ``fb``), computed in their common ancestor."""
+        """Dot product of ``a`` (in ``fa``) and ``b`` (in ``fb``), computed in their common
+        ancestor."""
         if is_zero(a) or is_zero(b):
             return S0
         if fa is fb:

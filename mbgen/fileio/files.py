@@ -15,9 +15,9 @@ import os
 import re
 import secrets
 import stat
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import Iterator, Mapping
 
 from ..errors import SceneError
 

@@ -54,11 +54,11 @@ import secrets
 import shutil
 import stat
 import sys
+from collections.abc import Mapping
 from contextlib import suppress
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
-from typing import Mapping
 
 from ..errors import OutputConflictError, OutputPathError
 from .files import digest, fingerprint, is_plain, keep_mode, plain_name

@@ -41,8 +41,17 @@ How to add an integrator
 
 from ..abi import INTEGRATORS, Output
 from ..errors import ArgumentError
-from .tableaux import (DEFAULT_MAX_STEPS, RK4, ROSENBROCK, Dopri5, ExplicitRungeKutta, Method,
-                       Rodas3, Rodas4, Rosenbrock)
+from .tableaux import (
+    DEFAULT_MAX_STEPS,
+    RK4,
+    ROSENBROCK,
+    Dopri5,
+    ExplicitRungeKutta,
+    Method,
+    Rodas3,
+    Rodas4,
+    Rosenbrock,
+)
 
 #: The default tolerances (error per step <= atol + rtol |x|) of every adaptive integration:
 #: integrate, Stepper, simulate and sweep on the command line, example.c, an FMU.

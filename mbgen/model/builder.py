@@ -40,16 +40,30 @@ The pendulum hanging from a rotating disc (lecture 1, example 3)::
 
 from __future__ import annotations
 
-from typing import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import sympy as sm
 from sympy.physics import vector as spv
 
 from ..errors import ModelError
 from ..names import check_name, model_prefix
-from .elements import (Bound, Constraint, Force, FrameDef, Gravity, Joint, LineElement, Particle,
-                       PointDef, RigidBody, Torque, axis_index, bound_record, constant_defaults,
-                       inertia_matrix)
+from .elements import (
+    Bound,
+    Constraint,
+    Force,
+    FrameDef,
+    Gravity,
+    Joint,
+    LineElement,
+    Particle,
+    PointDef,
+    RigidBody,
+    Torque,
+    axis_index,
+    bound_record,
+    constant_defaults,
+    inertia_matrix,
+)
 from .expressions import expression
 from .limits import MAX_BODIES, MAX_SPEEDS, check_count, guard_range
 from .summary import model_html
@@ -219,7 +233,8 @@ class Model:
         return self.N
 
     def rotate(self, parent: spv.ReferenceFrame, name: str, axis, angle) -> spv.ReferenceFrame:
-        """Create frame ``name`` by a simple rotation of ``parent`` (SOPHIA ``&rot[P,B,axis,angle]``).
+        """Create frame ``name`` by a simple rotation of ``parent``
+        (SOPHIA ``&rot[P,B,axis,angle]``).
 
         Parameters
         ----------
@@ -341,7 +356,8 @@ class Model:
         self.particles.append(p)
         return p
 
-    def body(self, name: str, frame: spv.ReferenceFrame, mass, inertia, center: spv.Point) -> RigidBody:
+    def body(self, name: str, frame: spv.ReferenceFrame, mass, inertia,
+             center: spv.Point) -> RigidBody:
         """Add a rigid body fixed in ``frame`` with mass centre ``center``.
 
         Parameters
@@ -364,7 +380,8 @@ class Model:
         return b
 
     # ------------------------------------------------------------------- loads
-    def force(self, point: spv.Point, vector: spv.Vector, reaction: spv.Point | None = None) -> Force:
+    def force(self, point: spv.Point, vector: spv.Vector,
+              reaction: spv.Point | None = None) -> Force:
         """Apply ``vector`` at ``point`` (and ``-vector`` at ``reaction`` if given)."""
         self._check_point(point)
         if reaction is not None:

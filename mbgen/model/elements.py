@@ -147,7 +147,8 @@ class Joint:
 
 @dataclass(frozen=True)
 class Constraint:
-    """A stated constraint, ``expression = 0`` (see :meth:`Model.holonomic`, :meth:`Model.nonholonomic`).
+    """A stated constraint, ``expression = 0`` (see :meth:`Model.holonomic`,
+    :meth:`Model.nonholonomic`).
 
     ``kind`` is ``"holonomic"`` (configuration: ``f(q, t)``) or ``"motion"``
     (``f(q, u, t)``, linear in the speeds).  ``dependent`` is the dependent
@@ -191,10 +192,9 @@ def bound_record(model, symbol, lower, upper) -> Bound:
     """``symbol`` (a coordinate, speed or input of ``model``, or its name) bounded to
     ``[lower, upper]`` (None: unbounded that way), checked: numbers, not NaN, in order."""
     name = symbol if isinstance(symbol, str) else str(getattr(symbol, "func", symbol))
-    for kind, attr in BOUNDED.items():
-        if name in [str(s.func) for s in getattr(model, attr)]:
-            break
-    else:
+    kind = next((kind for kind, attr in BOUNDED.items()
+                 if name in [str(s.func) for s in getattr(model, attr)]), None)
+    if kind is None:
         raise ModelError(f"cannot bound {symbol!r}: not a coordinate, speed or input of model "
                          f"{model.name!r}")
     ends = [(-math.inf, math.inf)[k] if v is None else v for k, v in enumerate((lower, upper))]

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import ast
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 import sympy as sm
 
@@ -141,48 +141,59 @@ class _Converter:
         if depth > MAX_DEPTH:
             self.refuse(f"nests deeper than {MAX_DEPTH} levels")
         if isinstance(node, ast.Constant):
-            v = node.value
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                self.refuse(f"contains the literal {_short(repr(v))}")
-            if isinstance(v, float) and not math.isfinite(v):
-                self.refuse(f"contains the non-finite number {v!r}")
-            return self.bounded(sm.Integer(v) if isinstance(v, int) else sm.Float(v))
+            return self.constant(node.value)
         if isinstance(node, ast.Name):
-            if node.id in self.symbols:
-                return self.symbols[node.id]
-            if node.id in CONSTANTS:
-                return CONSTANTS[node.id]
-            hint = did_you_mean(node.id, list(self.symbols) + list(CONSTANTS))
-            raise ModelError(f"{self.what}: {_short(self.text)} names {node.id!r}, which is not "
-                             f"a symbol of the model (declare it first, e.g. "
-                             f"model.constants({node.id!r})){hint}")
+            return self.name(node.id)
         if isinstance(node, ast.BinOp):
-            a = self.convert(node.left, depth + 1)
-            b = self.convert(node.right, depth + 1)
-            if isinstance(node.op, ast.Pow):
-                return self.power(a, b)
-            op = _BINARY.get(type(node.op))
-            if op is None:
-                self.refuse(f"uses the operator {type(node.op).__name__}")
-            if isinstance(node.op, ast.Div) and b == 0:
-                self.refuse("divides by zero")
-            return self.bounded(op(a, b))
+            return self.binary(node, depth)
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
             v = self.convert(node.operand, depth + 1)
             return -v if isinstance(node.op, ast.USub) else v
         if isinstance(node, ast.Call):
-            if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
-                name = node.func.id if isinstance(node.func, ast.Name) else ast.unparse(node.func)
-                self.refuse(f"calls {_short(name)}, which is not an allowed function")
-            if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
-                self.refuse(f"passes keyword or starred arguments to {node.func.id}")
-            args = [self.convert(a, depth + 1) for a in node.args]
-            try:
-                value = FUNCTIONS[node.func.id](*args)
-            except (TypeError, ValueError) as exc:
-                self.refuse(f"calls {node.func.id} wrongly ({exc})")
-            return self.bounded(value)
+            return self.call(node, depth)
         self.refuse(f"contains {type(node).__name__!r}, which is not allowed")
+
+    def constant(self, v):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.refuse(f"contains the literal {_short(repr(v))}")
+        if isinstance(v, float) and not math.isfinite(v):
+            self.refuse(f"contains the non-finite number {v!r}")
+        return self.bounded(sm.Integer(v) if isinstance(v, int) else sm.Float(v))
+
+    def name(self, name: str):
+        if name in self.symbols:
+            return self.symbols[name]
+        if name in CONSTANTS:
+            return CONSTANTS[name]
+        hint = did_you_mean(name, list(self.symbols) + list(CONSTANTS))
+        raise ModelError(f"{self.what}: {_short(self.text)} names {name!r}, which is not "
+                         f"a symbol of the model (declare it first, e.g. "
+                         f"model.constants({name!r})){hint}")
+
+    def binary(self, node: ast.BinOp, depth: int):
+        a = self.convert(node.left, depth + 1)
+        b = self.convert(node.right, depth + 1)
+        if isinstance(node.op, ast.Pow):
+            return self.power(a, b)
+        op = _BINARY.get(type(node.op))
+        if op is None:
+            self.refuse(f"uses the operator {type(node.op).__name__}")
+        if isinstance(node.op, ast.Div) and b == 0:
+            self.refuse("divides by zero")
+        return self.bounded(op(a, b))
+
+    def call(self, node: ast.Call, depth: int):
+        if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
+            name = node.func.id if isinstance(node.func, ast.Name) else ast.unparse(node.func)
+            self.refuse(f"calls {_short(name)}, which is not an allowed function")
+        if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
+            self.refuse(f"passes keyword or starred arguments to {node.func.id}")
+        args = [self.convert(a, depth + 1) for a in node.args]
+        try:
+            value = FUNCTIONS[node.func.id](*args)
+        except (TypeError, ValueError) as exc:
+            self.refuse(f"calls {node.func.id} wrongly ({exc})")
+        return self.bounded(value)
 
     def power(self, base, exp):
         if base.is_Number and exp.is_Number:

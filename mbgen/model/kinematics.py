@@ -23,7 +23,7 @@ are refused (they are never evaluated, see :mod:`mbgen.model.expressions`).
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import sympy as sm
 from sympy.physics import vector as spv

@@ -17,15 +17,15 @@ Conventions (MuJoCo's, so that a state compares one to one with ``mj_forward``):
   order (joint by joint, in the order of the file).  For a joint ``<j>`` (its name
   sanitised to an identifier; ``joint<k>`` when it has none):
 
-  ========  ===============================  ================================  ==============================
-  type      coordinates                      speeds                            inputs (generalized forces)
-  ========  ===============================  ================================  ==============================
-  hinge     ``q_<j>``                        ``u_<j>``                         ``tau_<j>``
-  slide     ``q_<j>``                        ``u_<j>``                         ``tau_<j>``
-  ball      ``q_<j>_qw, _qx, _qy, _qz``      ``u_<j>_wx, _wy, _wz``            ``tau_<j>_tx, _ty, _tz``
-  free      ``q_<j>_x, _y, _z``, then        ``u_<j>_vx, _vy, _vz``,           ``tau_<j>_fx, _fy, _fz``,
-            ``q_<j>_qw, _qx, _qy, _qz``      ``u_<j>_wx, _wy, _wz``            ``tau_<j>_tx, _ty, _tz``
-  ========  ===============================  ================================  ==============================
+  =====  ===========================  =======================  ===========================
+  type   coordinates                  speeds                   inputs (generalized forces)
+  =====  ===========================  =======================  ===========================
+  hinge  ``q_<j>``                    ``u_<j>``                ``tau_<j>``
+  slide  ``q_<j>``                    ``u_<j>``                ``tau_<j>``
+  ball   ``q_<j>_qw, _qx, _qy, _qz``  ``u_<j>_wx, _wy, _wz``   ``tau_<j>_tx, _ty, _tz``
+  free   ``q_<j>_x, _y, _z``, then    ``u_<j>_vx, _vy, _vz``,  ``tau_<j>_fx, _fy, _fz``,
+         ``q_<j>_qw, _qx, _qy, _qz``  ``u_<j>_wx, _wy, _wz``   ``tau_<j>_tx, _ty, _tz``
+  =====  ===========================  =======================  ===========================
 
   A quaternion is MuJoCo's ``(w, x, y, z)``: a ball joint's turns the body from its
   reference orientation, a free joint's is the body's orientation in the world.  A ball
@@ -101,9 +101,10 @@ def import_mujoco():
 def compile_mjcf(path):
     """The ``mujoco.MjModel`` of the file at ``path`` (MJCF, or URDF as MuJoCo reads it).
 
-    The files are read first (:func:`~mbgen.model.mjcf_xml.scan_mjcf`), so that what would make MuJoCo wait
-    forever, grow without bound or compile a different model is refused by name before it
-    reads a byte; MuJoCo's own complaints come back as :class:`MjcfError` naming the file."""
+    The files are read first (:func:`~mbgen.model.mjcf_xml.scan_mjcf`), so that what would
+    make MuJoCo wait forever, grow without bound or compile a different model is refused by
+    name before it reads a byte; MuJoCo's own complaints come back as :class:`MjcfError`
+    naming the file."""
     mujoco = import_mujoco()
     scan_mjcf(path)
     try:
@@ -347,7 +348,7 @@ class _Builder:
         gvec = np.array(self.physics.gravity, dtype=float)
         gnorm = float(np.linalg.norm(gvec))
         self.symbols = {}
-        for kind, base, qs, us, rs in self.joints:
+        for _kind, _base, qs, us, rs in self.joints:
             for names, make in ((qs, m.coordinates), (us, m.speeds), (rs, m.inputs)):
                 made = make(" ".join(names))
                 self.symbols.update(zip(names, made if isinstance(made, tuple) else (made,)))
@@ -391,7 +392,8 @@ class _Builder:
             return
         mass, centre, inertia = made
         point = group.point if not centre.any() else \
-            m.point(self.internal(f"{group.name}_G"), group.point, frame_vector(group.frame, centre))
+            m.point(self.internal(f"{group.name}_G"), group.point,
+                    frame_vector(group.frame, centre))
         m.body(self.internal(group.name), group.frame, float(mass),
                [[float(v) for v in row] for row in inertia], point)
 

@@ -33,10 +33,11 @@ import math
 import numbers
 import os
 import pkgutil
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,6 @@ from .files import require_regular_file
 from .limits import allow_large_models, check_size
 from .mjcf import compile_mjcf, file_model_name, from_mujoco, scene_values
 from .urdf import build_model, read_urdf
-
 
 #: The name of equations imported without one (``from_sympy(obj)``); a scene holding
 #: them names the generated code after itself (its ``prefix`` is the scene's name).
@@ -228,7 +228,7 @@ def model_names(model) -> dict[str, list[str]] | None:
     return None
 
 
-def _check_symbol_names(scn: "Scene") -> None:
+def _check_symbol_names(scn: Scene) -> None:
     """Every name the scene gives must exist in its model (once, where the scene is made)."""
     known = model_names(scn.model)
     if known is None:
@@ -252,7 +252,7 @@ def _check_symbol_names(scn: "Scene") -> None:
                     f"{did_you_mean(name, known[kind])} ({kind}: {listed or 'none'})")
 
 
-def _check_targets(scn: "Scene") -> None:
+def _check_targets(scn: Scene) -> None:
     """``targets`` is None or a :class:`mbgen.Targets` (a dataclass of switches)."""
     targets = scn.targets
     if targets is None:
@@ -263,7 +263,7 @@ def _check_targets(scn: "Scene") -> None:
                          f"targets=mbgen.Targets(step=True); got {_shown(targets)}")
 
 
-def source_label(scn: "Scene") -> str:
+def source_label(scn: Scene) -> str:
     """The scene's name and file as generated files record them: ``scene 'x' (x.py)``.
 
     Only the file's name is recorded, never the path as typed, so the
@@ -277,7 +277,8 @@ def source_label(scn: "Scene") -> str:
 
 def builtin_names() -> list[str]:
     """Names of the built-in scenes (modules of :mod:`mbgen.scenes`)."""
-    return sorted(m.name for m in pkgutil.iter_modules(scenes.__path__) if not m.name.startswith("_"))
+    return sorted(m.name for m in pkgutil.iter_modules(scenes.__path__)
+                  if not m.name.startswith("_"))
 
 
 def _require_file(path: Path, what: str) -> None:
@@ -291,7 +292,8 @@ def _require_file(path: Path, what: str) -> None:
 def _module_for(name_or_path: str):
     path = Path(name_or_path)
     if name_or_path in builtin_names():
-        return importlib.import_module(f"mbgen.scenes.{name_or_path}"), f"mbgen/scenes/{name_or_path}.py"
+        return (importlib.import_module(f"mbgen.scenes.{name_or_path}"),
+                f"mbgen/scenes/{name_or_path}.py")
     if path.suffix == ".py":
         _require_file(path, "scene file")
         spec = importlib.util.spec_from_file_location(f"mbgen_user_scene_{path.stem}", path)

@@ -27,7 +27,8 @@ def model_html(m) -> str:
             ("rigid bodies", f"{len(m.bodies)}: {names(b.name for b in m.bodies)}"),
             ("loads", html.escape(", ".join(f"{n} x{k}" for n, k in loads.items()) or "none"))]
     if m.constraints_:
-        rows.append(("constraints", f"{len(m.constraints_)}: {names(c.name for c in m.constraints_)}"))
+        rows.append(("constraints",
+                     f"{len(m.constraints_)}: {names(c.name for c in m.constraints_)}"))
     if m.kinematic_equations_:
         rows.append(("kinematic equations", f"{len(m.kinematic_equations_)} given"))
     return table(f"Model {m.name!r}", rows)

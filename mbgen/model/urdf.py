@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import math
 import re
+
 import numpy as np
 import sympy as sm
 
@@ -63,8 +64,16 @@ from ..names import C_KEYWORDS, MAX_NAME_LENGTH
 from . import free_base
 from .builder import Model
 from .limits import allow_large_models, check_size
-from .urdf_joints import (JointOptions, bound_joint, check_dynamics, followers, joint_load,
-                          joint_options, joint_symbols, load_constants)
+from .urdf_joints import (
+    JointOptions,
+    bound_joint,
+    check_dynamics,
+    followers,
+    joint_load,
+    joint_options,
+    joint_symbols,
+    load_constants,
+)
 from .urdf_xml import Robot, read_urdf
 
 #: Free-flyer coordinate and speed names, in Pinocchio's order.
@@ -260,8 +269,12 @@ def frame_vector(frame, comps) -> object:
     return sum(terms[1:], terms[0]) if terms else 0
 
 
+#: The joint options :func:`build_model` applies when given none (the defaults of each).
+_DEFAULT_JOINT_OPTIONS = JointOptions()
+
+
 def build_model(robot: Robot, *, floating: bool = False,
-                options: JointOptions = JointOptions()) -> Model:
+                options: JointOptions = _DEFAULT_JOINT_OPTIONS) -> Model:
     """The :class:`Model` of a checked :class:`~mbgen.model.urdf_xml.Robot`, its joints as
     ``options`` say (:mod:`mbgen.model.urdf_joints`): its size, (``floating``) its root
     and the numbers the options use are checked before anything is made."""
@@ -275,22 +288,7 @@ def build_model(robot: Robot, *, floating: bool = False,
         check_floating_root(robot)
     check_dynamics(robot, options)
     constants = {"g": GRAVITY, **load_constants(options)}
-    names = _Names(robot)
-    for name in constants:
-        names.visible(name, "the gravity constant" if name == "g" else "a joint-load constant")
-    for j in joints:
-        base = identifier(j.name)
-        for prefix, what in (("q", "coordinate"), ("u", "speed"), ("tau", "input")):
-            if j.name not in coupled:
-                names.visible(f"{prefix}_{base}", f"joint {j.name!r}")
-    if floating:
-        for n in FLOATING_Q + FLOATING_U:
-            names.visible(n, "the floating base")
-    moving = [robot.root] if floating else []
-    moving += [j.child for j in joints]
-    body_names = {link: names.visible(identifier(link) if identifier(link)[:1].isalpha()
-                                      else "link_" + identifier(link), f"link {link!r}")
-                  for link in moving}
+    names, body_names = _visible_names(robot, joints, coupled, constants, floating)
     m = Model(model_name(robot))
     N = m.newtonian(names.internal("N"), names.internal("O"))
     c = dict(zip(constants, m.constants(" ".join(constants), defaults=list(constants.values()))))
@@ -314,29 +312,11 @@ def build_model(robot: Robot, *, floating: bool = False,
         a = J @ np.array(j.axis)
         link = body_names[j.child]
         if j.type == "prismatic":
-            anchor = parent.point if not offset.any() else \
-                m.point(names.internal(f"{link}_anchor"), parent.point, frame_vector(parent.frame, offset))
-            point = m.point(names.internal(f"{link}_J"), anchor,
-                            frame_vector(parent.frame, a) * q)
-            child = Group(link, parent.frame, point)
-            if load != 0:
-                m.force(point, load * frame_vector(parent.frame, a), reaction=anchor)
-            place[j.child] = (J, np.zeros(3))
+            groups[j.child], place[j.child] = _slide(m, names, link, parent, J, offset, a, q,
+                                                     load)
         else:
-            point = parent.point if not offset.any() else \
-                m.point(names.internal(f"{link}_J"), parent.point, frame_vector(parent.frame, offset))
-            steps, k, s = axis_rotation(a)
-            frame, C = parent.frame, np.eye(3)
-            for n, (axis, angle) in enumerate(steps):
-                frame = m.rotate(frame, names.internal(f"{link}_axis{n}"), axis, angle)
-                C = C @ simple(axis, angle)
-            frame = m.rotate(frame, names.internal(f"{link}_frame"), k, s * q)
-            child = Group(link, frame, point)
-            if load != 0:
-                m.torque(frame, s * load * (frame.x, frame.y, frame.z)[k - 1],
-                         reaction=parent.frame)
-            place[j.child] = (C.T @ J, np.zeros(3))
-        groups[j.child] = child
+            groups[j.child], place[j.child] = _turn(m, names, link, parent, J, offset, a, q,
+                                                    load)
     for link, (A, d) in place.items():
         groups[link].add(robot.links[link].inertial, A, d)
     for group in dict.fromkeys(groups.values()):
@@ -344,6 +324,64 @@ def build_model(robot: Robot, *, floating: bool = False,
             _add_body(m, names, group)
     m.gravity(-c["g"] * N.z)
     return m
+
+
+def _visible_names(robot: Robot, joints, coupled, constants, floating: bool):
+    """``(names, body_names)``: the model's visible names reserved (the constants, each
+    uncoupled joint's coordinate, speed and input, the floating base's), and the name of
+    each moving link's body by link."""
+    names = _Names(robot)
+    for name in constants:
+        names.visible(name, "the gravity constant" if name == "g" else "a joint-load constant")
+    for j in joints:
+        base = identifier(j.name)
+        for prefix in ("q", "u", "tau"):  # its coordinate, speed and input
+            if j.name not in coupled:
+                names.visible(f"{prefix}_{base}", f"joint {j.name!r}")
+    if floating:
+        for n in FLOATING_Q + FLOATING_U:
+            names.visible(n, "the floating base")
+    moving = [robot.root] if floating else []
+    moving += [j.child for j in joints]
+    body_names = {link: names.visible(identifier(link) if identifier(link)[:1].isalpha()
+                                      else "link_" + identifier(link), f"link {link!r}")
+                  for link in moving}
+    return names, body_names
+
+
+def _slide(m: Model, names: _Names, link: str, parent: Group, J, offset, a, q, load):
+    """A prismatic joint's child group (``link``, sliding along ``a`` by ``q`` from the
+    anchor at ``offset`` in ``parent``) and the link's place in it; ``load`` acts along
+    the axis."""
+    anchor = parent.point if not offset.any() else \
+        m.point(names.internal(f"{link}_anchor"), parent.point,
+                frame_vector(parent.frame, offset))
+    point = m.point(names.internal(f"{link}_J"), anchor,
+                    frame_vector(parent.frame, a) * q)
+    child = Group(link, parent.frame, point)
+    if load != 0:
+        m.force(point, load * frame_vector(parent.frame, a), reaction=anchor)
+    return child, (J, np.zeros(3))
+
+
+def _turn(m: Model, names: _Names, link: str, parent: Group, J, offset, a, q, load):
+    """A revolute or continuous joint's child group (``link``, its frame turned about
+    ``a`` by ``q`` at ``offset`` in ``parent``) and the link's place in it; ``load`` acts
+    about the axis."""
+    point = parent.point if not offset.any() else \
+        m.point(names.internal(f"{link}_J"), parent.point,
+                frame_vector(parent.frame, offset))
+    steps, k, s = axis_rotation(a)
+    frame, C = parent.frame, np.eye(3)
+    for n, (axis, angle) in enumerate(steps):
+        frame = m.rotate(frame, names.internal(f"{link}_axis{n}"), axis, angle)
+        C = C @ simple(axis, angle)
+    frame = m.rotate(frame, names.internal(f"{link}_frame"), k, s * q)
+    child = Group(link, frame, point)
+    if load != 0:
+        m.torque(frame, s * load * (frame.x, frame.y, frame.z)[k - 1],
+                 reaction=parent.frame)
+    return child, (C.T @ J, np.zeros(3))
 
 
 def _add_body(m: Model, names: _Names, group: Group) -> None:

@@ -57,8 +57,14 @@ from xml.parsers import expat
 
 import numpy as np
 
-from ..errors import (ModelSizeError, ModelWarning, UrdfInertiaError, UrdfStructureError,
-                      UrdfSyntaxError, UrdfUnsupportedError)
+from ..errors import (
+    ModelSizeError,
+    ModelWarning,
+    UrdfInertiaError,
+    UrdfStructureError,
+    UrdfSyntaxError,
+    UrdfUnsupportedError,
+)
 from .files import read_regular_file
 from .limits import MAX_BODIES, check_size, size_forced
 
@@ -424,7 +430,8 @@ class _Reader:
         tol = INERTIA_TOL * scale
         if moments.min() < -tol:
             self.fail(where, f"the inertia is not positive semidefinite (principal moments "
-                      f"{', '.join(f'{m:.6g}' for m in moments)}); check the signs of ixy, ixz, iyz "
+                      f"{', '.join(f'{m:.6g}' for m in moments)}); "
+                      f"check the signs of ixy, ixz, iyz "
                       f"(URDF gives the products of inertia as they appear in the matrix, "
                       f"ixy = -integral of x y dm)", UrdfInertiaError)
         a, b, c = moments

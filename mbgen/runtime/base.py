@@ -17,17 +17,22 @@ raises :class:`~mbgen.errors.SingularMassMatrixError` or
 
 from __future__ import annotations
 
-from typing import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
 from ..abi import OUTPUT_INFO, Output, OutputInfo
-from ..errors import (ArgumentError, ConstraintError, MbgenError, NonFiniteResultError,
-                      SingularConstraintError, SingularMassMatrixError)
+from ..errors import (
+    ArgumentError,
+    ConstraintError,
+    MbgenError,
+    NonFiniteResultError,
+    SingularConstraintError,
+    SingularMassMatrixError,
+)
 from ..symbolic.layout import Layout
 from . import named
 from .arguments import F64, real_number, real_vector, step_count, tolerance
-
 
 #: Rounding allowance of a constraint residual, in units of the double epsilon (see
 #: :func:`on_loop_bound`): the few roundings of a sum, a sine and a product in each term.

@@ -9,8 +9,8 @@ checks a batch's arrays, calls them and names failures.  A 1-D ``x``, ``p`` or
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
@@ -18,6 +18,7 @@ from ..abi import status_message
 from ..errors import ArgumentError, ArgumentTypeError, IntegrationError, MbgenError
 from ..integrators import METHODS
 from .arguments import real_vector
+
 
 def _rows(model, value, n: int, what: str, names, k: int | None):
     """``(array (k', n) C-contiguous, stride)``: a 1-D value broadcasts (stride 0)."""
@@ -59,7 +60,7 @@ def _two_d(v) -> bool:
 def batch_args(model, x, p, r, x_what="state x"):
     """Validated ``(k, [(array, stride)] for x, p, r)`` of a batch call."""
     k = None
-    for v, n in ((x, model.n_x), (p, model.n_p), (r, model.n_r)):
+    for v in (x, p, r):
         if v is not None and _two_d(v):
             rows = np.shape(v)[0]
             if k is not None and rows != k:
@@ -87,7 +88,8 @@ def batch_times(model, t, k: int):
 
 
 def evaluate(model, info, t, x, p, r):
-    """One output for a batch: ``x (k, n_x)`` (and/or ``p``, ``r`` with ``k`` rows) -> ``(k, *shape)``."""
+    """One output for a batch: ``x (k, n_x)`` (and/or ``p``, ``r`` with ``k`` rows) ->
+    ``(k, *shape)``."""
     k, (xa, xs), (pa, ps), (ra, rs) = batch_args(model, x, p, r)
     ta, ts = batch_times(model, t, k)
     out = np.empty((k,) + tuple(info.out_shape))
@@ -125,7 +127,8 @@ def options(model, *, rtol, atol, h0, h_max, max_steps, project) -> tuple[dict, 
 def integrate(model, output, t, x0, p, r, *, rtol, atol, h0, h_max, max_steps,
               on_failure: str = "raise", project: bool = True,
               check_start: Callable | None = None):
-    """Batch of trajectories in one C call: see :meth:`mbgen.runtime.compiled.CompiledModel.integrate`.
+    """Batch of trajectories in one C call: see
+    :meth:`mbgen.runtime.compiled.CompiledModel.integrate`.
 
     ``check_start(t0, x0, p, r)`` (the batch, validated) refuses starts off the configuration
     constraints, as the single call does; ``project=False`` turns the C projection off.
@@ -211,5 +214,5 @@ class BatchIntegration:
     messages: tuple
 
 
-__all__ = ["is_batch", "scalar_time", "batch_args", "batch_times", "evaluate", "integrate", "options",
-           "BatchIntegration"]
+__all__ = ["is_batch", "scalar_time", "batch_args", "batch_times", "evaluate", "integrate",
+           "options", "BatchIntegration"]

@@ -30,7 +30,6 @@ from .batch import evaluate, is_batch, options
 from .batch import integrate as batch_integrate
 from .integration import SUCCESS, Trajectory
 
-
 #: The rendered code's values that ``CompiledModel``'s older signature repeated, each with
 #: how a repeated value is compared (a mapping as a dict, a sequence as a tuple).
 _AS_RENDERED = {"layout": lambda value: value, "defaults": dict, "outputs": tuple}
@@ -70,7 +69,7 @@ class CompiledModel(GeneratedModel):
         """The generated C integrators :meth:`integrate` can run (its ``outputs``)."""
         return tuple(o for o in INTEGRATORS if o in self.outputs)
 
-    def _make_call(self, info):
+    def _make_call(self, info):  # noqa: C901 - the measured hot path (docstring), kept whole
         """``call(t, x, p=None, r=None)`` for one generated function.
 
         What is returned is the function's C entry (:mod:`mbgen.runtime.crossing`): the
@@ -127,7 +126,7 @@ class CompiledModel(GeneratedModel):
                 fail(status, what, t, xa)
             return out.reshape(shape) if reshape else out
 
-        def call(t, x, p=None, r=None):
+        def call(t, x, p=None, r=None):  # noqa: C901 - the hot path itself: no helper calls
             if not (t.__class__ is float and x.__class__ is ndarray and x.dtype is f64
                     and x.shape == xshape and x.strides == stride):
                 return slow(t, x, p, r)
@@ -181,7 +180,7 @@ class CompiledModel(GeneratedModel):
         """``dxdt = [G; u']``, shape ``(n_x,)`` (the fastest way in from Python)."""
         return self._rhs(t, x, p, r)
 
-    def _input_table(self, table: "named.InputTable") -> "named.InputTable":
+    def _input_table(self, table: named.InputTable) -> named.InputTable:
         """``table`` in this model's input order, if its C integrators take tables."""
         if not self.n_r:
             raise ValueError(f"{self.name!r} has no inputs; an InputTable has nothing to drive")
@@ -220,6 +219,26 @@ class CompiledModel(GeneratedModel):
                 f"({', '.join(self.dependent_coordinates)}) with model.consistent(x0) first "
                 f"(mbgen.runtime.simulate.simulate does this), or pass project=False to integrate "
                 f"from it as given")
+
+    def _step_settings(self, spec, rtol, atol, h, h_max, max_steps) -> tuple:
+        """``(rtol, atol, h0, h_max, max_steps)`` of :meth:`integrate` checked and converted
+        (``h0``: 0 when ``h`` is None, which only the adaptive methods allow)."""
+        if not spec.adaptive:
+            if h is None:
+                raise ArgumentError(f"the {spec.output.value} integrator takes a fixed step: "
+                                    f"pass h > 0")
+        rtol, atol = real_number(rtol, "rtol"), real_number(atol, "atol")
+        h_max = real_number(h_max, "h_max")
+        h0 = 0.0 if h is None else real_number(h, "h")
+        for name, value in (("rtol", rtol), ("atol", atol), ("h", h0)):
+            if not (np.isfinite(value) and value >= 0):
+                raise ArgumentError(f"{name} must be a finite number >= 0; got {value!r}")
+        if h is not None and not h0 > 0:
+            raise ArgumentError(f"h must be > 0; got {h0!r}")
+        if not h_max >= 0:
+            raise ArgumentError(f"h_max must be >= 0 (0: unbounded); got {h_max!r}")
+        max_steps = step_count(max_steps, limit=2**(8 * self.ffi.sizeof("long") - 1) - 1)
+        return rtol, atol, h0, h_max, max_steps
 
     def integrate(self, method, t_eval, x0, p=None, r=None, *, rtol: float = DEFAULT_RTOL,
                   atol: float = DEFAULT_ATOL, h: float | None = None, h_max: float = 0.0,
@@ -291,21 +310,8 @@ class CompiledModel(GeneratedModel):
         xa = None if is_batch(x0, p, r) else self._x(x0)
         if xa is not None and not np.all(np.isfinite(xa)):
             raise ArgumentError(f"initial state x0 must be finite; got {xa.tolist()}")
-        if not spec.adaptive:
-            if h is None:
-                raise ArgumentError(f"the {output.value} integrator takes a fixed step: "
-                                    f"pass h > 0")
-        rtol, atol = real_number(rtol, "rtol"), real_number(atol, "atol")
-        h_max = real_number(h_max, "h_max")
-        h0 = 0.0 if h is None else real_number(h, "h")
-        for name, value in (("rtol", rtol), ("atol", atol), ("h", h0)):
-            if not (np.isfinite(value) and value >= 0):
-                raise ArgumentError(f"{name} must be a finite number >= 0; got {value!r}")
-        if h is not None and not h0 > 0:
-            raise ArgumentError(f"h must be > 0; got {h0!r}")
-        if not h_max >= 0:
-            raise ArgumentError(f"h_max must be >= 0 (0: unbounded); got {h_max!r}")
-        max_steps = step_count(max_steps, limit=2**(8 * self.ffi.sizeof("long") - 1) - 1)
+        rtol, atol, h0, h_max, max_steps = self._step_settings(spec, rtol, atol, h, h_max,
+                                                               max_steps)
 
         checks_start = bool(project and self.dependent_coordinates
                             and {Output.HOLONOMIC, Output.HOLONOMIC_JACOBIAN} <= set(self.outputs))

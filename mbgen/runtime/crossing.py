@@ -27,7 +27,7 @@ releases it around the C function only when made with ``release=True``.
 from __future__ import annotations
 
 import re
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -29,8 +29,9 @@ offered (:func:`mbgen.symbolic.availability.applicable`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
-from typing import Callable, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sm
@@ -90,7 +91,8 @@ class LambdifiedModel(ModelBase):
         self.equations = _inlined(equations)
         if equations.constraints is not None:
             self.constraint_names = equations.constraints.names
-            self.dependent_coordinates = tuple(map(str, equations.constraints.dependent_coordinates))
+            self.dependent_coordinates = tuple(
+                map(str, equations.constraints.dependent_coordinates))
         if equations.reactions is not None:
             self.reaction_names = equations.reactions.names
             self.reaction_frames = equations.reactions.frames
@@ -179,7 +181,8 @@ class LambdifiedModel(ModelBase):
 
     # ------------------------------------------------------------ shared steps
     def _mf(self, output, at: _At):
-        """``M`` and ``F`` of an unconstrained model (SingularMassMatrixError for a singular ``M``)."""
+        """``M`` and ``F`` of an unconstrained model (SingularMassMatrixError for a singular
+        ``M``)."""
         eq, n = self.equations, self._n_u
         M = self._value(at, "M", lambda: eq.mass_matrix).reshape(n, n)
         F = self._value(at, "F", lambda: eq.forcing)

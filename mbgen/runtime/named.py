@@ -45,9 +45,9 @@ from __future__ import annotations
 import csv
 import math
 import numbers
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -199,7 +199,7 @@ class InputTable:
                 raise ValueError("InputTable values must be finite")
             object.__setattr__(self, "values", np.ascontiguousarray(v))
 
-    def for_model(self, model) -> "InputTable":
+    def for_model(self, model) -> InputTable:
         """This table with ``values`` as a ``(k, n_r)`` array in ``model``'s input order
         (``model``: anything with ``input_names``, a model or a ``Layout``)."""
         name = getattr(model, "name", "")

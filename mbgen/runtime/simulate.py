@@ -22,8 +22,8 @@ import sys
 import threading
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import replace
-from typing import Callable
 
 import numpy as np
 from scipy import integrate as ivp
@@ -115,8 +115,8 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
                              f"method ({', '.join(SOLVE_IVP)})")
         if python_inputs:
             raise UsageError(f"a Python input function cannot drive the C integrator {name!r}; "
-                             f"give the inputs as mbgen.runtime.named.InputTable(times, values), or "
-                             f"use a solve_ivp method")
+                             f"give the inputs as mbgen.runtime.named.InputTable(times, values), "
+                             f"or use a solve_ivp method")
         return name, "as asked"
     by_lower = {k.lower(): k for k in SOLVE_IVP}
     if name.lower() not in by_lower:
@@ -277,7 +277,7 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
     first = int(np.searchsorted(t_eval, t0, side="right"))  # t_eval entries at t0 get x0
     columns = [np.repeat(y[:, None], first, axis=1)] if first else []
     nfev = njev = nlu = steps = 0
-    label, note, switched, warned = method, reason, False, False
+    label, note, warned = method, reason, False
     start = time.perf_counter()
     try:
         t, idx = t0, first
@@ -329,7 +329,7 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
             nfev, njev, nlu = nfev + solver.nfev, njev + solver.njev, nlu + solver.nlu
             t, y = float(solver.t), np.array(solver.y)
             if stiff:
-                method, label, switched = "Radau", f"{label} -> Radau", True
+                method, label = "Radau", f"{label} -> Radau"
                 note = reason + "; stiffness-bound, switched to Radau"
                 if jac is None:
                     say(f"{model.name}: Radau without a compiled Jacobian (finite differences)")

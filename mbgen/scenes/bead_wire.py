@@ -1,4 +1,5 @@
-"""Bead sliding on a straight wire spun at a constant rate in a horizontal plane (lecture 1, example 2).
+"""Bead sliding on a straight wire spun at a constant rate in a horizontal plane
+(lecture 1, example 2).
 
 The wire lies along ``w1`` of the frame ``W``, which turns about the vertical
 N3 by the prescribed angle ``theta = omega t``.  The bead of mass ``m`` is at

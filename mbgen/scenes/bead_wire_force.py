@@ -24,7 +24,6 @@ from __future__ import annotations
 import numpy as np
 
 from .. import Model, Output, Scene, t
-
 from .bead_wire import closed_form as _rho_closed_form
 
 

@@ -164,7 +164,8 @@ def straight_run(t_eval, x0, p) -> np.ndarray:
 
 
 def scene(speed: float = 4.0, lean: float = 0.05) -> Scene:
-    """Start at ``speed`` m/s leaned by ``lean`` rad, steering straight (see the module docstring)."""
+    """Start at ``speed`` m/s leaned by ``lean`` rad, steering straight (see the module
+    docstring)."""
     fixed = {k: v for k, v in PARAMETERS.items() if k != "g"}
     return Scene(
         name="bicycle",

@@ -50,7 +50,8 @@ PARAMETERS = {
 
 
 def build_model() -> Model:
-    """The car and trailer; constants in the order of :data:`PARAMETERS`, inputs ``F_drive, delta``."""
+    """The car and trailer; constants in the order of :data:`PARAMETERS`, inputs
+    ``F_drive, delta``."""
     m = Model("car_trailer")
     X, Y, psi, theta = m.coordinates("X Y psi theta")
     u, v, r, w = m.speeds("u v r w")

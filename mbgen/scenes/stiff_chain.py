@@ -91,6 +91,7 @@ def scene(n: int = 5, stiffness: float = 1e4, damping: float = -1.0) -> Scene:
         parameters=parameters(n, stiffness, damping),
         initial_state=initial_state(n),
         t_span=(0.0, 10.0),
-        description=f"{n} masses on a line, stiff damped links (k = {stiffness:g}), soft wall spring",
+        description=(f"{n} masses on a line, stiff damped links (k = {stiffness:g}), "
+                     "soft wall spring"),
         conserves_energy=False,
     )

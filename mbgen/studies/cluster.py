@@ -55,9 +55,10 @@ import math
 import queue
 import threading
 import time
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any
 
 from ..errors import ArgumentError, MbgenError, MissingExtraError, UsageError
 from ..runtime.arguments import real_number, whole_number
@@ -218,8 +219,8 @@ def run_chunks(task: Callable, shared: Any, chunks: Sequence[tuple], *,
                 done(i)
         for i in sorted(lost):  # alone now: a worker's death implicates this chunk only
             if watch.abandoned is None:  # else the cluster was given up on: KilledWorker stays
-                for _, results[i] in _completed(client, task, held, chunks, [i], watch):
-                    pass
+                for _, result in _completed(client, task, held, chunks, [i], watch):
+                    results[i] = result
             done(i)
         return results, n_used, startup
     finally:
@@ -229,7 +230,7 @@ def run_chunks(task: Callable, shared: Any, chunks: Sequence[tuple], *,
             own_cluster.close()
 
 
-def _completed(client, task, held, chunks, indices, watch: "_Watch"):
+def _completed(client, task, held, chunks, indices, watch: _Watch):
     """``(i, result or exception)`` of the chunks ``indices``, in the order they complete
     (within ``watch``'s bounds)."""
     futures = {client.submit(task, held, *chunks[i], pure=False, retries=RETRIES): i

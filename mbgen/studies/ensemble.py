@@ -41,8 +41,9 @@ import itertools
 import math
 import os
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -136,7 +137,7 @@ def members(scene, layout, grid=None, samples=None, n=None, seed=0):
     points = list(itertools.product(*grid.values())) or [()]
     rng = np.random.default_rng(seed)
     values = np.empty((k, len(varied)))
-    for j, name in enumerate(grid):
+    for j in range(len(grid)):
         values[:, j] = np.repeat([pt[j] for pt in points], n)
     for j, name in enumerate(varied[len(grid):], start=len(grid)):
         values[:, j] = _draw(rng, samples[name], k, name)
@@ -467,13 +468,7 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     bar = tqdm(total=k, disable=not progress, unit="member", desc=scene.name)
     start = time.perf_counter()
     if serial:
-        results = []
-        for lo, hi in bounds:
-            try:
-                results.append(run_chunk(sources, spec, x0[lo:hi], p[lo:hi]))
-            except Exception as exc:  # recorded per member, never fatal
-                results.append(exc)
-            bar.update(hi - lo)
+        results = _run_serial(sources, spec, x0, p, bounds, bar)
         mode, n_workers_used, startup = "serial", 1, 0.0
     else:
         results, n_workers_used, startup = run_chunks(
@@ -486,13 +481,31 @@ def ensemble(scene, *, grid: Mapping | None = None, samples: Mapping | None = No
     chunks = [((lo, hi), _failed_chunk(lo, hi, L.n_x, t.size, out, trajectories, extra)
                if isinstance(out, BaseException) else out)
               for (lo, hi), out in zip(bounds, results)]
+    compiles = _compiles(chunks)
+    table = _table(row, varied, values, L.state_names, chunks, k, trajectories, extra)
+    return EnsembleResult(table, t, tuple(L.state_names), tuple(varied), method, mode, wall,
+                          n_workers_used, compiles, len(bounds), startup)
+
+
+def _run_serial(sources: dict, spec: dict, x0: np.ndarray, p: np.ndarray, bounds, bar) -> list:
+    """Each chunk's result (or its exception) run in this process, one after another."""
+    results = []
+    for lo, hi in bounds:
+        try:
+            results.append(run_chunk(sources, spec, x0[lo:hi], p[lo:hi]))
+        except Exception as exc:  # recorded per member, never fatal
+            results.append(exc)
+        bar.update(hi - lo)
+    return results
+
+
+def _compiles(chunks) -> dict:
+    """worker -> number of compiles there, over the chunks that ran."""
     compiles: dict = {}
     for _, out in chunks:
         if out["worker"] is not None:
             compiles[out["worker"]] = compiles.get(out["worker"], 0) + int(out["compiled"])
-    table = _table(row, varied, values, L.state_names, chunks, k, trajectories, extra)
-    return EnsembleResult(table, t, tuple(L.state_names), tuple(varied), method, mode, wall,
-                          n_workers_used, compiles, len(bounds), startup)
+    return compiles
 
 
 __all__ = ["ensemble", "EnsembleResult", "members", "run_chunk", "parse_grid", "parse_samples",

@@ -21,8 +21,8 @@ the parameter Jacobian) and :func:`time_symbols` (whether ``df/dt`` is needed).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from ..abi import EXPRESSION_OUTPUTS, OUTPUT_INFO, Need, Output
 from ..errors import ModelError

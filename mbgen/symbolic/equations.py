@@ -12,8 +12,8 @@ symbol ``q1`` here, and every symbol is in :attr:`Equations.layout`.
 from __future__ import annotations
 
 import html
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import sympy as sm
 
@@ -22,7 +22,6 @@ from ..summary import names, table
 from .graph import count_ops_dag, free_symbols, leaves
 from .layout import Layout
 from .program import Program
-
 
 #: How generated headers and summaries name a derivation method (``Equations.method``);
 #: ASCII, as generated C comments are.
@@ -198,6 +197,24 @@ class Equations:
     residual_jacobian: sm.ImmutableMatrix | None = None
 
     def __post_init__(self):
+        self._check_shapes()
+        checked, known = self._checked_parts()
+        for what, exprs in checked:
+            # a program's leaves are walked once per Program (dataclasses.replace keeps it)
+            symbols, funcs = exprs.leaves if isinstance(exprs, Program) else leaves(exprs)
+            unknown = symbols - known
+            if unknown:
+                names = ", ".join(sorted(map(str, unknown)))
+                raise ModelError(f"the {what} contains symbol(s) {names} that are neither "
+                                 f"coordinates, speeds, parameters, inputs nor time; declare "
+                                 f"them (e.g. model.constants('{names.split(', ')[0]}'))")
+            if funcs:
+                raise ModelError(f"the {what} still contains function(s) of time "
+                                 f"{sorted(map(str, funcs))}; declare them as coordinates, "
+                                 f"speeds or inputs")
+
+    def _check_shapes(self) -> None:
+        """The shapes of the matrices, and one dependent speed per constraint."""
         L = self.layout
         n = L.n_u + L.n_d
         if self.mass_matrix.shape != (n, n):
@@ -214,6 +231,12 @@ class Equations:
         if self.accelerations is not None and self.accelerations.shape != (n, 1):
             raise ModelError(f"accelerations have shape {self.accelerations.shape}, "
                              f"expected ({L.n_u}, 1)")
+
+    def _checked_parts(self) -> tuple[list, set]:
+        """``(checked, known)``: the named parts whose symbols are checked (the residual's
+        and its Jacobian's shapes on the way), and the symbols they may contain."""
+        L = self.layout
+        n = L.n_u + L.n_d
         known = L.symbols() | set(self.program.symbols)
         checked = [("mass matrix", self.mass_matrix), ("forcing", self.forcing),
                    ("kinematics", self.kinematics)]
@@ -235,19 +258,7 @@ class Equations:
             checked.append(("residual Jacobian", self.residual_jacobian))
         if self.constraints is not None:
             checked.append(("constraints", self.constraints.expressions()))
-        for what, exprs in checked:
-            # a program's leaves are walked once per Program (dataclasses.replace keeps it)
-            symbols, funcs = exprs.leaves if isinstance(exprs, Program) else leaves(exprs)
-            unknown = symbols - known
-            if unknown:
-                names = ", ".join(sorted(map(str, unknown)))
-                raise ModelError(f"the {what} contains symbol(s) {names} that are neither "
-                                 f"coordinates, speeds, parameters, inputs nor time; declare "
-                                 f"them (e.g. model.constants('{names.split(', ')[0]}'))")
-            if funcs:
-                raise ModelError(f"the {what} still contains function(s) of time "
-                                 f"{sorted(map(str, funcs))}; declare them as coordinates, "
-                                 f"speeds or inputs")
+        return checked, known
 
     @property
     def derivation(self) -> str:
@@ -276,7 +287,8 @@ class Equations:
 
     def forcing_full(self) -> sm.ImmutableMatrix:
         """``[G; F]`` of length ``n_x``."""
-        return sm.ImmutableMatrix(sm.Matrix.vstack(sm.Matrix(self.kinematics), sm.Matrix(self.forcing)))
+        return sm.ImmutableMatrix(sm.Matrix.vstack(sm.Matrix(self.kinematics),
+                                                   sm.Matrix(self.forcing)))
 
     def _repr_html_(self) -> str:
         """Notebook summary: sizes, symbols, operation counts; never the matrices."""

@@ -8,8 +8,8 @@ expression DAG once.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from functools import cmp_to_key
-from typing import Iterable, Mapping
 
 import sympy as sm
 from sympy.functions.elementary.piecewise import ExprCondPair
@@ -238,7 +238,8 @@ _SM_TO_SE: dict | None = None
 _SE_TO_SM: dict | None = None
 
 
-def to_symengine(exprs: Iterable[sm.Basic], memo: dict | None = None) -> list:
+def to_symengine(exprs: Iterable[sm.Basic],  # noqa: C901 - type-dispatch walker, flat per node
+                 memo: dict | None = None) -> list:
     """Convert sympy expressions to symengine, each distinct node once.
 
     ``symengine.sympify`` converts a sympy expression as a tree (its cost
@@ -300,7 +301,8 @@ def symbols_back(forward_memo: dict) -> dict:
     return {v: k for k, v in forward_memo.items() if isinstance(k, sm.Symbol)}
 
 
-def to_sympy(exprs: Iterable, memo: dict | None = None, small: bool = False) -> list:
+def to_sympy(exprs: Iterable, memo: dict | None = None,  # noqa: C901 - type-dispatch walker
+             small: bool = False) -> list:
     """Convert symengine expressions to sympy, each distinct node once (see :func:`to_symengine`).
 
     ``memo`` may be pre-seeded (``{symengine symbol: sympy symbol}``) to rename

@@ -29,14 +29,22 @@ expanded expressions.
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
 
 import sympy as sm
 from sympy.functions.elementary.piecewise import ExprCondPair
 
-from .graph import (free_symbols, leaves, postorder_unique, reachable, symbols_back,
-                    to_symengine, to_sympy, xreplace_dag)
+from .graph import (
+    free_symbols,
+    leaves,
+    postorder_unique,
+    reachable,
+    symbols_back,
+    to_symengine,
+    to_sympy,
+    xreplace_dag,
+)
 
 
 @dataclass(frozen=True)
@@ -90,7 +98,7 @@ class Program:
                 out.add(s)
         return out
 
-    def xreplace(self, mapping: dict) -> "Program":
+    def xreplace(self, mapping: dict) -> Program:
         """The program with ``mapping`` applied to every definition (one shared memo)."""
         if not self.assignments:
             return self
@@ -132,7 +140,8 @@ class ProgramBuilder:
         self.checks: set = set()
 
     def scalar(self, expr, check: bool = False):
-        """A symbol for ``expr`` (or ``expr`` itself when it is a number, a symbol or ``-symbol``)."""
+        """A symbol for ``expr`` (or ``expr`` itself when it is a number, a symbol or
+        ``-symbol``)."""
         expr = sm.sympify(expr)
         if not check and _trivial(expr):
             return expr
@@ -178,19 +187,8 @@ def derivatives(program: Program, exprs: Sequence, variables: Sequence,
     svars = to_symengine(list(variables), memo)
     sexprs = to_symengine(list(exprs), memo)
     tracked = set(syms) | set(svars)
-
-    def local(e):
-        """``{s: de/ds}`` for the tracked symbols ``s`` of ``e`` (computed once)."""
-        out = {}
-        for s in e.free_symbols:
-            if s in tracked:
-                d = e.diff(s)
-                if d != 0:
-                    out[s] = d
-        return out
-
-    def_partials = [local(e) for e in defs]
-    expr_partials = [local(e) for e in sexprs]
+    def_partials = [_partials(e, tracked) for e in defs]
+    expr_partials = [_partials(e, tracked) for e in sexprs]
     one = se.Integer(1)
     new: list = []
     named: dict = {}   # id of a compound partial -> its symbol (assigned once, at first use)
@@ -223,6 +221,23 @@ def derivatives(program: Program, exprs: Sequence, variables: Sequence,
                 D[s] = t
         for i, parts in enumerate(expr_partials):
             jac[i][j] = chain(parts, D)
+    return _back_to_sympy(new, jac, memo)
+
+
+def _partials(e, tracked: set) -> dict:
+    """``{s: de/ds}`` for the tracked symbols ``s`` of ``e`` (symengine; computed once)."""
+    out = {}
+    for s in e.free_symbols:
+        if s in tracked:
+            d = e.diff(s)
+            if d != 0:
+                out[s] = d
+    return out
+
+
+def _back_to_sympy(new: list, jac: list, memo: dict) -> tuple[Program, list[list[sm.Expr]]]:
+    """:func:`derivatives`' result in sympy: the new assignments (symengine ``(symbol,
+    value)`` pairs) as a :class:`Program`, and the Jacobian (None: zero)."""
     back = symbols_back(memo)
     new_syms = [sm.Symbol(str(t)) for t, _ in new]
     for (t, _), s in zip(new, new_syms):

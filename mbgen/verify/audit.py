@@ -29,12 +29,12 @@ from dataclasses import dataclass
 
 from ..abi import INTEGRATORS, Output
 from ..codegen.outputs import Form
-from ..derivation import Method
-from ..symbolic.availability import applicable
-from ..pipeline import PipelineResult, equations_of, run
-from ..model.scene import Scene
 from ..codegen.printing import math_functions
 from ..codegen.solver import UNROLL_MAX, fill_pattern
+from ..derivation import Method
+from ..model.scene import Scene
+from ..pipeline import PipelineResult, equations_of, run
+from ..symbolic.availability import applicable
 
 
 @dataclass(frozen=True)

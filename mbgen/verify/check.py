@@ -41,20 +41,19 @@ order one) still fails wherever it shows.  The verdict:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
-from ..errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
-from ..symbolic.layout import Layout
 from ..abi import Output
-from ..symbolic.availability import SENSITIVITIES
+from ..errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from ..pipeline import PipelineResult, run
-from ..runtime.lambdified import LambdifiedModel
 from ..runtime.base import ModelBase
+from ..runtime.lambdified import LambdifiedModel
 from ..runtime.python import python_model
-
+from ..symbolic.availability import SENSITIVITIES
+from ..symbolic.layout import Layout
 
 #: The columns of ``df/dp``: the parameters of a layout that the equations' motion uses.
 _PARAMETER_COLUMNS = SENSITIVITIES[Output.PARAMETER_JACOBIAN].variables
@@ -186,7 +185,7 @@ class CheckReport:
                        f"{worst.unresolved_rel:.1e} accepts them")
         return "; ".join(why)
 
-    def raise_if_failed(self) -> "CheckReport":
+    def raise_if_failed(self) -> CheckReport:
         if self.inconclusive:
             raise CheckInconclusive(self.format())
         if not self.ok:

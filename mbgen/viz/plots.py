@@ -26,8 +26,8 @@ extras; :func:`require_matplotlib`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
@@ -45,8 +45,9 @@ def require_matplotlib():
     try:
         import matplotlib
     except ImportError:
-        raise MissingExtraError(f"pictures need matplotlib, which is not installed; install it with "
-                         f"pip install 'mbgen[{EXTRA}]' (or pip install matplotlib)") from None
+        raise MissingExtraError("pictures need matplotlib, which is not installed; install it "
+                                f"with pip install 'mbgen[{EXTRA}]' "
+                                "(or pip install matplotlib)") from None
     return matplotlib
 
 

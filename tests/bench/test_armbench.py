@@ -98,4 +98,5 @@ def test_cxx_aba_loop_matches_pin_aba(tmp_path):
         q, v = armbench.state(n)
         ns, ddq = arm_pinocchio.run_aba_driver(exe, n, q, v)
         assert ns > 0
-        np.testing.assert_allclose(ddq, arm_pinocchio.pinocchio_aba(n, q, v), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(ddq, arm_pinocchio.pinocchio_aba(n, q, v),
+                                   rtol=1e-12, atol=1e-12)

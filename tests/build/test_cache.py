@@ -24,13 +24,12 @@ from pathlib import Path
 import pytest
 
 from mbgen.build import cache as cache_module
-from mbgen.build.cache import STALE_AFTER, cache_dir, remove_stale_builds, verified
 from mbgen.build import extension
+from mbgen.build.cache import STALE_AFTER, cache_dir, remove_stale_builds, verified
 from mbgen.build.extension import build, compiled_path, load, module_name
 from mbgen.errors import CacheError
-from mbgen.pipeline import run
 from mbgen.model.scene import load_scene
-
+from mbgen.pipeline import run
 from models import pendulum
 
 LOAD = textwrap.dedent("""

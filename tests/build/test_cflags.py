@@ -6,18 +6,26 @@ import dataclasses
 import re
 import shutil
 
+import numpy as np
 import pytest
 
-import numpy as np
-
 from mbgen.build import extension
-from mbgen.build.extension import (IEEE_BREAKERS, LARGE_FUNCTION_CHARS, NATIVE, cflags,
-                                   compiled_path, compiler, load, module_name, native_target)
+from mbgen.build.extension import (
+    IEEE_BREAKERS,
+    LARGE_FUNCTION_CHARS,
+    NATIVE,
+    cflags,
+    compiled_path,
+    compiler,
+    load,
+    module_name,
+    native_target,
+)
+from mbgen.errors import ArgumentError, BuildError
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
 from mbgen.runtime.compiled import CompiledModel
 from mbgen.studies.ensemble import worker_module
-from mbgen.errors import ArgumentError, BuildError
-from mbgen.pipeline import run
-from mbgen.model.scene import load_scene
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,5 @@
-"""The generated C embeds anywhere: plain C and C++ compilers, an example program, several models."""
+"""The generated C embeds anywhere: plain C and C++ compilers, an example program, several
+models."""
 
 import shutil
 import subprocess
@@ -6,20 +7,20 @@ import subprocess
 import numpy as np
 import pytest
 
-from mbgen.verify import golden
-from mbgen.verify.golden import example_integration
-from mbgen.pipeline import run
+from heavy import scene_params
 from mbgen.abi import Output
 from mbgen.model.scene import builtin_names, load_scene
-
-from heavy import scene_params
+from mbgen.pipeline import run
+from mbgen.verify import golden
+from mbgen.verify.golden import example_integration
 
 CC = shutil.which("gcc") or shutil.which("cc")
 CXX = shutil.which("g++") or shutil.which("c++")
 C_FLAGS = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror"]
 CXX_FLAGS = ["-x", "c++", "-std=c++11", "-pedantic", "-Wall", "-Wextra", "-Werror"]
 WITH_EXAMPLE = [n for n in builtin_names()  # scenes with an integrator get example.c
-                if any(Output(o).is_integrator for o in load_scene(n, **golden.GOLDEN_OPTIONS.get(n, {})).outputs)]
+                if any(Output(o).is_integrator
+                       for o in load_scene(n, **golden.GOLDEN_OPTIONS.get(n, {})).outputs)]
 
 
 def write(folder, files):

@@ -20,7 +20,6 @@ import pytest
 import mbgen
 from mbgen.build import extension
 from mbgen.pipeline import run
-
 from models import pendulum
 
 
@@ -62,7 +61,8 @@ def test_four_threads_compile_into_an_empty_cache(tmp_path, monkeypatch, capfd):
     assert not errors, errors
     assert cwds == {cwd}, "a build changed the process's working directory"
     for model in models.values():  # q'' = -(g / l) sin q
-        assert model.rhs(0.0, [0.5, 0.0], [1.0, 9.81, 1.0])[1] == pytest.approx(-9.81 * math.sin(0.5))
+        assert (model.rhs(0.0, [0.5, 0.0], [1.0, 9.81, 1.0])[1]
+                == pytest.approx(-9.81 * math.sin(0.5)))
     after = os.fstat(1)
     assert (after.st_dev, after.st_ino) == (stdout.st_dev, stdout.st_ino), "fd 1 was swapped"
     os.write(1, b"fd 1 still works\n")

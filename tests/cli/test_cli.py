@@ -8,8 +8,16 @@ import numpy as np
 import pytest
 
 import mbgen
-from mbgen.cli import (COMMANDS, EXIT_CHECK, EXIT_MODEL, EXIT_OK, EXIT_USAGE, command_module,
-                       main, parser)
+from mbgen.cli import (
+    COMMANDS,
+    EXIT_CHECK,
+    EXIT_MODEL,
+    EXIT_OK,
+    EXIT_USAGE,
+    command_module,
+    main,
+    parser,
+)
 
 
 def test_help_everywhere(capsys):
@@ -41,8 +49,9 @@ def test_every_benchmark_is_named_in_the_help():
 
 def _cli_modules_after(argv) -> set:
     """The command modules of mbgen.cli imported by ``main(argv)`` in a fresh interpreter."""
-    code = ("import sys\nfrom mbgen.cli import main\ntry:\n    main(%r)\nexcept SystemExit:\n"
-            "    pass\nprint(sorted(m for m in sys.modules if m.startswith('mbgen.cli.')))" % argv)
+    code = (f"import sys\nfrom mbgen.cli import main\ntry:\n    main({argv!r})\n"
+            "except SystemExit:\n    pass\n"
+            "print(sorted(m for m in sys.modules if m.startswith('mbgen.cli.')))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     return set(eval(done.stdout.strip().splitlines()[-1]))
@@ -98,7 +107,8 @@ def test_simulate_with_a_c_integrator(tmp_path, capsys):
     assert main(["simulate", "disc_pendulum", "--integrator", "dopri5", "--rtol", "1e-9",
                  "--atol", "1e-12", "--csv", str(csv), "--points", "5"]) == EXIT_OK
     out = capsys.readouterr().out
-    final = {k: float(v) for k, v in re.findall(r"(\w+) = ([-\d.e+]+)", out.split("final state:")[1])}
+    final = {k: float(v)
+             for k, v in re.findall(r"(\w+) = ([-\d.e+]+)", out.split("final state:")[1])}
     assert final["q1"] == pytest.approx(26.5621957, abs=1e-6)  # the DOP853 result in the demo
     assert len(csv.read_text().splitlines()) == 6
 

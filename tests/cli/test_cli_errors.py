@@ -8,7 +8,6 @@ import pytest
 from mbgen import pipeline
 from mbgen.cli import EXIT_MODEL, EXIT_USAGE, main
 from mbgen.studies import cluster
-
 from models import scene_file
 
 

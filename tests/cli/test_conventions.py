@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from mbgen.cli import EXIT_CHECK, EXIT_OK, EXIT_USAGE, HelpFormatter, main, parser
-from mbgen.codegen.targets.fmu import fmu_files
 from mbgen.codegen.targets import Targets
+from mbgen.codegen.targets.fmu import fmu_files
 from mbgen.integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import COMPARISONS, run
@@ -238,7 +238,8 @@ def test_golden_prints_the_summary_first_and_the_diff_with_v(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == (f"{root}: 2 file(s) differ from the generator; run mbgen golden "
                         f"--update (-v shows the diffs)")
-    assert lines[1:] == [f"  changed: {header}", f"  unexpected: {root / 'disc_pendulum' / 'old.c'}"]
+    assert lines[1:] == [f"  changed: {header}",
+                         f"  unexpected: {root / 'disc_pendulum' / 'old.c'}"]
     assert main(argv + ["-v"]) == EXIT_CHECK
     out = capsys.readouterr().out
     assert out.splitlines()[0].endswith("run mbgen golden --update")

@@ -19,7 +19,6 @@ from mbgen.pipeline import run
 from mbgen.runtime.named import merge_inputs, read_input_csv
 from mbgen.runtime.stepper import Stepper
 from mbgen.verify.golden import example_integration
-
 from models import scene_file
 
 ROOT = Path(__file__).resolve().parents[2]

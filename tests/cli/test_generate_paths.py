@@ -14,7 +14,6 @@ from mbgen.cli import EXIT_OK, EXIT_USAGE, main
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.verify import golden
-
 from models import scene_file
 
 

@@ -11,12 +11,11 @@ import numpy as np
 import pytest
 
 import mbgen
-from mbgen.build import extension as build_module
-from mbgen.verify.golden import GOLDEN_OPTIONS
-from mbgen.pipeline import run
-from mbgen.model.scene import load_scene
-
 from heavy import scene_params
+from mbgen.build import extension as build_module
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
+from mbgen.verify.golden import GOLDEN_OPTIONS
 
 GCC = shutil.which("gcc") or shutil.which("cc")
 STRICT = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-Wconversion",
@@ -89,7 +88,8 @@ def test_symbols_are_prefixed():
                           input=r.source.replace('#include "disc_pendulum.h"', r.header),
                           capture_output=True, text=True, cwd=os.environ.get("TMPDIR", "/tmp"))
     assert proc.returncode == 0, proc.stderr
-    defined = [line.split()[-1] for line in proc.stdout.splitlines() if " T " in line or " t " in line]
+    defined = [line.split()[-1] for line in proc.stdout.splitlines()
+               if " T " in line or " t " in line]
     assert defined and all(s.startswith("disc_pendulum_") for s in defined), defined
 
 

@@ -49,7 +49,8 @@ def _checked_in(name: str) -> dict[str, str]:
 @pytest.mark.parametrize("env", [
     {"PYTHONHASHSEED": "12345", "OPENBLAS_CORETYPE": "Prescott"},
     pytest.param({"PYTHONHASHSEED": "0", "OPENBLAS_CORETYPE": "Haswell",
-                  "NPY_DISABLE_CPU_FEATURES": None}, marks=pytest.mark.slow),  # 5.5 s; one by default
+                  "NPY_DISABLE_CPU_FEATURES": None},
+                 marks=pytest.mark.slow),  # 5.5 s; one by default
 ], ids=["hashseed-blas-generic", "hashseed0-blas-haswell-numpy-baseline"])
 def test_generated_text_does_not_follow_the_machine(env):
     env = {k: (_dispatched_features() if k == "NPY_DISABLE_CPU_FEATURES" else v)

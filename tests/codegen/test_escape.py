@@ -16,9 +16,7 @@ from mbgen.codegen import escape
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.runtime.python import python_model
-
 from models import pendulum, scene_file
-
 
 HOSTILE = [
     '"""; open("PWNED", "w"); """',

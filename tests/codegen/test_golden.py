@@ -7,10 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from mbgen.verify import golden
-from mbgen.model.scene import builtin_names
-
 from heavy import scene_params
+from mbgen.model.scene import builtin_names
+from mbgen.verify import golden
 
 ROOT = Path(__file__).resolve().parents[2] / "generated"
 

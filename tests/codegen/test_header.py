@@ -7,12 +7,11 @@ import shutil
 import pytest
 
 import mbgen.codegen.targets.model
+from cstack import call_graph, deepest, stack_usage
 from mbgen.codegen.header import FRAME_BYTES, frame
 from mbgen.codegen.targets import Targets
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
-
-from cstack import call_graph, deepest, stack_usage
 
 CC = shutil.which("gcc") or shutil.which("cc")
 

@@ -8,13 +8,13 @@ generated Python against the lambdified equations solved by NumPy.
 from __future__ import annotations
 
 import numpy as np
-import mbgen
 
+import mbgen
 import mbgen.codegen.targets.model
-from mbgen.verify.check import check
-from mbgen.pipeline import run
-from mbgen.model.scene import load_scene
 from mbgen.codegen.solver import UNROLL_MAX
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
+from mbgen.verify.check import check
 
 
 def _loops(rendered) -> bool:

@@ -25,8 +25,14 @@ from mbgen.errors import ModelError
 from mbgen.names import RESERVED, identifier
 from mbgen.runtime import base, lambdified
 from mbgen.runtime.lambdified import REFERENCES
-from mbgen.symbolic.availability import (CONDITIONS, REQUIREMENTS, SENSITIVITIES, applicable,
-                                         applies, dynamic_parameters)
+from mbgen.symbolic.availability import (
+    CONDITIONS,
+    REQUIREMENTS,
+    SENSITIVITIES,
+    applicable,
+    applies,
+    dynamic_parameters,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 #: docs/modelling.md's table of outputs starts after this line

@@ -5,8 +5,13 @@
 import pytest
 import sympy as sm
 
-from mbgen.codegen.printing import (CPrinter, NonFiniteConstantError, PyPrinter, power_form,
-                                    printed_base_count)
+from mbgen.codegen.printing import (
+    CPrinter,
+    NonFiniteConstantError,
+    PyPrinter,
+    power_form,
+    printed_base_count,
+)
 
 
 @pytest.mark.parametrize("printer", [CPrinter, PyPrinter])

@@ -3,18 +3,17 @@
 from dataclasses import replace
 
 import numpy as np
-import sympy as sm
 import pytest
+import sympy as sm
 
 import mbgen
-from mbgen import Model, Output
-from mbgen.verify.audit import audit
-from mbgen.pipeline import run
-from mbgen.model.scene import load_scene
-from mbgen.codegen.slicing import bake
-from mbgen.symbolic.graph import xreplace_dag
-
 from heavy import scene_params
+from mbgen import Model, Output
+from mbgen.codegen.slicing import bake
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
+from mbgen.symbolic.graph import xreplace_dag
+from mbgen.verify.audit import audit
 
 
 def values(scene, layout):

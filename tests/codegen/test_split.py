@@ -15,14 +15,13 @@ import pytest
 import sympy as sm
 
 import mbgen
+from cstack import call_graph, deepest, stack_usage
 from mbgen.build.extension import load
 from mbgen.codegen import split
 from mbgen.codegen.outputs import Form
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.runtime.compiled import CompiledModel
-
-from cstack import call_graph, deepest, stack_usage
 
 CC = shutil.which("gcc") or shutil.which("cc")
 CXX = shutil.which("g++") or shutil.which("c++")

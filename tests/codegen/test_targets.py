@@ -15,8 +15,16 @@ import pytest
 import mbgen.codegen.render
 import mbgen.codegen.targets
 from mbgen.abi import INTEGRATORS, Output
-from mbgen.codegen.targets import (CHOSEN, DEFAULT, SECTIONS, TARGETS, Targets, select,
-                                   switches, target)
+from mbgen.codegen.targets import (
+    CHOSEN,
+    DEFAULT,
+    SECTIONS,
+    TARGETS,
+    Targets,
+    select,
+    switches,
+    target,
+)
 from mbgen.codegen.targets.base import EXTENSION, HEADER, SOURCE, Target
 from mbgen.codegen.targets.runtime import ROUTINES, Runtime
 from mbgen.codegen.targets.step import adaptive_method, step_methods

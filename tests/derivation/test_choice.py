@@ -25,18 +25,17 @@ from functools import cache
 import pytest
 
 import mbgen
+from heavy import scene_params
 from mbgen import Output
 from mbgen.cli import main
+from mbgen.codegen.optimize import optimize
 from mbgen.derivation import CHAIN, COMPARE_SPEEDS, METHODS, Method, choose_method, derive
 from mbgen.derivation import prepare as prepare_module
 from mbgen.derivation.recursion import NewtonEuler
-from mbgen.model.scene import builtin_names, load_scene
-from mbgen.codegen.optimize import optimize
+from mbgen.model.scene import load_scene
 from mbgen.pipeline import Comparisons, equations_of, operations, run
 from mbgen.scenes import n_link_cart, spatial_arm, stiff_chain
 from mbgen.symbolic.equations import METHOD_TITLES
-
-from heavy import scene_params
 from models import ambiguous_slider
 
 

@@ -87,7 +87,8 @@ def test_initial_state_off_the_constraint_is_refused_with_the_fix(sphere):
     good = sphere.consistent(bad)
     assert abs(sphere.holonomic(0, good)[0]) < 1e-12 and good[2] < 0
     run = sphere.integrate("dopri5", t, good)
-    assert np.max(np.abs([sphere.holonomic(0, xi)[0] for xi in run.x])) < 1e-6   # dense output between projected steps
+    # dense output between projected steps
+    assert np.max(np.abs([sphere.holonomic(0, xi)[0] for xi in run.x])) < 1e-6
     drift = sphere.integrate("dopri5", t, bad, project=False)   # asked for: taken as given
     assert np.allclose(drift.x[0], bad)
 

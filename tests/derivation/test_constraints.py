@@ -21,7 +21,7 @@ import sympy as sm
 from sympy.physics import mechanics as me
 
 import mbgen
-from mbgen import Model, Output
+from mbgen import Model
 from mbgen.derivation import Method
 from mbgen.scenes.rolling_disc import build_model as build_rolling_disc
 from models import four_bar_model
@@ -221,7 +221,7 @@ def test_four_bar_linearisation_in_the_independent_state():
         branch.append((q1, x.copy(), c.rhs(0, x)[3]))
     k = next(i for i in range(len(branch) - 1)
              if branch[i][2] > 0 >= branch[i + 1][2] or branch[i][2] < 0 <= branch[i + 1][2])
-    (qa, xa, fa), (qb, xb, fb) = branch[k], branch[k + 1]
+    (qa, xa, _), (qb, _, _) = branch[k], branch[k + 1]
 
     def accel(q1, guess=xa):
         return c.rhs(0, c.consistent([q1, guess[1], guess[2], 0.0]))[3]

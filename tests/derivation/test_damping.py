@@ -51,7 +51,7 @@ def test_dissipation_rate_matches_the_hand_derivation(models):
             x[1] = x[0] + 1.0 + rng.uniform(0.2, 1.0)  # keep the masses apart (L > 0)
             f = model.rhs(0.0, x)
             h = 1e-6
-            E = lambda y: float(np.sum(model.energy(0.0, y)))  # noqa: E731
+            E = lambda y, model=model: float(np.sum(model.energy(0.0, y)))  # noqa: E731
             rate = (E(x + h * f) - E(x - h * f)) / (2 * h)
             want = -C * (x[3] - x[2]) ** 2 - C0 * x[2] ** 2
             assert want < 0

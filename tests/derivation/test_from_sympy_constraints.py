@@ -155,7 +155,8 @@ def knife_edge(nonholonomic=None, holonomic=()):
 
 # --------------------------------------------------------------------------- sympy's side
 def plain(exprs, coordinates, speeds, accelerations=()):
-    """sympy expressions with q(t), u(t) (or q'(t)) and u'(t) as plain symbols named like mbgen's."""
+    """sympy expressions with q(t), u(t) (or q'(t)) and u'(t) as plain symbols named like
+    mbgen's."""
     rep = {f: sm.Symbol(f"{f.expr.func}_acc") for f in accelerations}
     for f in [*speeds, *coordinates]:
         rep[f] = sm.Symbol(f"{f.expr.func}_dot" if isinstance(f, sm.Derivative) else str(f.func))
@@ -419,11 +420,14 @@ def test_cartesian_pendulum_multiplier_is_the_rod_tension():
     L = eq.layout
     assert L.state_names == ("x", "y", "x_dot") and tuple(map(str, L.dependent_speeds)) == (
         "y_dot",)
-    cm = check_against_sympy(lm, eq, list(lm.coneqs),
-                             guess=lambda x: [0.3 * x[0], -np.sqrt(1 - 0.09 * x[0] ** 2)])
+
+    def guess(x):  # the bob on the unit circle below the pivot
+        return [0.3 * x[0], -np.sqrt(1 - 0.09 * x[0] ** 2)]
+
+    cm = check_against_sympy(lm, eq, list(lm.coneqs), guess=guess)
     # closed form: the rod pulls the bob inwards with T = (m (v^2 - g y) + F x) / l; the force
     # lambda * d(x^2 + y^2)/d(x, y) = 2 lambda (x, y) makes lambda = -T / (2 l)
-    for t_, x, p, r in consistent_states(cm, eq, guess=lambda x: [0.3 * x[0], -np.sqrt(1 - 0.09 * x[0] ** 2)]):
+    for t_, x, p, r in consistent_states(cm, eq, guess=guess):
         g, l, m = (p[L.parameter_names.index(n)] for n in ("g", "l", "m"))
         xx, yy, xd = x
         yd = -xx * xd / yy
@@ -479,7 +483,8 @@ def three_masses(velocity, dependent):
         P.set_vel(N, u[i] * N.x)
         particles.append(me.Particle(f"p{i}", P, m))
     independent = [ui for ui in u if ui not in dependent]
-    km = me.KanesMethod(N, [q[0], q[2]], independent, kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)],
+    km = me.KanesMethod(N, [q[0], q[2]], independent,
+                        kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)],
                         q_dependent=q[1:2], configuration_constraints=[q[1] - q[0]],
                         u_dependent=dependent, velocity_constraints=velocity(q, u))
     km.kanes_equations(particles, [(particles[0].point, me.dynamicsymbols("F") * N.x)])

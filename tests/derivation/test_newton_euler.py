@@ -24,14 +24,13 @@ from sympy.physics import mechanics as me
 
 import mbgen
 from mbgen import Model
+from mbgen.codegen.optimize import Form
 from mbgen.derivation import Method, derive
 from mbgen.derivation.prepare import prepare
 from mbgen.derivation.recursion import BodyInertia, BodyKinematics, NewtonEuler
 from mbgen.errors import ModelError
-from mbgen.codegen.optimize import Form
 from mbgen.model.scene import builtin_names
 from mbgen.scenes import disc_pendulum
-
 from models import ambiguous_slider, massless_link_scene
 
 HEAVY = {"bicycle", "spatial_arm"}   # their own tests cover them; slow with every output

@@ -29,13 +29,14 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from mbgen.model.elements import Force, Gravity, LineElement, Torque
-from mbgen.pipeline import run
 from mbgen.model.scene import builtin_names, load_scene
+from mbgen.pipeline import run
 
 T = me.dynamicsymbols._t
 
-SCENES = ["bead_wire", "bent_pipe", "bicycle", "car_trailer", "disc_pendulum", "n_link_cart", "paraboloid",
-          "spatial_arm", "spherical_rod", "spring_pendulum", "stiff_chain", "torque_free"]
+SCENES = ["bead_wire", "bent_pipe", "bicycle", "car_trailer", "disc_pendulum", "n_link_cart",
+          "paraboloid", "spatial_arm", "spherical_rod", "spring_pendulum", "stiff_chain",
+          "torque_free"]
 SLOW = {"bicycle"}  # 75 s in sympy; SLOW_ORACLES names its oracle in the default command
 
 
@@ -65,30 +66,37 @@ def kanes_method(model):
         bodies.append(me.RigidBody(b.name, b.center, F, b.mass, (dyadic, b.center)))
         masses.append((b.center, b.mass))
     for load in model.loads:
-        if isinstance(load, Force):
-            loads.append((load.point, load.vector))
-            if load.reaction is not None:
-                loads.append((load.reaction, -load.vector))
-        elif isinstance(load, Torque):
-            loads.append((load.frame, load.vector))
-            if load.reaction is not None:
-                loads.append((load.reaction, -load.vector))
-        elif isinstance(load, Gravity):
-            loads += [(point, mass * load.vector) for point, mass in masses]
-        elif isinstance(load, LineElement):
-            r = load.a.pos_from(load.b)
-            L = sm.sqrt(r.dot(r))
-            Ldot = r.dt(N).dot(r) / L
-            if load.natural_length == 0 and load.damping == 0:
-                f = -load.stiffness * r
-            else:
-                f = -(load.stiffness * (L - load.natural_length) + load.damping * Ldot) / L * r
-            loads += [(load.a, f), (load.b, -f)]
-        else:  # pragma: no cover
-            raise TypeError(f"unknown load {load!r}")
+        loads += sympy_loads(load, masses, N)
     kane = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
     kane.kanes_equations(bodies, loads)
     return kane, kane.mass_matrix_full, kane.forcing_full
+
+
+def sympy_loads(load, masses, N) -> list:
+    """One mbgen load as ``KanesMethod`` loads (``(point or frame, vector)`` pairs); gravity
+    acts on the ``masses`` (``(point, mass)`` pairs)."""
+    if isinstance(load, Force):
+        out = [(load.point, load.vector)]
+        if load.reaction is not None:
+            out.append((load.reaction, -load.vector))
+        return out
+    if isinstance(load, Torque):
+        out = [(load.frame, load.vector)]
+        if load.reaction is not None:
+            out.append((load.reaction, -load.vector))
+        return out
+    if isinstance(load, Gravity):
+        return [(point, mass * load.vector) for point, mass in masses]
+    if isinstance(load, LineElement):
+        r = load.a.pos_from(load.b)
+        L = sm.sqrt(r.dot(r))
+        Ldot = r.dt(N).dot(r) / L
+        if load.natural_length == 0 and load.damping == 0:
+            f = -load.stiffness * r
+        else:
+            f = -(load.stiffness * (L - load.natural_length) + load.damping * Ldot) / L * r
+        return [(load.a, f), (load.b, -f)]
+    raise TypeError(f"unknown load {load!r}")  # pragma: no cover
 
 
 #: Constrained built-in scenes and the independent oracles each is held to (``file::test``

@@ -15,7 +15,6 @@ from mbgen import IntegrationError, MbgenError, Output
 from mbgen.integrators import ROSENBROCK, Dopri5, Rodas3, Rodas4
 from mbgen.model.scene import load_scene
 from mbgen.scenes import bead_wire
-
 from models import stiff_pair
 
 ALL = {"rhs", "dopri5", "rk4", "rosenbrock", "jacobian"}

@@ -7,9 +7,9 @@ from sympy.physics import mechanics as me
 
 import mbgen
 from mbgen import Model
-from mbgen.model import kinematics as kin
 from mbgen.derivation.prepare import prepare
 from mbgen.derivation.tree import simple_rotation
+from mbgen.model import kinematics as kin
 from mbgen.scenes import bent_pipe, spherical_rod, torque_free
 
 

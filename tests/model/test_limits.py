@@ -11,7 +11,6 @@ from mbgen.cli import EXIT_MODEL, main
 from mbgen.errors import ModelSizeError
 from mbgen.model.limits import MAX_BODIES, MAX_SPEEDS
 from mbgen.model.scene import load_scene
-
 from models import pendulum
 
 

@@ -1,19 +1,20 @@
 """MuJoCo models (mbgen.from_mjcf, from_mujoco) against MuJoCo's own mj_forward.
 
 By default a small hand-written MJCF: a hinge with armature, damping and ``ref``, a tilted
-hinge with a spring off its anchor, a slide with armature, damping and a spring, a hinge
-off its anchor with armature and damping, a welded tool, inertia from geoms and a gravity
-off the z axis.  ``slow``: the same with that last hinge a ball joint and a floating body
-(free joint) with a hinge below it; and real robots (Solo-12 floating, Panda) compiled by MuJoCo from their URDF.
-Contacts, limits, equality constraints and friction loss are switched off in MuJoCo: mbgen
-does not model them (it names them in one warning at load).  Actuation stays on: a motor, a
-position and a velocity servo, an affine general actuator and one through ``jointinparent``,
-all geared, are inputs after ``qfrc_applied`` (issue 30).  Also by default: a ball joint in
-a turned body under a turned parent and a turned free body (through lambdify, no C
-compiler); MuJoCo's flags honoured (gravity, spring, damper, actuation) and what is dropped
-named once; what is refused before MuJoCo reads a file (pipes and devices, numbers that are
-not finite or whose square overflows, files that multiply into huge models) or once it has
-compiled one; a model named after its file.  dm_control's models: test_mjcf_suite.py.
+hinge with a spring off its anchor, a slide with armature, damping and a spring, a hinge off
+its anchor with armature and damping, a welded tool, inertia from geoms and a gravity off
+the z axis.  ``slow``: the same with that last hinge a ball joint and a floating body (free
+joint) with a hinge below it; and real robots (Solo-12 floating, Panda) compiled by MuJoCo
+from their URDF.  Contacts, limits, equality constraints and friction loss are switched off
+in MuJoCo: mbgen does not model them (it names them in one warning at load).  Actuation
+stays on: a motor, a position and a velocity servo, an affine general actuator and one
+through ``jointinparent``, all geared, are inputs after ``qfrc_applied`` (issue 30).  Also
+by default: a ball joint in a turned body under a turned parent and a turned free body
+(through lambdify, no C compiler); MuJoCo's flags honoured (gravity, spring, damper,
+actuation) and what is dropped named once; what is refused before MuJoCo reads a file (pipes
+and devices, numbers that are not finite or whose square overflows, files that multiply into
+huge models) or once it has compiled one; a model named after its file.  dm_control's
+models: test_mjcf_suite.py.
 """
 
 from __future__ import annotations

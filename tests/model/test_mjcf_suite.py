@@ -25,6 +25,7 @@ import importlib.util
 from pathlib import Path
 
 import pytest
+from test_mjcf import RTOL, compare
 
 import mbgen
 from mbgen.abi import Output
@@ -32,8 +33,6 @@ from mbgen.errors import MjcfError, ModelWarning
 from mbgen.model.elements import Gravity
 from mbgen.model.mjcf import scene_values
 from mbgen.model.scene import Scene
-
-from test_mjcf import RTOL, compare
 
 mujoco = pytest.importorskip("mujoco")
 

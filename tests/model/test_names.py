@@ -11,9 +11,7 @@ import pytest
 from mbgen import Model, Scene
 from mbgen.errors import ModelError, SceneError
 from mbgen.model.builder import t
-
 from models import pendulum
-
 
 # (symbols are declared in sympy's syntax, where a space separates names: "x y" is two
 # valid names there, and "" none -- both covered by the other kinds)

@@ -8,7 +8,6 @@ import sympy as sm
 from mbgen import Scene
 from mbgen.cli import EXIT_MODEL, main
 from mbgen.errors import ModelError, SceneError
-
 from models import pendulum
 
 

@@ -6,7 +6,6 @@ import pytest
 import mbgen
 from mbgen import Scene, Targets
 from mbgen.errors import SceneError
-
 from models import pendulum
 
 PARAMETERS = {"l": 1.0, "g": 9.81, "m": 1.0}

@@ -23,8 +23,14 @@ from mbgen.derivation import Method, choose_method
 from mbgen.derivation.articulated import speed_owners
 from mbgen.derivation.prepare import prepare
 from mbgen.derivation.recursion import NewtonEuler
-from mbgen.errors import (ModelSizeError, UrdfError, UrdfInertiaError, UrdfStructureError,
-                          UrdfSyntaxError, UrdfUnsupportedError)
+from mbgen.errors import (
+    ModelSizeError,
+    UrdfError,
+    UrdfInertiaError,
+    UrdfStructureError,
+    UrdfSyntaxError,
+    UrdfUnsupportedError,
+)
 from mbgen.model import limits, urdf_xml
 from mbgen.model.scene import load_scene, urdf_scene
 from models import count_joint_parent_reads, read_in_thread
@@ -373,7 +379,8 @@ BAD = {
     "missing link": (UrdfStructureError, "'nowhere' is not a <link>", urdf(
         ARM_PARTS + [joint("x", "fixed", "tool", "nowhere")])),
     "names collide": (UrdfStructureError, "both become the name 'q_a_b'", urdf(
-        ARM_PARTS + [link("p", inertial(1)), link("r", inertial(1)), joint("a-b", "revolute", "tool", "p", axis="1 0 0"),
+        ARM_PARTS + [link("p", inertial(1)), link("r", inertial(1)),
+                     joint("a-b", "revolute", "tool", "p", axis="1 0 0"),
                      joint("a.b", "revolute", "tool", "r", axis="1 0 0")])),
 }
 

@@ -17,14 +17,30 @@ import warnings
 
 import numpy as np
 import pytest
+from test_urdf import (
+    ARM_PARTS,
+    LIMIT,
+    compare,
+    inertial,
+    joint,
+    link,
+    pinocchio_accelerations,
+    pinocchio_model,
+    robot_file,
+    urdf,
+    write,
+)
 
 import mbgen
 from mbgen.abi import Output
-from mbgen.errors import (ArgumentError, ArgumentTypeError, ModelWarning, UrdfInertiaError,
-                          UrdfSyntaxError)
+from mbgen.errors import (
+    ArgumentError,
+    ArgumentTypeError,
+    ModelWarning,
+    UrdfInertiaError,
+    UrdfSyntaxError,
+)
 from mbgen.model.urdf_joints import FRICTION_VELOCITY, SoftLimits
-from test_urdf import (ARM_PARTS, LIMIT, compare, inertial, joint, link, pinocchio_accelerations,
-                       pinocchio_model, robot_file, urdf, write)
 
 pin = pytest.importorskip("pinocchio")
 

@@ -19,7 +19,6 @@ import mbgen
 from mbgen.errors import MbgenError
 from mbgen.model.scene import load_scene
 from mbgen.runtime import crossing
-
 from models import pendulum
 
 SPIED = object()

@@ -12,9 +12,9 @@ import mbgen
 from mbgen import InputTable, Output
 from mbgen.cli import EXIT_OK, EXIT_USAGE, main
 from mbgen.errors import UnknownNameError, UsageError
-from mbgen.scenes import n_link_cart
 from mbgen.runtime.named import merge_inputs, read_input_csv
 from mbgen.runtime.simulate import simulate
+from mbgen.scenes import n_link_cart
 
 OUTPUTS = (Output.RHS, Output.JACOBIAN, Output.INPUT_JACOBIAN, Output.DOPRI5, Output.RK4,
            Output.ROSENBROCK)

@@ -1,15 +1,15 @@
-"""Compiled Jacobians: against the lambdified symbolic Jacobian, finite differences, and in solve_ivp."""
+"""Compiled Jacobians: against the lambdified symbolic Jacobian, finite differences, and in
+solve_ivp."""
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
 import mbgen
-from mbgen import Output
-from mbgen.verify.check import check
-from mbgen.model.scene import load_scene
-
 from heavy import scene_params
+from mbgen import Output
+from mbgen.model.scene import load_scene
+from mbgen.verify.check import check
 from models import stiff_pair
 
 SENSITIVITIES = (Output.RHS, Output.JACOBIAN, Output.PARAMETER_JACOBIAN, Output.TIME_DERIVATIVE)
@@ -46,11 +46,11 @@ def test_against_finite_differences_of_compiled_rhs(result):
         r = rng.uniform(-1, 1, model.n_r)
         t = float(rng.uniform(0, 1))
         J = model.jacobian(t, x, p, r)
-        J_fd = central_difference(lambda y: model.rhs(t, y, p, r), x)
+        J_fd = central_difference(lambda y, t=t, r=r: model.rhs(t, y, p, r), x)
         scale = max(1.0, np.abs(J_fd).max())
         assert np.abs(J - J_fd).max() <= 1e-6 * scale
         Jp = model.parameter_jacobian(t, x, p, r)
-        Jp_fd = central_difference(lambda q: model.rhs(t, x, q, r), p)
+        Jp_fd = central_difference(lambda q, t=t, x=x, r=r: model.rhs(t, x, q, r), p)
         assert np.abs(Jp - Jp_fd).max() <= 1e-6 * max(1.0, np.abs(Jp_fd).max())
         dt = model.time_derivative(t, x, p, r)
         h = 1e-6

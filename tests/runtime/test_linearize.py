@@ -15,7 +15,6 @@ from functools import cache
 
 import numpy as np
 import pytest
-import sympy as sm
 
 import mbgen
 from mbgen.errors import ArgumentError

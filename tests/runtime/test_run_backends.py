@@ -18,7 +18,6 @@ from mbgen.runtime import named
 from mbgen.runtime.base import ACCESSORS, ModelBase, accessor_doc
 from mbgen.runtime.integration import Integration, Trajectory
 
-
 #: the package of the back ends
 RUN = importlib.import_module("mbgen.runtime")
 

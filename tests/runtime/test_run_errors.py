@@ -18,12 +18,16 @@ import pytest
 import sympy as sm
 
 import mbgen
-from mbgen.errors import (ArgumentError, ArgumentTypeError, IntegrationError, MbgenError,
-                          NonFiniteResultError, SingularMassMatrixError)
+from mbgen.abi import INTEGRATOR_STATUS_CODES
+from mbgen.errors import (
+    ArgumentError,
+    ArgumentTypeError,
+    IntegrationError,
+    MbgenError,
+)
+from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.runtime.python import python_model
-from mbgen.abi import INTEGRATOR_STATUS_CODES
-from mbgen.model.scene import load_scene
 
 STATUS = {name: code for name, code, _ in INTEGRATOR_STATUS_CODES}
 
@@ -68,8 +72,8 @@ def test_python_backend_raises_what_c_raises(domain, q, expected):
     c, py = domain
     x = np.array([q, 0.3])
     for output in ("rhs", "forcing"):
-        oc, vc = _outcome(lambda: getattr(c, output)(0.0, x))
-        op, vp = _outcome(lambda: getattr(py, output)(0.0, x))
+        oc, vc = _outcome(lambda output=output: getattr(c, output)(0.0, x))
+        op, vp = _outcome(lambda output=output: getattr(py, output)(0.0, x))
         assert (oc, op) == (expected, expected), output
         if expected == "ok":
             np.testing.assert_array_equal(vc, vp)
@@ -94,8 +98,8 @@ def test_spring_pendulum_division_by_zero_is_named_in_both():
     c, py = result.compiled, python_model(result.rendered)
     x = np.array([0.1, -1.0, 0.0, 0.0])
     for output in ("rhs", "jacobian"):
-        assert _outcome(lambda: getattr(c, output)(0.0, x))[0] == \
-            _outcome(lambda: getattr(py, output)(0.0, x))[0] != "ok"
+        assert _outcome(lambda output=output: getattr(c, output)(0.0, x))[0] == \
+            _outcome(lambda output=output: getattr(py, output)(0.0, x))[0] != "ok"
 
 
 # ------------------------------------------------------------------ runtime arguments

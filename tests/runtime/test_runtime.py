@@ -11,7 +11,8 @@ from mbgen.model.scene import load_scene
 
 @pytest.fixture(scope="module")
 def disc():
-    return mbgen.compile(load_scene("disc_pendulum"), outputs={"rhs", "mass_matrix", "forcing", "energy"})
+    return mbgen.compile(load_scene("disc_pendulum"),
+                         outputs={"rhs", "mass_matrix", "forcing", "energy"})
 
 
 X = np.array([0.0, 1.0, 0.5, 0.0])
@@ -26,7 +27,8 @@ def test_names_and_defaults(disc):
 
 
 def test_notes_equations_at_initial_state(disc):
-    # notes: u1' = -8 cos(q2) u2 u1 / (1 + 4 sin q2); u2' = cos(q2) u1^2/4 + u1^2 sin(2 q2)/2 - 5 sin(q2)/2
+    # notes: u1' = -8 cos(q2) u2 u1 / (1 + 4 sin q2);
+    #        u2' = cos(q2) u1^2/4 + u1^2 sin(2 q2)/2 - 5 sin(q2)/2
     q2, u1, u2 = 1.0, 0.5, 0.0
     expected = [u1, u2, -8 * np.cos(q2) * u2 * u1 / (1 + 4 * np.sin(q2)),
                 np.cos(q2) * u1**2 / 4 + u1**2 * np.sin(2 * q2) / 2 - 2.5 * np.sin(q2)]

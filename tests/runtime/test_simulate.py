@@ -11,9 +11,9 @@ import pytest
 import mbgen
 from mbgen import Output, UsageError
 from mbgen.cli import EXIT_USAGE, main
-from mbgen.runtime import simulate as sim
-from mbgen.model.scene import load_scene
 from mbgen.errors import ArgumentError, IntegrationError, StiffnessWarning
+from mbgen.model.scene import load_scene
+from mbgen.runtime import simulate as sim
 from mbgen.runtime.simulate import choose_method, simulate
 
 

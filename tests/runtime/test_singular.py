@@ -40,7 +40,8 @@ STATUS = {name: code for name, code, _ in INTEGRATOR_STATUS_CODES}
 
 
 def lever_scene() -> mbgen.Scene:
-    """A particle at ``l (cos a, sin a)``, ``a = q1 + 3 q2``: two speeds, one direction of motion."""
+    """A particle at ``l (cos a, sin a)``, ``a = q1 + 3 q2``: two speeds, one direction of
+    motion."""
     m = mbgen.Model("lever")
     q1, q2 = m.coordinates("q1 q2")
     m.speeds("u1 u2")

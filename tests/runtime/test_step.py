@@ -10,14 +10,13 @@ import pytest
 import sympy as sm
 
 import mbgen
-from mbgen.abi import INTEGRATOR_STATUS_CODES
-from mbgen.errors import ArgumentTypeError
-from mbgen.pipeline import run
-from mbgen.model.scene import load_scene
-from mbgen.codegen.targets import Targets
-from mbgen.runtime.stepper import Stepper
-
 import models
+from mbgen.abi import INTEGRATOR_STATUS_CODES
+from mbgen.codegen.targets import Targets
+from mbgen.errors import ArgumentTypeError
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
+from mbgen.runtime.stepper import Stepper
 
 CC = shutil.which("gcc") or shutil.which("cc")
 

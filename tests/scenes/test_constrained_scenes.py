@@ -19,9 +19,8 @@ import numpy as np
 import pytest
 
 import mbgen
+from mbgen.scenes import bead_wire_force, four_bar, paraboloid_normal, whipple
 from mbgen.verify.check import check
-from mbgen import Output
-from mbgen.scenes import bead_wire_force, four_bar, paraboloid_normal, slider_crank, whipple
 
 CONSTRAINED = ("four_bar", "slider_crank", "rolling_disc", "paraboloid_normal",
                "bead_wire_force", "whipple")
@@ -346,6 +345,7 @@ def test_step_api_projects_after_every_step():
 def test_fmu_of_a_constrained_scene_stays_on_the_constraints(tmp_path, kind):
     fmpy = pytest.importorskip("fmpy", reason="FMPy is in the test extra")
     from fmpy.validation import validate_fmu
+
     from mbgen.codegen.targets.fmu import PROJECT_TOL
     from mbgen.export import export_fmu
 

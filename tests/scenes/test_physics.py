@@ -11,11 +11,10 @@ from sympy.physics import mechanics as me
 from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
-from mbgen.symbolic.availability import applicable
+from heavy import scene_params
 from mbgen.model.scene import builtin_names
 from mbgen.scenes import bent_pipe, n_link_cart, torque_free
-
-from heavy import scene_params
+from mbgen.symbolic.availability import applicable
 
 TIGHT = dict(method="DOP853", rtol=1e-11, atol=1e-11)
 
@@ -152,7 +151,8 @@ def test_torque_free_angular_momentum_is_conserved():
 
 # -------------------------------------------------------------- sympy.physics.mechanics.KanesMethod
 def kanes_numeric(kane, equations):
-    """``(M, F)`` of a sympy ``KanesMethod`` as functions of mbgen's ``(x, p, r)``, by symbol name."""
+    """``(M, F)`` of a sympy ``KanesMethod`` as functions of mbgen's ``(x, p, r)``, by symbol
+    name."""
     exprs = [kane.mass_matrix, kane.forcing]
     funcs = me.find_dynamicsymbols(sm.Matrix.hstack(*exprs))
     plain = {f: sm.Symbol(str(f.func)) for f in funcs}
@@ -218,7 +218,8 @@ def test_bent_pipe_matches_sympy_kanes_method():
 
 # -------------------------------------------------------------- C, generated Python, lambdify
 def random_point(scn, layout, rng):
-    """A state near the scene's start (away from singular configurations), and p, r near defaults."""
+    """A state near the scene's start (away from singular configurations), and p, r near
+    defaults."""
     x = scn.x0(layout) + rng.uniform(-0.2, 0.2, layout.n_x)
     p = scn.p(layout) * rng.uniform(0.9, 1.1, layout.n_p)
     return rng.uniform(0, 1), x, p, rng.uniform(-1, 1, layout.n_r)

@@ -10,12 +10,12 @@ import pytest
 import fake_dask
 import mbgen
 from mbgen.cli import main
+from mbgen.errors import ArgumentError, MbgenError, SceneError
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
 from mbgen.studies import ensemble as ensemble_module
 from mbgen.studies.cluster import Patience
 from mbgen.studies.ensemble import ensemble, members, run_chunk
-from mbgen.errors import ArgumentError, MbgenError, SceneError
-from mbgen.pipeline import run
-from mbgen.model.scene import load_scene
 
 distributed = pytest.importorskip("dask.distributed",
                                   reason="dask[distributed] is in the test extra")

@@ -15,8 +15,15 @@ import pytest
 from mbgen import IntegrationError, load_scene
 from mbgen.errors import MissingExtraError
 from mbgen.runtime.compiled import CompiledModel
-from mbgen.studies.workprecision import (CSV_COLUMNS, DEFAULT_RTOLS, Config, configurations,
-                                         rk4_steps, typical_magnitude, work_precision)
+from mbgen.studies.workprecision import (
+    CSV_COLUMNS,
+    DEFAULT_RTOLS,
+    Config,
+    configurations,
+    rk4_steps,
+    typical_magnitude,
+    work_precision,
+)
 
 RTOLS = (1e-3, 1e-6)
 METHODS = ("RK45", "DOP853", "Radau", "dopri5", "rosenbrock", "rk4")

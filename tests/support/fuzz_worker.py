@@ -21,7 +21,6 @@ as one JSON line on stdout at the end.
 from __future__ import annotations
 
 import json
-import os
 import sys
 import warnings
 from fractions import Fraction
@@ -32,9 +31,9 @@ from hypothesis import strategies as st
 
 import mbgen
 from mbgen.errors import MbgenError
+from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.runtime.python import python_model
-from mbgen.model.scene import load_scene
 from models import four_bar_model
 
 SPECIAL = [np.nan, np.inf, -np.inf, 1e308, -1e308, 5e-324, -5e-324, 0.0, -0.0, 1e154, 1e-154,
@@ -74,7 +73,7 @@ anyfloat = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.sampled_
 
 
 @st.composite
-def vector(draw, n: int, allow_none: bool):
+def vector(draw, n: int, allow_none: bool):  # noqa: C901 - one flat case per kind of bad vector
     """A value passed where a float64 vector of length ``n`` is expected."""
     kinds = ["good"] * 6 + ["special", "wrong_len", "batch", "dtype", "noncontig", "readonly",
                             "bigendian", "list", "scalar", "complex", "object", "string", "ragged",
@@ -214,7 +213,7 @@ def evaluate_case(data, c, py, func, note, census):
     outs = {}
     for backend, model in (("c", c), ("python", py)):
         census["calls"] += 1
-        outcome, value, kind = classify(lambda: getattr(model, func)(t, x, p, r))
+        outcome, value, kind = classify(lambda model=model: getattr(model, func)(t, x, p, r))
         if kind:
             note(kind, f"{backend} {outcome}" + ("" if kind == "named" else f" <- {label}"))
         else:
@@ -243,7 +242,8 @@ def integrate_case(data, c, method, note, census):
     kw = {}
     for name, strat in (("rtol", tolerances), ("atol", tolerances), ("h", steps),
                         ("h_max", steps), ("max_steps", max_steps)):
-        if data.draw(st.booleans()) or (name == "h" and method == "rk4" and data.draw(st.booleans())):
+        if (data.draw(st.booleans())
+                or (name == "h" and method == "rk4" and data.draw(st.booleans()))):
             kw[name] = data.draw(strat)
     # bound the work: a valid huge step budget only with a sensible fixed step
     if method == "rk4" and isinstance(kw.get("max_steps"), int) and kw["max_steps"] > 10**6:
@@ -266,40 +266,19 @@ def threads(calls: int, seed_: int, n_threads: int = 8) -> None:
     class) must equal the one-thread answer.  Prints a JSON census."""
     import threading
 
-    models = build_models()
-    rng = np.random.default_rng(seed_)
-    jobs = []
-    for i in range(calls):
-        c, py = models[i % len(models)]
-        func = [o.value for o in c.outputs if not o.is_integrator][i % 3]
-        x = rng.uniform(-2, 2, c.n_x)
-        if i % 7 == 0:
-            x[i % c.n_x] = [np.nan, np.inf, 0.0][i % 3]
-        p = None if i % 5 else rng.uniform(-1, 2, c.n_p)
-        for model in (c, py):
-            jobs.append((getattr(model, func), 0.1 * i, x, p))
-
-    def answer(job):
-        f, t, x, p = job
-        try:
-            return "ok", f(t, x, p).tobytes()
-        except MbgenError as exc:
-            return type(exc).__name__, None
-        except Exception as exc:
-            return f"unnamed {type(exc).__name__}", None
-
-    serial = [answer(j) for j in jobs]
+    jobs = thread_jobs(build_models(), calls, np.random.default_rng(seed_))
+    serial = [thread_answer(j) for j in jobs]
     mismatches, unnamed = [], []
 
     def worker(k):
         for i in range(k, len(jobs), 1):  # every thread runs every job, from its own start
-            got = answer(jobs[i])
+            got = thread_answer(jobs[i])
             if got != serial[i]:
                 mismatches.append((k, i, got[0], serial[i][0]))
             if got[0].startswith("unnamed"):
                 unnamed.append(got[0])
         for i in range(0, k):
-            got = answer(jobs[i])
+            got = thread_answer(jobs[i])
             if got != serial[i]:
                 mismatches.append((k, i, got[0], serial[i][0]))
 
@@ -312,6 +291,32 @@ def threads(calls: int, seed_: int, n_threads: int = 8) -> None:
     print(json.dumps({"calls": n_threads * len(jobs), "threads": n_threads,
                       "mismatches": len(mismatches), "unnamed": len(unnamed),
                       "samples": [str(m) for m in mismatches[:10]] + unnamed[:10]}))
+
+
+def thread_jobs(models, calls: int, rng) -> list:
+    """``calls`` seeded calls ``(function, t, x, p)``, each of the C and the Python model."""
+    jobs = []
+    for i in range(calls):
+        c, py = models[i % len(models)]
+        func = [o.value for o in c.outputs if not o.is_integrator][i % 3]
+        x = rng.uniform(-2, 2, c.n_x)
+        if i % 7 == 0:
+            x[i % c.n_x] = [np.nan, np.inf, 0.0][i % 3]
+        p = None if i % 5 else rng.uniform(-1, 2, c.n_p)
+        for model in (c, py):
+            jobs.append((getattr(model, func), 0.1 * i, x, p))
+    return jobs
+
+
+def thread_answer(job):
+    """``(outcome, bytes of the value or None)`` of one job of :func:`thread_jobs`."""
+    f, t, x, p = job
+    try:
+        return "ok", f(t, x, p).tobytes()
+    except MbgenError as exc:
+        return type(exc).__name__, None
+    except Exception as exc:
+        return f"unnamed {type(exc).__name__}", None
 
 
 if __name__ == "__main__":

@@ -18,9 +18,16 @@ import sympy as sm
 
 import mbgen
 from mbgen.symbolic.equations import Equations
+from mbgen.symbolic.graph import (
+    count_ops_dag,
+    count_ops_tree,
+    postorder_unique,
+    split_shared,
+    to_symengine,
+    to_sympy,
+    xreplace_dag,
+)
 from mbgen.symbolic.layout import Layout
-from mbgen.symbolic.graph import (count_ops_dag, count_ops_tree, postorder_unique, split_shared,
-                                  to_symengine, to_sympy, xreplace_dag)
 
 N = 30
 

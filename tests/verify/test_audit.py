@@ -17,7 +17,8 @@ def test_audit_names_the_derivation_and_why():
     assert report.derivation.startswith("Newton-Euler (chosen: ")
     assert report.sliced_ops == generated.kernel.ops_after        # the code of that derivation
     assert report.format().splitlines()[1] == f"derivation: {report.derivation}"
-    assert audit(load_scene("car_trailer")).derivation == "Newton-Euler (named by the scene or --derivation)"
+    assert (audit(load_scene("car_trailer")).derivation
+            == "Newton-Euler (named by the scene or --derivation)")
 
 
 def test_generate_explain_prints_it(tmp_path, capsys):

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import mbgen
-from mbgen.verify.check import CheckReport, check
 from mbgen.cli import EXIT_CHECK, EXIT_INCONCLUSIVE, EXIT_OK, EXIT_USAGE, main
 from mbgen.errors import ArgumentError, CheckFailed, CheckInconclusive, MbgenError
 from mbgen.model.scene import load_scene
+from mbgen.verify.check import CheckReport, check
 
 
 def pendulum(mass=1.0, inertia=0.1, g=9.81, fixed_g=None, idle=False) -> mbgen.Scene:
@@ -71,9 +71,9 @@ def test_a_nan_parameter_is_not_a_pass():
 
 def test_disagreeing_on_failure_fails():
     """A back end that raises where the reference returns is a FAIL, not a skip."""
-    from mbgen.verify.check import compare
     from mbgen.abi import Output
     from mbgen.pipeline import run
+    from mbgen.verify.check import compare
 
     result = run(pendulum(), ("rhs",))
 
@@ -129,9 +129,9 @@ def test_cli_failed_exit_code_unchanged(capsys):
 
 def test_nan_parameter_values_compare_nothing():
     """g = NaN at run time: every back end raises NonFiniteResultError at every sample."""
-    from mbgen.verify.check import CheckReport, compare, reference_model
     from mbgen.pipeline import run
     from mbgen.runtime.python import python_model
+    from mbgen.verify.check import CheckReport, compare, reference_model
 
     result = run(pendulum(), ("rhs", "energy"))
     outputs = tuple(result.compiled.outputs)

@@ -45,8 +45,8 @@ def test_simulate_plot_writes_states_and_energy_drift(tmp_path, capsys):
 
 
 def test_energy_drift_is_small_when_conserved_and_large_when_not():
-    from mbgen.viz.plots import diagnostics
     from mbgen.runtime.simulate import simulate_in_c
+    from mbgen.viz.plots import diagnostics
 
     scene = load_scene("spring_pendulum", stiffness=1e3)
     model = mbgen.compile(scene, ("rhs", "dopri5"))
@@ -185,11 +185,11 @@ def test_repr_html_is_a_summary_not_the_matrices():
         assert "sin(" not in text and "cos(" not in text      # no expressions
     text = eq._repr_html_()
     assert "q0, q1, q2" in text and "..." in text and "(34)" in text   # 34 states, shortened
-    assert f"M 17 x 17" in text and "ops" in text
+    assert "M 17 x 17" in text and "ops" in text
     assert "29 after CSE (53 before)" in compiled._repr_html_()
     from mbgen import summary
     assert summary.names(["<b>", "a&b"]) == "&lt;b&gt;, a&amp;b"      # text is escaped
-    with pytest.raises(mbgen.ModelError, match="letters, digits"):               # and names never get there
+    with pytest.raises(mbgen.ModelError, match="letters, digits"):  # and names never get there
         mbgen.Model("<b>")
 
 
@@ -372,7 +372,7 @@ def test_c_status_names_are_the_headers():
     scene = load_scene("spring_pendulum")
     model = mbgen.compile(scene, ("rhs", "dopri5"))
     assert status_name(model, 4) == "SPRING_PENDULUM_MAX_STEPS"
-    assert f"#define SPRING_PENDULUM_MAX_STEPS" in model.rendered.header
+    assert "#define SPRING_PENDULUM_MAX_STEPS" in model.rendered.header
     p = scene.p(model.layout)
     p[list(model.parameter_names).index("m")] = -1.0            # not positive definite
     run = c_run(model, "dopri5", [0.0, 1.0], scene.x0(model.layout), p, rtol=1e-6, atol=1e-9,

@@ -66,7 +66,7 @@ from .batch import BATCH
 from .example import EXAMPLE
 from .fmu import FMU
 from .integrators import INTEGRATORS
-from .model import C, PYTHON
+from .model import PYTHON, C
 from .step import STEP
 
 

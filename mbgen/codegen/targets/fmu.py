@@ -70,7 +70,6 @@ compiler.
 from __future__ import annotations
 
 import hashlib
-
 from pathlib import Path
 
 from ..._version import __version__

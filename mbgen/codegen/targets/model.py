@@ -23,12 +23,12 @@ from dataclasses import dataclass
 
 from ..._version import __version__
 from ...abi import Output
-from ..optimize import Kernel, KernelFunction
 from ...symbolic.equations import acceleration_symbols, lambda_symbols
+from ..header import SMALL, frame
+from ..optimize import Kernel, KernelFunction
 from ..outputs import Form
 from ..printing import SORT_TERMS_MAX_OPS, CPrinter, PyPrinter, math_functions
 from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines, solve_program
-from ..header import SMALL, frame
 from ..split import split_view
 from .base import Job, Target
 from .runtime import routine_bounds, routine_context

@@ -49,8 +49,8 @@ How to add a routine
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 from ..header import SMALL, frame
 from ..solver import LU_PIVOT, factor_program

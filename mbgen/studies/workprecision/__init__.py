@@ -50,7 +50,7 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -60,10 +60,29 @@ from ...errors import UsageError
 from ...model.scene import Scene, load_scene
 from ...runtime.simulate import consistent_start
 from ..ensemble import MAX_POINTS
-from .points import (BACKENDS, C_METHODS, DEFAULT_RTOLS, IMPLICIT_METHODS, SOLVE_IVP_METHODS,
-                     Config, Point, configurations, plan, rk4_steps)
-from .reference import (ATOL_RATIO, REFERENCE_BUDGET_FACTOR, REFERENCE_BUDGET_MIN_S, STIFF_STEPS,
-                        TrueSolution, make_reference, pilot, stiffness_steps, typical_magnitude)
+from .points import (
+    BACKENDS,
+    C_METHODS,
+    DEFAULT_RTOLS,
+    IMPLICIT_METHODS,
+    SOLVE_IVP_METHODS,
+    Config,
+    Point,
+    configurations,
+    plan,
+    rk4_steps,
+)
+from .reference import (
+    ATOL_RATIO,
+    REFERENCE_BUDGET_FACTOR,
+    REFERENCE_BUDGET_MIN_S,
+    STIFF_STEPS,
+    TrueSolution,
+    make_reference,
+    pilot,
+    stiffness_steps,
+    typical_magnitude,
+)
 from .report import CSV_COLUMNS, ERROR_LEVELS, WorkPrecisionReport
 from .runs import run_tasks
 from .solve import Backends
@@ -78,7 +97,7 @@ def work_precision(scene: Scene | str, *, rtols: Sequence[float] = DEFAULT_RTOLS
                    t_eval_points: int = DEFAULT_T_EVAL_POINTS,
                    time_budget: float = DEFAULT_TIME_BUDGET_S,
                    progress: bool | Callable[[str], None] | None = None
-                   ) -> "WorkPrecisionReport":
+                   ) -> WorkPrecisionReport:
     """Error against run time of every integrator and back end on one scene.
 
     Parameters

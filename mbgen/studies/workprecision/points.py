@@ -7,13 +7,14 @@ tolerance) and the plan that lists them (:func:`configurations`,
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import numpy as np
 
 from ...abi import INTEGRATORS
-from ...integrators import METHODS, method as integrator
+from ...integrators import METHODS
+from ...integrators import method as integrator
 
 #: Relative tolerances swept by default, loosest first.
 DEFAULT_RTOLS = tuple(10.0 ** -k for k in range(3, 11))

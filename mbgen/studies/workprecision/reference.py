@@ -42,14 +42,14 @@ from __future__ import annotations
 import math
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
+from ...abi import Output
 from ...errors import IntegrationError
 from ...model.scene import Scene
-from ...abi import Output
 from .points import C_METHODS, FAILED, IMPLICIT_METHODS, OVER_BUDGET
 from .solve import Backends, Failed, solve
 

@@ -46,9 +46,9 @@ import math
 import statistics
 import sys
 import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
-from typing import Callable, Iterator, Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -164,8 +164,11 @@ def run_tasks(tasks, b: Backends, t_eval, x0, reference, repeats, budget,
             points.append(task.point(SKIPPED, f"{over[c]} went over the {budget:g} s budget"))
             continue
         if c.is_c_integrator:
-            probe = lambda deadline, task=task: _run_c(b.compiled, task, t_eval, x0, b.p)
-            timed = lambda task=task: _run_c(b.compiled, task, t_eval, x0, b.p).wall_s
+            def probe(deadline, task=task):
+                return _run_c(b.compiled, task, t_eval, x0, b.p)
+
+            def timed(task=task):
+                return _run_c(b.compiled, task, t_eval, x0, b.p).wall_s
         else:
             args = (b.fun(c.backend), b.jac(c.backend) if c.jac else None, c.method, t_eval,
                     x0, task.rtol, task.atol)

@@ -8,19 +8,19 @@ no solution raises :class:`Failed`, which says why.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ...errors import MbgenError
 from ...abi import Output
-from ...pipeline import run
-from ...runtime.lambdified import LambdifiedModel
-from ...runtime.compiled import CompiledModel
-from ...runtime.python import python_model
+from ...errors import MbgenError
 from ...model.scene import Scene
+from ...pipeline import run
+from ...runtime.compiled import CompiledModel
+from ...runtime.lambdified import LambdifiedModel
+from ...runtime.python import python_model
 from ...runtime.simulate import holonomic_outputs
 from .points import FAILED, OVER_BUDGET
 
@@ -99,7 +99,7 @@ class Backends:
     models: dict
 
     @classmethod
-    def build(cls, scene: Scene, backends: Sequence[str], c_methods: Sequence[str]) -> "Backends":
+    def build(cls, scene: Scene, backends: Sequence[str], c_methods: Sequence[str]) -> Backends:
         """Generate and compile once; every back end takes the compiled model's arrays."""
         expression_outputs = (Output.RHS, Output.JACOBIAN) + holonomic_outputs(scene)
         result = run(scene, (*expression_outputs, *c_methods))

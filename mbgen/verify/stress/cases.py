@@ -11,22 +11,35 @@ suite knows every case it runs by the time it runs it, and counts them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
-from ...errors import SceneError
 from ...abi import Output
+from ...errors import SceneError
 from ...model.scene import scene_options
 from .context import Context
-from .extreme import (Variation, admits_simulation, c_not_positive_definite, extreme_case,
-                      extreme_variations, not_positive_definite, short_simulation)
+from .extreme import (
+    Variation,
+    admits_simulation,
+    c_not_positive_definite,
+    extreme_case,
+    extreme_variations,
+    not_positive_definite,
+    short_simulation,
+)
 from .long_runs import jacobi_applies, long_run_case
 from .precision import check_point
 from .report import Case, fmt_sci
-from .singular import (SINGULAR_PATHS, SingularPath, scan_case, scan_worst_case,
-                       singular_c_case, singular_case)
+from .singular import (
+    SINGULAR_PATHS,
+    SingularPath,
+    scan_case,
+    scan_worst_case,
+    singular_c_case,
+    singular_case,
+)
 from .stiff import IMPLICIT, STIFF_METHODS, stiff_case, stiff_fp_case, stiff_scaling_case
 
 
@@ -52,7 +65,7 @@ class CaseSpec:
     label: str
     run: Callable[..., Case]
     args: tuple = ()
-    follow: Callable[..., list["CaseSpec"]] | None = None
+    follow: Callable[..., list[CaseSpec]] | None = None
 
 
 def _after_extreme(ctx: Context, evaluation: Case, v: Variation) -> list[CaseSpec]:

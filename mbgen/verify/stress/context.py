@@ -10,8 +10,8 @@ the C integrators ``dopri5`` and ``rosenbrock``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -121,7 +121,8 @@ def _compile(equations):
 
 
 def make_context(scene: Scene | str, size: str = "ci", notes: list[str] | None = None) -> Context:
-    """Load (if named) and compile ``scene`` for the suite; see :func:`mbgen.verify.stress.stress`."""
+    """Load (if named) and compile ``scene`` for the suite; see
+    :func:`mbgen.verify.stress.stress`."""
     if size not in SIZES:
         raise ValueError(f"size must be one of {sorted(SIZES)}, got {size!r}")
     notes = [] if notes is None else notes

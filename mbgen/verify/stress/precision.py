@@ -63,14 +63,14 @@ from __future__ import annotations
 import math
 import re
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import mpmath
 import numpy as np
 
-from ...errors import MbgenError, NonFiniteResultError, SingularMassMatrixError
 from ...abi import Output
+from ...errors import MbgenError, NonFiniteResultError, SingularMassMatrixError
 from .reference import HighPrecision, HighPrecisionValue
 from .report import Case, fmt_g
 
@@ -221,13 +221,7 @@ def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, 
     if pr.error.startswith("unexpected"):
         return False, "compiled RHS failed", bound, pr.error
     if not ref.positive_definite:
-        fig = f"M {ref.problem} (50 digits)"
-        want = "reported as SingularMassMatrixError"
-        if pr.error == "SingularMassMatrixError":
-            return True, fig, want, f"not positive definite: {pr.error}"
-        if pr.error:
-            return False, fig, want, f"reported as {pr.error}, not as a singular mass matrix"
-        return False, fig, want, "a result was returned for a singular mass matrix"
+        return _judge_singular_mass_matrix(pr)
     singular = numerically_singular(ref.cond, safety)
     if ref.f is None:
         fig = f"reference f {ref.problem}, cond(M) {fmt_g(ref.cond)}"
@@ -236,16 +230,7 @@ def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, 
             return True, fig, want, f"{ref.problem}: {pr.error}"
         return False, fig, want, "a finite result where the reference is not finite"
     if pr.f is None:
-        fig = f"cond(M) {fmt_g(ref.cond)}"
-        if singular and pr.error in ("SingularMassMatrixError",
-                                                 "SingularConstraintError"):
-            return True, fig, "finite, or a singular-matrix error when C eps cond(M) >= 1", \
-                f"numerically singular: {pr.error}"
-        huge = max(abs(float(v)) for v in ref.f) > 1e300
-        if huge and pr.error == "NonFiniteResultError":
-            return True, fig, "finite, or NonFiniteResultError on overflow", \
-                "reference overflows double: NonFiniteResultError"
-        return False, fig, bound, f"spurious {pr.error} (reference is finite)"
+        return _judge_error_for_finite_reference(pr, singular)
     fig = f"rel err {fmt_g(pr.rel_err)} <= {fmt_g(pr.rel_allowed)}, cond(M) {fmt_g(ref.cond)}"
     if pr.abs_err <= pr.allowed:
         if singular:
@@ -257,6 +242,34 @@ def judge_point(pr: PointResult, safety: float = FP_SAFETY) -> tuple[bool, str, 
             reason = "within bound"
         return True, fig, bound, reason
     return False, fig, bound, f"error {fmt_g(pr.abs_err)} exceeds {fmt_g(pr.allowed)}"
+
+
+def _judge_singular_mass_matrix(pr: PointResult) -> tuple[bool, str, str, str]:
+    """:func:`judge_point` where the 50-digit mass matrix is not positive definite: only a
+    :class:`SingularMassMatrixError` passes."""
+    fig = f"M {pr.reference.problem} (50 digits)"
+    want = "reported as SingularMassMatrixError"
+    if pr.error == "SingularMassMatrixError":
+        return True, fig, want, f"not positive definite: {pr.error}"
+    if pr.error:
+        return False, fig, want, f"reported as {pr.error}, not as a singular mass matrix"
+    return False, fig, want, "a result was returned for a singular mass matrix"
+
+
+def _judge_error_for_finite_reference(pr: PointResult,
+                                      singular: bool) -> tuple[bool, str, str, str]:
+    """:func:`judge_point` where the compiled RHS gave no result (an mbgen error) but the
+    reference is finite: accepted when numerically singular, or on overflow."""
+    ref = pr.reference
+    fig = f"cond(M) {fmt_g(ref.cond)}"
+    if singular and pr.error in ("SingularMassMatrixError", "SingularConstraintError"):
+        return True, fig, "finite, or a singular-matrix error when C eps cond(M) >= 1", \
+            f"numerically singular: {pr.error}"
+    huge = max(abs(float(v)) for v in ref.f) > 1e300
+    if huge and pr.error == "NonFiniteResultError":
+        return True, fig, "finite, or NonFiniteResultError on overflow", \
+            "reference overflows double: NonFiniteResultError"
+    return False, fig, POINT_BOUND, f"spurious {pr.error} (reference is finite)"
 
 
 def check_point(model, hp: HighPrecision, t: float, x, p, values: Mapping[str, float], *,

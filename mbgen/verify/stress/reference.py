@@ -21,8 +21,8 @@ model must raise an mbgen error (``SingularConstraintError``).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
-from typing import Mapping
 
 import mpmath
 import sympy as sm
@@ -105,7 +105,8 @@ class HighPrecision:
         return [mpmath.mpf(float(t))] + [mpmath.mpf(float(values.get(n, 0.0)))
                                          for n in self._names[1:]]
 
-    def evaluate(self, t: float, values: Mapping[str, float], formula: bool = True) -> HighPrecisionValue:
+    def evaluate(self, t: float, values: Mapping[str, float],
+                 formula: bool = True) -> HighPrecisionValue:
         """The reference right-hand side at ``t`` and the named state/parameter/input ``values``.
 
         ``formula``: also estimate the formula's own rounding error in double
@@ -227,5 +228,6 @@ def _real(value):
 
 
 #: The old name of :class:`HighPrecisionValue` (``Reference`` names only the check's
-#: lambdified reference, :mod:`mbgen.runtime.lambdified`); kept for imports written before the rename.
+#: lambdified reference, :mod:`mbgen.runtime.lambdified`); kept for imports written before
+#: the rename.
 Reference = HighPrecisionValue
