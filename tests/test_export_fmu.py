@@ -50,7 +50,7 @@ def fmus(tmp_path_factory):
             for name, opts in SCENES.items()}
 
 
-def states(result, names):
+def state_columns(result, names):
     return np.stack([result[n] for n in names], axis=1)
 
 
@@ -75,7 +75,7 @@ def test_fmpy_trajectory_matches_integrate(fmus, name, kind):
                        output=list(model.state_names))
     ref = model.integrate(method, res["time"], scene.x0(model.layout), r=r or None,
                           rtol=1e-11, atol=1e-13)
-    gap = np.abs(states(res, model.state_names) - ref.x).max()
+    gap = np.abs(state_columns(res, model.state_names) - ref.x).max()
     scale = np.abs(ref.x).max()
     # co-simulation runs mbgen's own integrator at rtol 1e-9; model exchange FMPy's CVode
     assert gap < (1e-6 if kind == "CoSimulation" else 1e-4) * scale, gap
@@ -91,7 +91,7 @@ def test_tunable_parameters_and_baked_ones_absent(fmus, tmp_path):
     x0 = scene.x0(model.layout)
     x0[model.state_names.index("q2")] = 0.5
     ref = model.integrate("dopri5", res["time"], x0, p, rtol=1e-11, atol=1e-13)
-    assert np.abs(states(res, model.state_names) - ref.x).max() < 1e-6
+    assert np.abs(state_columns(res, model.state_names) - ref.x).max() < 1e-6
     # bead_wire bakes m: it is no variable of the FMU; its free parameters are tunable
     bead = export_fmu(load_scene("bead_wire"), tmp_path)
     root = ET.fromstring(zipfile.ZipFile(bead).read("modelDescription.xml"))
@@ -112,9 +112,9 @@ def test_outputs_and_user_text_in_the_xml(tmp_path):
     res = simulate_fmu(str(path), fmi_type="CoSimulation", stop_time=1.0, output_interval=0.5,
                        output=["q1", "q2", "u1", "u2", "energy.T", "energy.V"])
     model = mbgen.compile(scene)
-    x = states(res, model.state_names)
+    x = state_columns(res, model.state_names)
     e = np.array([model.energy(0.0, xi) for xi in x])
-    assert np.abs(e - states(res, ["energy.T", "energy.V"])).max() < 1e-12
+    assert np.abs(e - state_columns(res, ["energy.T", "energy.V"])).max() < 1e-12
 
 
 @pytest.mark.parametrize("outputs", [None, ("rhs", "dopri5", "energy", "positions")])

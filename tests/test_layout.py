@@ -195,15 +195,64 @@ def test_every_package_says_how_to_add_one():
     assert not missing, f"package docstrings without 'How to add': {sorted(missing)}"
 
 
+#: Test files named by what they test across several modules of their area (or of the
+#: package, at the root), not by one module: the topic, and why it has a file of its own.
+TOPICS = {
+    "build/test_cflags.py": "the compiler flags and the cache key (extension and cache)",
+    "build/test_embedding.py": "the generated C compiled into a user's own program",
+    "build/test_threads.py": "threads and processes building at once",
+    "cli/test_conventions.py": "the conventions every command keeps",
+    "cli/test_cli_errors.py": "every command's errors and exit codes",
+    "codegen/test_determinism.py": "generated text independent of hash seeds and machines",
+    "derivation/test_damping.py": "dampers through every derivation",
+    "derivation/test_derive.py": "derive(), the package's front",
+    "derivation/test_sympy_oracle.py": "every derivation against sympy.physics.mechanics",
+    "model/test_names.py": "the naming rule where a model states names",
+    "model/test_numbers.py": "numbers a model states: finite, real, by name",
+    "runtime/test_consistent.py": "consistent states of constrained models (base, compiled)",
+    "runtime/test_fuzz.py": "hypothesis fuzzing of every back end's arguments",
+    "runtime/test_inputs.py": "inputs by name and as tables, in every back end",
+    "runtime/test_jacobian.py": "the Jacobian outputs against the symbolic ones",
+    "runtime/test_run_errors.py": "the back ends' errors",
+    "runtime/test_singular.py": "singular mass matrices and constraints, named",
+    "scenes/test_constrained_scenes.py": "the constrained built-in scenes",
+    "scenes/test_physics.py": "energy, momentum and closed forms of the built-in scenes",
+    "scenes/test_vehicles.py": "the bicycle and the car with a trailer",
+    "viz/test_pictures.py": "every picture (plots and animations)",
+    "test_layout.py": "the package's shape",
+    "test_packaging.py": "the wheel",
+    "test_readme_blocks.py": "every code block of the documentation runs",
+    "test_reliability.py": "replays of the hardening issues' misuse probes",
+}
+
+
+def _subjects(folder: Path) -> set[str]:
+    """Module and subpackage names of the mbgen package at ``folder``."""
+    return {p.stem for p in folder.glob("*.py") if p.stem != "__init__"} | \
+        {p.parent.name for p in folder.glob("*/__init__.py")}
+
+
 def test_tests_mirror_the_package():
-    """``tests/<area>/test_<subject>.py``: each folder is an mbgen package, each name unique."""
+    """``tests/<area>/test_<module>[_<aspect>].py``: each folder is an mbgen package, each
+    file named after a module (or subpackage) of it, or a topic of :data:`TOPICS`.
+    Names may repeat across folders (``--import-mode=importlib``: bench/test_crossing.py
+    and runtime/test_crossing.py test two modules called crossing)."""
     tests = ROOT / "tests"
     packages = {".".join(p.parent.relative_to(PKG).parts) for p in PKG.rglob("__init__.py")}
     folders = {p.parent.relative_to(tests).as_posix().replace("/", ".")
                for p in tests.rglob("test_*.py")} - {"."}
     assert folders <= packages, f"test folders that name no mbgen package: {folders - packages}"
-    names = [p.name for p in tests.rglob("test_*.py")]
-    assert len(names) == len(set(names)), "test file names must be unique across folders"
+    stray = []
+    for p in sorted(tests.rglob("test_*.py")):
+        rel = p.relative_to(tests).as_posix()
+        subject = p.stem[len("test_"):]
+        names = _subjects(PKG.joinpath(*p.relative_to(tests).parts[:-1]))
+        names.add(p.parent.name)                    # the package itself (its __init__)
+        if rel not in TOPICS and not any(subject == n or subject.startswith(n + "_")
+                                         for n in names):
+            stray.append(rel)
+    assert not stray, f"test files named after no module and no topic: {stray}"
+    assert set(TOPICS) <= {p.relative_to(tests).as_posix() for p in tests.rglob("test_*.py")}
 
 
 # --- names (issue 29): a public name of mbgen is never a subpackage's name, every module

@@ -9,7 +9,8 @@ Issue 28 (hardening 3, the new doors) follows, by its numbering: the cache and t
 (1-4), robot files (5-10: URDF, then MJCF), ensembles (11), the step API (12), output folders
 (13) and constraints (14).  The thorough tests sit in the area's files (tests/build/,
 tests/test_fileio.py, tests/model/test_urdf.py, tests/model/test_mjcf.py, tests/studies/,
-tests/runtime/test_step.py, tests/runtime/test_consistent.py), as do those of the injected faults.
+tests/runtime/test_stepper.py, tests/runtime/test_consistent.py), as do those of the injected
+faults.
 """
 
 import errno

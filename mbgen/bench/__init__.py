@@ -23,12 +23,12 @@ How to add a benchmark
    :func:`mbgen.viz.plots.figure` and :func:`~mbgen.viz.plots.save_png`).  A side that
    may run away runs in a child process: ``children.run_json_child(["-m",
    "mbgen.bench.<name>", ...])`` and ``if __name__ == "__main__":`` at the module's end
-   (``tests/bench/test_bench.py::test_child_process_entry_points_exist`` fails when the module
+   (``tests/bench/test_scaling.py::test_child_process_entry_points_exist`` fails when the module
    or its ``__main__`` block is missing).
 2. Its runner ``bench_<name>(args)`` and row in ``BENCHMARKS`` of
    ``mbgen/cli/bench.py``, any new option in its ``configure``, and its name in the
    ``bench`` help line of ``COMMANDS`` in ``mbgen/cli/__init__.py``
    (``tests/cli/test_cli.py::test_every_benchmark_is_named_in_the_help`` fails otherwise).
-3. ``tests/bench/test_<name>bench.py`` (or a test in ``tests/bench/test_bench.py``): a
+3. ``tests/bench/test_<name>.py`` (named after its module): a
    small run whose columns are all filled; nothing timed is asserted.
 """

@@ -34,7 +34,7 @@ How to add a rendered part
    print every output the same way.
 4. ``tests/codegen/test_targets.py`` fails when a target's or an integrator's template
    is missing (``test_every_target_has_its_templates``,
-   ``test_every_integrator_has_its_templates``); ``tests/codegen/test_golden.py`` shows
+   ``test_every_integrator_has_its_templates``); ``tests/verify/test_golden.py`` shows
    the new text of the built-in scenes (``mbgen golden --update`` after checking the
    diff); ``tests/codegen/test_codegen.py`` compiles it strictly.
 """

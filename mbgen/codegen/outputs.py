@@ -45,7 +45,7 @@ How to add an output
    (``<value> = _accessor(Output.<NAME>)``; the docstring comes from the row).
 5. ``tests/codegen/test_outputs.py`` fails while an output misses a row in any of these
    tables, and prints the table of ``docs/modelling.md`` ("Outputs and their shapes")
-   that the rows give; ``tests/codegen/test_golden.py`` then shows what the generated
+   that the rows give; ``tests/verify/test_golden.py`` then shows what the generated
    code gained.
 """
 

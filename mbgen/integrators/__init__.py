@@ -36,7 +36,7 @@ How to add an integrator
    the same properties.
 4. ``tests/codegen/test_targets.py`` (``test_every_integrator_has_its_templates``) fails
    when a member of ``INTEGRATORS`` has no row here or no template, and the golden tree
-   (``tests/codegen/test_golden.py``) shows the rendered C.
+   (``tests/verify/test_golden.py``) shows the rendered C.
 """
 
 from ..abi import INTEGRATORS, Output

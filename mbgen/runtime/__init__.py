@@ -33,7 +33,7 @@ How to add a back end
 2. ``run/__init__.py`` (``__all__`` below) and ``mbgen/__init__.py``: export the class.
 3. ``verify/check.py``: compare it with the reference in ``check`` (the ``models`` of
    each output).
-4. ``tests/runtime/test_run_backends.py`` fails when a back end in ``mbgen.runtime`` is not a public
+4. ``tests/runtime/test_base.py`` fails when a back end in ``mbgen.runtime`` is not a public
    ``mbgen`` name, has no ``_evaluate`` or reuses another's ``backend`` label.
 """
 

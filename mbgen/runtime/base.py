@@ -175,7 +175,7 @@ class ModelBase:
 
     # ------------------------------------------------------------------ outputs
     # One accessor per expression output, named here so that IDEs and type checkers see it;
-    # what it computes and its shape are the output's row (tests/runtime/test_run_backends.py
+    # what it computes and its shape are the output's row (tests/runtime/test_base.py
     # checks that every output has its line).
     rhs = _accessor(Output.RHS)
     mass_matrix = _accessor(Output.MASS_MATRIX)

@@ -12,10 +12,10 @@ How to add a built-in scene
    where its equations come from), and ``def scene(...) -> Scene`` whose options
    all have defaults.
 2. ``mbgen golden --update`` (from the repository root) writes
-   ``generated/<name>/``; commit it.  ``tests/codegen/test_golden.py``
+   ``generated/<name>/``; commit it.  ``tests/verify/test_golden.py``
    (``test_every_builtin_scene_has_a_folder``) fails until it exists.
 3. The tests that loop over every built-in scene then include it
-   (``tests/codegen/test_golden.py``, ``tests/codegen/test_codegen.py``,
+   (``tests/verify/test_golden.py``, ``tests/codegen/test_codegen.py``,
    ``tests/build/test_embedding.py``, ``tests/runtime/test_jacobian.py``,
    ``tests/scenes/test_physics.py``, ``tests/derivation/test_newton_euler.py``); a scene
    too slow for the default run goes into ``HEAVY`` in ``tests/support/heavy.py``

@@ -27,5 +27,5 @@ How to add a check
    ``tests/verify/test_check.py`` (``test_disagreeing_on_failure_fails``) and
    ``tests/verify/test_stress.py``
    (``test_high_precision_comparison_detects_an_injected_error``) do;
-   ``tests/codegen/test_golden.py`` fails when ``generated/`` and the generator differ.
+   ``tests/verify/test_golden.py`` fails when ``generated/`` and the generator differ.
 """

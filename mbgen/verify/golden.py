@@ -1,7 +1,7 @@
 """The checked-in generated code of the built-in scenes (``generated/<scene>/``).
 
 ``mbgen golden`` compares the tree with freshly generated code and
-``mbgen golden --update`` rewrites it; ``tests/codegen/test_golden.py`` fails on any
+``mbgen golden --update`` rewrites it; ``tests/verify/test_golden.py`` fails on any
 difference, so the checked-in files always match the generator.
 
 It is a developer's command: the tree is the one of the source checkout mbgen

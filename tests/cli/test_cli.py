@@ -153,7 +153,7 @@ def test_usage_error_exit_code():
 
 def test_golden_check_and_update(tmp_path, capsys):
     root = tmp_path / "g"
-    some = ["--scenes", "disc_pendulum,car_trailer"]   # the full tree: tests/codegen/test_golden.py
+    some = ["--scenes", "disc_pendulum,car_trailer"]   # the full tree: tests/verify/test_golden.py
     assert main(["golden", "--root", str(root), *some]) == EXIT_CHECK
     assert main(["golden", "--root", str(root), "--update", *some]) == EXIT_OK
     assert sorted(p.name for p in root.iterdir()) == ["car_trailer", "disc_pendulum"]

@@ -21,6 +21,7 @@ import sympy as sm
 from sympy.physics import mechanics as me
 
 import mbgen
+from checks import random_states
 from mbgen import Model
 from mbgen.derivation import Method
 from mbgen.scenes.rolling_disc import build_model as build_rolling_disc
@@ -48,18 +49,13 @@ def published(x, r=1.0, g=1.0):
                      -2 * u1 * u3 / 3, u1 * (-2 * u2 + u3 * np.tan(q2))])
 
 
-def states(n, k=5, seed=0, scale=1.0):
-    rng = np.random.default_rng(seed)
-    return [rng.uniform(-scale, scale, n) for _ in range(k)]
-
-
 def test_rolling_disc_reproduces_the_published_equations():
     res = rolling_disc()
     c, py = res.compiled, mbgen.python_model(res.rendered)
     ref = mbgen.LambdifiedModel(res.baked, c.outputs, layout=c.layout)
     assert c.state_names == ("q1", "q2", "q3", "q4", "q5", "u1", "u2", "u3")
     assert c.constraint_names == ("C_contact_x", "C_contact_y")
-    for x in states(c.n_x):
+    for x in random_states(c.n_x):
         np.testing.assert_allclose(c.rhs(0, x)[5:], published(x), rtol=1e-12, atol=1e-12)
         for out in ("rhs", "jacobian", "constraint_forces", "velocities", "energy"):
             want = getattr(ref, out)(0, x)
@@ -77,7 +73,7 @@ def test_rolling_disc_contact_force_is_newtons_law():
     is vertical): the multipliers are that force along N.x and N.y."""
     res = rolling_disc()
     c = res.compiled
-    for x in states(c.n_x, seed=3):
+    for x in random_states(c.n_x, seed=3):
         f = c.rhs(0, x)
         h = 1e-6
         a = (c.velocities(0, x + h * f) - c.velocities(0, x - h * f))[0] / (2 * h)
@@ -188,7 +184,7 @@ def test_four_bar_reactions_include_the_loop_closing_force(method):
     c = res.compiled
     ref = mbgen.LambdifiedModel(res.baked, c.outputs, layout=c.layout)
     masses, g = np.array([1.0, 1.5, 1.2]), np.array([0.0, -9.81, 0.0])
-    for x in states(4, seed=9):
+    for x in random_states(4, seed=9):
         x = c.consistent(x)
         np.testing.assert_allclose(c.reactions(0, x), ref.reactions(0, x), rtol=1e-10,
                                    atol=1e-10)
@@ -263,7 +259,7 @@ def test_paraboloid_normal_force_stated_equals_embedded():
                         fixed={}, parameters={"k": k, "m": mass, "g": g}, name="para_emb")
     assert set(emb.parameter_names) <= {"k", "m", "g"}
     p_emb = np.array([{"k": k, "m": mass, "g": g}[n] for n in emb.parameter_names])
-    for q1, q2, u1, u2 in states(4, seed=4):
+    for q1, q2, u1, u2 in random_states(4, seed=4):
         # embedded: x = q1 cos q2, y = q1 sin q2, z = k q1^2
         pos = [q1 * np.cos(q2), q1 * np.sin(q2)]
         vel = [u1 * np.cos(q2) - q1 * u2 * np.sin(q2), u1 * np.sin(q2) + q1 * u2 * np.cos(q2)]

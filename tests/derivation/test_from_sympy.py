@@ -9,6 +9,7 @@ from sympy.physics import mechanics as me
 from sympy.physics.mechanics.models import n_link_pendulum_on_cart
 
 import mbgen
+from checks import assert_close
 from mbgen import LambdifiedModel, ModelError, Output
 from mbgen.derivation.from_sympy import from_sympy
 from mbgen.scenes import n_link_cart
@@ -55,11 +56,6 @@ def sympy_values(obj, eq):
     args = [eq.layout.time, obj.q[:] + obj.u[:], list(eq.layout.parameters), inputs]
     return (sm.lambdify(args, obj.mass_matrix, modules="numpy"),
             sm.lambdify(args, obj.forcing, modules="numpy"))
-
-
-def assert_close(a, b, rtol=1e-9):
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    assert np.max(np.abs(a - b)) <= rtol * max(1.0, np.max(np.abs(b))), (a, b)
 
 
 def check_against_sympy(obj, eq):

@@ -17,6 +17,7 @@ import sympy as sm
 from sympy.physics import mechanics as me
 
 import mbgen
+from checks import assert_close
 from mbgen import LambdifiedModel, ModelError
 from mbgen.derivation.from_sympy import from_sympy
 
@@ -236,11 +237,6 @@ def consistent_states(cm, eq, count=4, seed=0, parameters=None, guess=None):
         x = cm.consistent(x, p)
         assert np.max(np.abs(cm.holonomic(0.0, x, p))) < 1e-10 if eq.constraints.m_h else True
         yield rng.uniform(0, 1), x, p, rng.uniform(-1, 1, L.n_r)
-
-
-def assert_close(a, b, tol=1e-9):
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    assert a.shape == b.shape and np.max(np.abs(a - b)) <= tol * max(1.0, np.max(np.abs(b))), (a, b)
 
 
 def check_against_sympy(obj, eq, velocity, vanishing=(), multipliers=None, **options):

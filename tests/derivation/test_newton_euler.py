@@ -23,6 +23,7 @@ import sympy as sm
 from sympy.physics import mechanics as me
 
 import mbgen
+from checks import close, random_states
 from mbgen import Model
 from mbgen.codegen.optimize import Form
 from mbgen.derivation import Method, derive
@@ -42,13 +43,7 @@ def scene(name):
 
 
 def states(model, k=6, seed=1, scale=1.0):
-    rng = np.random.default_rng(seed)
-    return [rng.uniform(-scale, scale, model.n_x) for _ in range(k)]
-
-
-def close(a, b, rel=1e-12):
-    a, b = np.asarray(a), np.asarray(b)
-    return np.max(np.abs(a - b)) <= rel * max(1.0, np.max(np.abs(b)))
+    return random_states(model.n_x, k, seed, scale)
 
 
 # ------------------------------------------------------------------ Kane == Newton-Euler

@@ -90,7 +90,7 @@ def jacobians(source, rng, fixed=None, samples=3):
     return out
 
 
-def assert_close(pairs, rtol=1e-11):
+def assert_pairs_close(pairs, rtol=1e-11):
     for ours, ref in pairs:
         assert np.abs(ref).max() > 0.1
         assert np.abs(ours - ref).max() <= rtol * np.abs(ref).max()
@@ -104,14 +104,14 @@ def small(monkeypatch):
 
 @pytest.mark.parametrize("kind", ["chain", "neg", "branch", "slider", "cart", "loads"])
 def test_analytic_equals_forward_mode(kind, small):
-    assert_close(jacobians(tree(kind), np.random.default_rng(3)))
+    assert_pairs_close(jacobians(tree(kind), np.random.default_rng(3)))
 
 
 def test_spatial_arm_with_parameters_at_run_time():
     """``MIN_SPEEDS`` links, no monkeypatching: every link constant a run-time parameter."""
     scene = spatial_arm.scene(rnea_partials.MIN_SPEEDS)
     assert len(scene.model.speeds_) == rnea_partials.MIN_SPEEDS
-    assert_close(jacobians(scene.model, np.random.default_rng(5), samples=2), rtol=1e-10)
+    assert_pairs_close(jacobians(scene.model, np.random.default_rng(5), samples=2), rtol=1e-10)
 
 
 def test_not_where_it_does_not_apply(small):

@@ -25,7 +25,6 @@ import importlib.util
 from pathlib import Path
 
 import pytest
-from test_mjcf import RTOL, compare
 
 import mbgen
 from mbgen.abi import Output
@@ -33,6 +32,7 @@ from mbgen.errors import MjcfError, ModelWarning
 from mbgen.model.elements import Gravity
 from mbgen.model.mjcf import scene_values
 from mbgen.model.scene import Scene
+from mujoco_models import RTOL, compare
 
 mujoco = pytest.importorskip("mujoco")
 

@@ -17,7 +17,18 @@ import warnings
 
 import numpy as np
 import pytest
-from test_urdf import (
+
+import mbgen
+from mbgen.abi import Output
+from mbgen.errors import (
+    ArgumentError,
+    ArgumentTypeError,
+    ModelWarning,
+    UrdfInertiaError,
+    UrdfSyntaxError,
+)
+from mbgen.model.urdf_joints import FRICTION_VELOCITY, SoftLimits
+from urdf_models import (
     ARM_PARTS,
     LIMIT,
     compare,
@@ -30,17 +41,6 @@ from test_urdf import (
     urdf,
     write,
 )
-
-import mbgen
-from mbgen.abi import Output
-from mbgen.errors import (
-    ArgumentError,
-    ArgumentTypeError,
-    ModelWarning,
-    UrdfInertiaError,
-    UrdfSyntaxError,
-)
-from mbgen.model.urdf_joints import FRICTION_VELOCITY, SoftLimits
 
 pin = pytest.importorskip("pinocchio")
 

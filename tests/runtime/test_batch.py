@@ -6,6 +6,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import mbgen
+from checks import random_states
 from mbgen.model.scene import load_scene
 from mbgen.scenes import four_bar
 
@@ -17,7 +18,7 @@ def pendulum():
 
 
 def states(k, n, seed=0):
-    return np.random.default_rng(seed).uniform(-1.0, 1.0, (k, n))
+    return random_states(n, k, seed)
 
 
 def test_rhs_of_a_batch_is_k_single_calls(pendulum):

@@ -51,7 +51,7 @@ How to add a target
 4. ``tests/codegen/test_targets.py`` fails when a listed template is missing, a folder is
    nobody's, or a template calls a runtime routine its row does not list;
    ``tests/codegen/test_header.py`` checks stack bounds against ``gcc -fstack-usage``;
-   ``tests/codegen/test_golden.py`` shows the rendered text of the built-in scenes.
+   ``tests/verify/test_golden.py`` shows the rendered text of the built-in scenes.
 """
 
 from __future__ import annotations
