@@ -11,7 +11,8 @@ contract in ``pyproject.toml``, run by ``tests/test_layout.py``)::
     cli                      one module per subcommand
     bench                    benchmarks (nothing below imports them)
     studies                  work-precision, ensembles
-    verify | viz | export    check, golden, audit, stress | pictures | FMU
+    verify | viz | export | interop   check, golden, audit, stress | pictures | FMU |
+                             CasADi and JAX functions
     pipeline                 derive -> bake -> optimize -> render -> build
     derivation | codegen     Model -> Equations | Equations -> Rendered
     model | runtime          what the user states | the three back ends
@@ -19,12 +20,17 @@ contract in ``pyproject.toml``, run by ``tests/test_layout.py``)::
     abi | names | fileio | summary
     errors
 
-This module is the public face: the names a user imports from ``mbgen``.
+This module is the public face: the names a user imports from ``mbgen``.  Each is
+imported on first use (PEP 562 ``__getattr__`` over :data:`_PUBLIC`), so ``import mbgen``
+and ``mbgen --version`` load no stage, and no sympy, NumPy, SciPy or Jinja, until a name
+is used; ``from mbgen import X``, ``dir(mbgen)`` and ``__all__`` are as if every name
+were imported here.
 
 How to add a public name
 ------------------------
 1. Define it in the stage that owns it (never here), public in its module.
-2. Import it below and list it in ``__all__``.
+2. Add it to its module's row of :data:`_PUBLIC` (a new row for a new module); ``__all__``
+   is made from the table.
 3. Say it in README.md (its examples run in ``tests/test_readme_blocks.py``);
    ``tests/test_packaging.py`` imports the installed package.
 A new stage is a folder placed in the ``layers`` of ``pyproject.toml``'s
@@ -36,69 +42,58 @@ from importlib import import_module as _import_module
 
 from . import _moved
 from ._version import __version__
-from .abi import Output
-from .codegen.optimize import CseBackend
-from .codegen.targets import Targets
-from .derivation import Method, derive
-from .derivation.from_sympy import from_sympy
-from .errors import (
-    BuildError,
-    CheckFailed,
-    ConstraintError,
-    IntegrationError,
-    MbgenError,
-    ModelError,
-    NonFiniteResultError,
-    SceneError,
-    SingularConstraintError,
-    SingularMassMatrixError,
-    UnknownNameError,
-    UsageError,
-)
-from .export import export_fmu, generate
-from .model.builder import Model, t
-from .model.mjcf import from_mjcf, from_mujoco
-from .model.scene import Scene, load_scene
-from .model.urdf import from_urdf
-from .pipeline import compile, equations_of, run
-from .runtime.compiled import CompiledModel
-from .runtime.integration import Trajectory
-from .runtime.lambdified import LambdifiedModel
-from .runtime.linearize import Linearization, linearize, tangent_jacobian
-from .runtime.named import InputTable
-from .runtime.python import PythonModel, python_model
-from .runtime.stepper import Stepper
-from .studies.ensemble import ensemble
-from .symbolic.equations import Equations
-from .symbolic.layout import Layout
 
-#: Public names imported on first use: ``simulate`` pulls in scipy.integrate (about 0.3 s)
-#: and the pictures need the ``plot`` extra, so ``import mbgen`` does not pay for them.
-_LAZY = {"simulate": "mbgen.runtime.simulate", "plot_simulation": "mbgen.viz.plots",
-         "animate_scene": "mbgen.viz.animate"}
+#: Where each public name lives: module -> names, imported on first use.
+_PUBLIC = {
+    "mbgen.abi": ("Output",),
+    "mbgen.codegen.optimize": ("CseBackend",),
+    "mbgen.codegen.targets": ("Targets",),
+    "mbgen.derivation": ("Method", "derive"),
+    "mbgen.derivation.from_sympy": ("from_sympy",),
+    "mbgen.errors": ("BuildError", "CheckFailed", "ConstraintError", "IntegrationError",
+                     "MbgenError", "ModelError", "NonFiniteResultError", "SceneError",
+                     "SingularConstraintError", "SingularMassMatrixError", "UnknownNameError",
+                     "UsageError"),
+    "mbgen.export": ("export_fmu", "generate"),
+    "mbgen.interop": ("casadi_function", "jax_function"),
+    "mbgen.model.builder": ("Model", "t"),
+    "mbgen.model.mjcf": ("from_mjcf", "from_mujoco"),
+    "mbgen.model.scene": ("Scene", "load_scene"),
+    "mbgen.model.urdf": ("from_urdf",),
+    "mbgen.pipeline": ("compile", "equations_of", "run"),
+    "mbgen.runtime.compiled": ("CompiledModel",),
+    "mbgen.runtime.integration": ("Trajectory",),
+    "mbgen.runtime.lambdified": ("LambdifiedModel",),
+    "mbgen.runtime.linearize": ("Linearization", "linearize", "tangent_jacobian"),
+    "mbgen.runtime.named": ("InputTable",),
+    "mbgen.runtime.python": ("PythonModel", "python_model"),
+    "mbgen.runtime.simulate": ("simulate",),
+    "mbgen.runtime.stepper": ("Stepper",),
+    "mbgen.studies.ensemble": ("ensemble",),
+    "mbgen.symbolic.equations": ("Equations",),
+    "mbgen.symbolic.layout": ("Layout",),
+    "mbgen.viz.plots": ("plot_simulation",),
+    "mbgen.viz.animate": ("animate_scene",),
+}
+
+#: Public name -> its module (:data:`_PUBLIC` turned round).
+_HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 
 
 def __getattr__(name: str):
-    if name in _LAZY:
-        value = getattr(_import_module(_LAZY[name]), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'mbgen' has no attribute {name!r}")
+    """A public name, imported from its module on first use and kept here."""
+    home = _HOME.get(name)
+    if home is None:
+        raise AttributeError(f"module 'mbgen' has no attribute {name!r}")
+    value = getattr(_import_module(home), name)
+    globals()[name] = value
+    return value
 
 
 def __dir__():
     return sorted(set(__all__) | {n for n in globals() if n.startswith("__")})
 
 
-__all__ = ["__version__", "linearize", "tangent_jacobian", "Linearization", "Model", "t",
-           "derive", "from_sympy", "from_urdf", "from_mjcf", "from_mujoco", "Output",
-           "CseBackend", "compile", "equations_of", "run", "python_model", "LambdifiedModel",
-           "CompiledModel", "PythonModel", "Scene",
-           "load_scene", "Method", "Equations", "Layout", "MbgenError", "ModelError",
-           "SceneError", "ConstraintError", "BuildError", "SingularMassMatrixError",
-           "SingularConstraintError", "NonFiniteResultError",
-           "CheckFailed", "IntegrationError", "Targets", "export_fmu", "generate", "ensemble",
-           "UnknownNameError", "UsageError", "InputTable", "simulate", "Trajectory", "Stepper",
-           "plot_simulation", "animate_scene"]
+__all__ = ["__version__", *_HOME]
 
 _moved.install()

@@ -8,12 +8,13 @@ that names the new path.  ``CHANGELOG.md`` lists the moves.
 
 ``mbgen.run`` and ``mbgen.derive`` are public *functions* (the pipeline's first and last
 verbs); the packages that held the stages under those names are now ``mbgen.runtime`` and
-``mbgen.derivation``.  A finder that answered ``import mbgen.run.named`` by importing a
-module ``mbgen.run`` would let the import system rebind ``mbgen.run`` to that module, so
-the two old package names are registered in ``sys.modules`` under the new packages
-(:func:`install`), and only their submodules go through the finder.  ``import mbgen.run.x
-as y`` cannot work while ``mbgen.run`` is a function (Python binds ``y`` by attributes);
-``from mbgen.run.x import name`` does.
+``mbgen.derivation``.  A finder that answers ``import mbgen.run.named`` imports the package
+``mbgen.run`` first (the new package, under its old name), after which the import system
+binds ``mbgen.run`` to that module; :class:`FunctionsStay`, the class of the ``mbgen``
+module (:func:`install`), refuses that one binding, so ``mbgen.run`` stays the function, and
+nothing is imported before an old path is asked for (``import mbgen`` imports no stage).
+``import mbgen.run.x as y`` cannot work while ``mbgen.run`` is a function (Python binds
+``y`` by attributes); ``from mbgen.run.x import name`` does.
 
 How to add a moved path
 -----------------------
@@ -27,6 +28,7 @@ import importlib
 import importlib.abc
 import importlib.util
 import sys
+import types
 import warnings
 
 #: Old module path (or package prefix) -> where it lives now.
@@ -73,8 +75,11 @@ class MovedFinder(importlib.abc.MetaPathFinder):
 
     def find_spec(self, fullname, path=None, target=None):
         now = new_name(fullname)
-        if now is None or fullname in PACKAGES_UNDER_FUNCTIONS:
+        if now is None:
             return None
+        if fullname in PACKAGES_UNDER_FUNCTIONS:     # the parent of an old path: no warning
+            module = importlib.import_module(now)
+            return importlib.util.spec_from_loader(fullname, _Existing(module), is_package=True)
         warnings.warn(f"{fullname} moved to {now}; the old path goes in mbgen {REMOVED_IN} "
                       f"(CHANGELOG.md)", DeprecationWarning, stacklevel=2)
         module = importlib.import_module(now)
@@ -82,10 +87,23 @@ class MovedFinder(importlib.abc.MetaPathFinder):
                                                is_package=hasattr(module, "__path__"))
 
 
+class FunctionsStay(types.ModuleType):
+    """The class of the ``mbgen`` module: the import system's binding of an old package of
+    :data:`PACKAGES_UNDER_FUNCTIONS` to its name (``mbgen.run = <module mbgen.runtime>``,
+    once a submodule of it was imported) is refused, so the name stays the function."""
+
+    def __setattr__(self, name, value):
+        if f"{self.__name__}.{name}" in PACKAGES_UNDER_FUNCTIONS and \
+                isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
 def install() -> None:
-    """Put :class:`MovedFinder` first on ``sys.meta_path`` (once) and the old package
-    names of :data:`PACKAGES_UNDER_FUNCTIONS` in ``sys.modules``."""
+    """Put :class:`MovedFinder` first on ``sys.meta_path`` (once) and make
+    :class:`FunctionsStay` the class of the ``mbgen`` module."""
     if not any(isinstance(f, MovedFinder) for f in sys.meta_path):
         sys.meta_path.insert(0, MovedFinder())
-    for old in PACKAGES_UNDER_FUNCTIONS:
-        sys.modules.setdefault(old, importlib.import_module(MOVED[old]))
+    package = sys.modules[__name__.rpartition(".")[0]]
+    if not isinstance(package, FunctionsStay):
+        package.__class__ = FunctionsStay

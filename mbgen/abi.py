@@ -16,7 +16,8 @@ Status codes
     What every generated C function returns (``<PREFIX>_<CODE>`` in the
     header): :data:`STATUS_CODES` always, :data:`INTEGRATOR_STATUS_CODES` with an
     integrator or the step API, :data:`CONSTRAINT_STATUS_CODES` for a
-    constrained model.  The generated Python raises the matching exception.
+    constrained model, :data:`CONTACT_STATUS_CODES` for one with contacts.  The
+    generated Python raises the matching exception.
 :class:`Rendered`, :class:`FunctionInfo`
     The file texts, the cffi declarations and how to call each function.
 """
@@ -51,6 +52,7 @@ class Output(str, Enum):
     CONSTRAINT_FORCES = "constraint_forces"
     HOLONOMIC = "holonomic"
     HOLONOMIC_JACOBIAN = "holonomic_jacobian"
+    CONTACT_JACOBIAN = "contact_jacobian"
     DOPRI5 = "dopri5"
     RK4 = "rk4"
     ROSENBROCK = "rosenbrock"
@@ -93,6 +95,8 @@ class Need(str, Enum):
     INPUTS = "inputs"                           # an input
     CONSTRAINTS = "constraints"                 # constraints of any kind
     CONFIGURATION = "configuration"             # configuration (holonomic) constraints
+    MULTIPLIERS = "multipliers"                 # constraints or contacts: forces to report
+    CONTACTS = "contacts"                       # rigid point contacts
 
 
 @dataclass(frozen=True)
@@ -118,7 +122,8 @@ class OutputInfo:
         (independent) speeds, ``n_d`` dependent speeds (0 without constraints), ``n_p``
         parameters, ``n_pd`` those of them the motion uses (``M``, ``F``, ``G``: the columns of
         ``df/dp``), ``n_r`` inputs, ``m`` constraints, ``m_h`` configuration constraints,
-        ``k`` reported points, ``n_joints`` joints; or a sum of them (``"n_u + n_d"``), or
+        ``k`` reported points, ``n_joints`` joints (``m``: three per contact of a model with
+        contacts); or a sum of them (``"n_u + n_d"``), or
         a number.  The C array holds it row-major.
     doc : str
         What it computes, one sentence of plain text without the final period (no markup:
@@ -192,15 +197,24 @@ OUTPUT_INFO: dict[Output, OutputInfo] = {row.output: row for row in (
     OutputInfo(Output.CONSTRAINT_FORCES, "lam", ("m",),
                "Constraint multipliers lambda of M u' = F + A^T lambda, one per constraint (a "
                "point constraint's: the force on the body at the point along the frame axis)",
-               (Need.CONSTRAINTS,),
+               (Need.MULTIPLIERS,),
                note="A stated constraint's multiplier is the generalized force conjugate to it; "
-                    "rows in the order of constraint_names"),
+                    "rows in the order of constraint_names; with contacts (m = 3 per contact), "
+                    "the force the ground exerts at each contact point in Newtonian components, "
+                    "contacts in the order stated"),
     OutputInfo(Output.HOLONOMIC, "fh", ("m_h",),
                "Residual f_h(q, t) of the configuration constraints (zero on the constraint "
                "manifold)", (Need.CONSTRAINTS, Need.CONFIGURATION)),
     OutputInfo(Output.HOLONOMIC_JACOBIAN, "dfh", ("m_h", "n_q"),
                "Jacobian of the configuration constraints, df_h/dq",
                (Need.CONSTRAINTS, Need.CONFIGURATION)),
+    OutputInfo(Output.CONTACT_JACOBIAN, "Jc", ("n_x + m", "n_x"),
+               "Jacobian d(f, lambda)/dx of the right-hand side f and the contact forces lambda "
+               "together: the n_x rows of the jacobian output, then one row per contact force",
+               (Need.CONTACTS,),
+               note="The derivatives of the contact dynamics in one call (Pinocchio's "
+                    "computeConstraintDynamicsDerivatives: du'/dq, du'/du, dlambda/dq, dlambda/du; "
+                    "mbgen.tangent_jacobian maps a floating base's quaternion columns)"),
 )}
 
 
@@ -212,6 +226,10 @@ CONSTRAINT_STATUS_CODES = (
                                "(a locked or singular configuration)"),
     ("PROJECTION_FAILED", 8, "the dependent coordinates could not be projected back onto the "
                              "configuration constraints (Newton did not converge)"))
+CONTACT_STATUS_CODES = (
+    ("CONTACT_SINGULAR", 9, "the contacts' Delassus matrix J M^-1 J^T is singular (two "
+                            "contacts on one point, a leg stretched straight: the forces are "
+                            "undetermined)"),)
 INTEGRATOR_STATUS_CODES = (
     ("STEP_TOO_SMALL", 3, "the step size fell below the resolution of t"),
     ("MAX_STEPS", 4, "the step limit was reached before the last output time"),
@@ -313,7 +331,8 @@ class FunctionInfo:
 
 #: Every status code, by value: ``{value: (name, meaning)}``.
 ALL_STATUS_CODES = {value: (name, text) for name, value, text in
-                    STATUS_CODES + INTEGRATOR_STATUS_CODES + CONSTRAINT_STATUS_CODES}
+                    STATUS_CODES + INTEGRATOR_STATUS_CODES + CONSTRAINT_STATUS_CODES
+                    + CONTACT_STATUS_CODES}
 
 
 def status_name(status: int) -> str:
@@ -331,4 +350,5 @@ def status_message(prefix: str, status: int) -> str:
 
 __all__ = ["Output", "INTEGRATORS", "EXPRESSION_OUTPUTS", "Need", "OutputInfo", "OUTPUT_INFO",
            "STATUS_CODES", "INTEGRATOR_STATUS_CODES", "CONSTRAINT_STATUS_CODES",
+           "CONTACT_STATUS_CODES",
            "ALL_STATUS_CODES", "status_name", "status_message", "Rendered", "FunctionInfo"]

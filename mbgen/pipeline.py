@@ -20,6 +20,10 @@ hands the model's prepared value and Newton–Euler outward pass on to the deriv
 neither runs twice.  Either way ``Equations.method_reason`` says why, and the generated
 header, ``mbgen generate --explain`` and the notebook summaries show it.
 
+A run that builds first looks its inputs up in the warm cache (:mod:`mbgen.build.warm`,
+keyed by the model's content and every option, :func:`_warm_key`): an unchanged model loads
+its module and derives nothing (:attr:`PipelineResult.warm`).
+
 Whoever wants to hear of the stages passes a :class:`StageTimer` (``stage=`` for the
 start of each alone): the command line's progress lines and the benchmarks' per-stage
 times come from the one sequence in :func:`run`.
@@ -27,11 +31,14 @@ times come from the one sequence in :func:`run`.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 from .abi import Output, Rendered
+from .build import warm as warm_cache
+from .build.canonical import Uncacheable
 from .build.extension import compiled_path, load
 from .codegen.optimize import CseBackend, Form, Kernel, optimize
 from .codegen.outputs import needs_jacobian
@@ -47,28 +54,56 @@ from .runtime.compiled import CompiledModel
 from .symbolic.equations import Equations
 from .symbolic.graph import reachable
 
+#: The values of a :class:`PipelineResult` that a warm run derives only when they are read.
+DERIVED = ("equations", "baked", "kernel")
+
 
 @dataclass(frozen=True)
 class PipelineResult:
     """Every value the pipeline produced, and how long each stage took (seconds).
 
     ``equations`` are the derived equations, ``baked`` the scene's slice of them
-    (what was optimised); ``kernel.layout`` is the generated ABI.
+    (what was optimised); ``layout`` is the generated ABI.
+
+    ``warm``: the rendered code came from the warm cache (:mod:`mbgen.build.warm`) and
+    nothing was derived; ``equations``, ``baked`` and ``kernel`` are then derived when one
+    of them is first read (``later``, the same run without the cache), so that a caller
+    that reads only ``compiled`` or ``rendered`` never pays for them.
     """
 
-    equations: Equations
-    baked: Equations
-    kernel: Kernel
+    equations: Equations | None
+    baked: Equations | None
+    kernel: Kernel | None
     rendered: Rendered
     compiled: CompiledModel | None
     timings: Mapping[str, float] = field(default_factory=dict)
     compile_cached: bool = False
     #: the parameter values baked in (``baked`` no longer holds them; the check needs them)
     fixed: Mapping[str, float] = field(default_factory=dict)
+    warm: bool = False
+    later: Callable[[], PipelineResult] | None = field(default=None, repr=False,
+                                                       compare=False)
+
+    def __getattribute__(self, name: str):
+        value = object.__getattribute__(self, name)
+        if value is None and name in DERIVED:
+            later = object.__getattribute__(self, "later")
+            if later is not None:
+                cold = later()
+                for derived in DERIVED:
+                    object.__setattr__(self, derived, getattr(cold, derived))
+                object.__setattr__(self, "later", None)
+                value = object.__getattribute__(self, name)
+        return value
+
+    def __repr__(self) -> str:      # as the dataclass's, but never deriving what is left
+        shown = (f"{f.name}={object.__getattribute__(self, f.name)!r}" for f in fields(self)
+                 if f.repr)
+        return f"PipelineResult({', '.join(shown)})"
 
     @property
     def layout(self):
-        return self.kernel.layout
+        return self.rendered.layout
 
 
 def equations_of(source: Model | Equations | Scene, method: Method | None = None, *,
@@ -125,7 +160,9 @@ class StageTimer:
     """Who hears of :func:`run`'s stages: ``started(name)`` as each starts and
     ``finished(name, seconds, value)`` as it ends.
 
-    ``name`` is ``derive``, ``bake``, ``cse``, ``render`` or ``compile``; ``started`` gets
+    ``name`` is ``derive``, ``bake``, ``cse``, ``render`` or ``compile``, or ``warm`` alone
+    where the warm cache held the rendered code (:mod:`mbgen.build.warm`: the module loaded,
+    nothing derived); ``started`` gets
     ``derive/kane`` and the like while both derivations are compared (the command line's
     progress lines).  ``seconds`` is the stage's time so far in this run (a stage that runs
     twice, as while comparing, adds up: :attr:`PipelineResult.timings`), ``value`` what the
@@ -359,6 +396,49 @@ def _all_points(source) -> tuple[str, ...]:
     return tuple(p.name for p in model.points if p is not model.origin)
 
 
+#: The fields of a :class:`~mbgen.model.scene.Scene` that never reach the generated code,
+#: left out of the warm cache's key (so that ``mbgen simulate -x ... --t-end ...`` of an
+#: unchanged model loads it); every other field is keyed, a field added later included.
+SCENE_UNKEYED = {
+    "initial_state": "the run's start, given to the compiled model",
+    "t_span": "the run's time span",
+    "description": "prose for 'mbgen scenes'",
+    "closed_form": "the scene's reference solution, for checks",
+    "conserves_energy": "what the checks expect of the energy",
+    "options": "what made the model and the values: keyed through them",
+    "source": "keyed as the label the header records (the file's name, not its folder)",
+}
+
+
+def _warm_key(stages: _Stages, sliced: bool, targets, method) -> str | None:
+    """The warm cache's key of a run (:func:`mbgen.build.warm.key`): what it was given, the
+    scene's fields but :data:`SCENE_UNKEYED`; None where a value has no canonical form."""
+    source = stages.source
+    if isinstance(source, Scene):
+        source = {f.name: getattr(source, f.name) for f in fields(Scene)
+                  if f.name not in SCENE_UNKEYED} | {"label": source_label(source)}
+    try:
+        return warm_cache.key({"source": source, "outputs": stages.outs,
+                               "points": stages.points, "parameters": stages.parameters,
+                               "name": stages.name, "fixed": stages.fixed,
+                               "inputs": stages.inputs, "sliced": sliced,
+                               "cse_backend": stages.cse_backend, "form": stages.form,
+                               "targets": targets, "method": method})
+    except Uncacheable:
+        return None
+
+
+def _warm_result(rendered: Rendered, stages: _Stages, clock: _Clock,
+                 cold: Callable[[], PipelineResult]) -> PipelineResult:
+    """The result of a warm run: ``rendered`` from the cache, its module loaded (stage
+    ``warm``), the derived values left to ``cold``."""
+    cached = compiled_path(rendered).exists()
+    compiled = CompiledModel(rendered, clock("warm", load, rendered))
+    return PipelineResult(None, None, None, rendered, compiled, clock.timings, cached,
+                          {k: float(v) for k, v in (stages.fixed or {}).items()},
+                          warm=True, later=cold)
+
+
 def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         build: bool = True, parameters: Mapping[str, float] | None = None,
         fixed: Mapping[str, float] | None = None, inputs: Sequence[str] | None = None,
@@ -366,8 +446,15 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None,
         method: Method | None = None, form: Form | None = None,
         stage: Callable[[str], None] | None = None, timer: StageTimer | None = None,
-        comparisons: Comparisons | None = COMPARISONS) -> PipelineResult:
+        comparisons: Comparisons | None = COMPARISONS,
+        warm: bool | None = None) -> PipelineResult:
     """Run every stage and time it: derive, bake, optimize, render, and (optionally) compile.
+
+    Where it builds, it first looks for the same inputs in the warm cache
+    (:mod:`mbgen.build.warm`: keyed by the model's content, the scene, the outputs and every
+    option here, and mbgen's own code): there it loads the compiled module of the stored
+    rendered code and derives nothing (:attr:`PipelineResult.warm`); otherwise it runs the
+    stages and stores what they rendered.  ``build=False`` always derives.
 
     Parameters
     ----------
@@ -394,7 +481,8 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
         :func:`mbgen.codegen.optimize.optimize`).
     stage : callable, optional
         Called with each stage's name (``derive``, ``bake``, ``cse``, ``render``,
-        ``compile``) as it starts: the command line's progress lines.  While both
+        ``compile``; ``warm`` alone on a warm start) as it starts: the command line's
+        progress lines.  While both
         derivations are compared, the first three carry the method: ``derive/kane``.
         Short for ``timer=StageTimer(started=stage)`` (not read when ``timer`` is given).
     timer : StageTimer, optional
@@ -402,19 +490,39 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
     comparisons : Comparisons or None
         Where the outcomes of comparing both derivations are remembered and looked up
         (default: the process's :data:`COMPARISONS`; None compares afresh and keeps nothing).
+    warm : bool, optional
+        Use the warm cache (only where ``build``; default: ``$MBGEN_WARM``, else yes, but no
+        where a ``timer`` is given: a benchmark times the stages, so it runs them).
     """
     clock = _Clock(timer if timer is not None else StageTimer(started=stage))
     stages = _Stages.of(source, _outputs(source, outputs), clock, parameters, name,
                         fixed, inputs, sliced, cse_backend, form)
-    trial = _chosen(stages, method_of(method) if method is not None else None, comparisons)
     if targets is None and isinstance(source, Scene):
         targets = source.targets
-    rendered = clock("render", render, trial.kernel, targets)
+    if warm is None and timer is not None:
+        warm = False
+    key = _warm_key(stages, sliced, targets, method) if build and warm_cache.enabled(warm) \
+        else None
+    stored = clock("warm", warm_cache.lookup, key, quiet=True) if key else None
+    if stored is not None:
+        cold = functools.partial(run, source, outputs, build=False, parameters=parameters,
+                                 fixed=fixed, inputs=inputs, name=name, sliced=sliced,
+                                 cse_backend=cse_backend, targets=targets, method=method,
+                                 form=form, comparisons=comparisons, warm=False)
+        return _warm_result(stored, stages, clock, cold)
+    trial = _chosen(stages, method_of(method) if method is not None else None, comparisons)
+    kernel = trial.kernel
+    if isinstance(source, Scene) and source.saturate:   # the bounds the step API clamps to
+        kernel = replace(kernel, input_bounds=tuple(
+            (n, lo, hi) for n, (lo, hi) in sorted(source.input_bounds().items())))
+    rendered = clock("render", render, kernel, targets)
+    if key:
+        warm_cache.store(key, rendered)
     compiled, cached = None, False
     if build:
         cached = compiled_path(rendered).exists()
         compiled = CompiledModel(rendered, clock("compile", load, rendered))
-    return PipelineResult(trial.equations, trial.baked, trial.kernel, rendered, compiled,
+    return PipelineResult(trial.equations, trial.baked, kernel, rendered, compiled,
                           clock.timings, cached,
                           {k: float(v) for k, v in (stages.fixed or {}).items()})
 
@@ -425,8 +533,13 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
             name: str | None = None,
             cse_backend: CseBackend = CseBackend.SYMENGINE, targets=None,
             method: Method | None = None, form: Form | None = None,
-            stage: Callable[[str], None] | None = None) -> CompiledModel:
+            stage: Callable[[str], None] | None = None,
+            warm: bool | None = None) -> CompiledModel:
     """Generate, compile (cached by content hash) and load ``source``.
+
+    An unchanged model (the same content, outputs and options, the same mbgen) loads from
+    the warm cache without deriving (:mod:`mbgen.build.warm`; ``warm=False`` or
+    ``MBGEN_WARM=0`` derives every time).
 
     Parameters
     ----------
@@ -452,6 +565,8 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
         (default: the scene's).
     stage : callable, optional
         Called with each stage's name as it starts (see :func:`run`).
+    warm : bool, optional
+        Use the warm cache (default: ``$MBGEN_WARM``, else yes).
 
     Returns
     -------
@@ -460,4 +575,4 @@ def compile(source: Model | Equations | Scene, outputs: Iterable | None = None, 
     """
     return run(source, outputs, parameters=parameters, fixed=fixed, inputs=inputs, name=name,
                cse_backend=cse_backend, targets=targets, method=method, form=form,
-               stage=stage).compiled
+               stage=stage, warm=warm).compiled

@@ -477,3 +477,64 @@ def test_do_step_from_states_set_by_the_master_starts_afresh(driven, driven_prob
     cs.doStep(0.25, 0.25)
     stepper.memory.x[0:2], stepper.memory.f_valid = x, 0
     assert np.array_equal(cs.getReal(states), stepper.step(0.25))
+
+
+# ------------------------------------------------------------------ input bounds (saturate)
+@pytest.fixture(scope="module")
+def bounded(tmp_path_factory):
+    """The bounded cart (F in [-5, 5], T <= 1) saturated: (scene, model with the step API,
+    model description, unpacked folder, FMU path)."""
+    scene = models.bounded_cart(True, ("rhs", "dopri5"))
+    path = export_fmu(scene, tmp_path_factory.mktemp("bounded"))
+    folder = extract(str(path), str(tmp_path_factory.mktemp("bounded_unpacked")))
+    model = mbgen.compile(scene, targets=Targets(step=True))
+    return scene, model, read_model_description(str(path)), folder, path
+
+
+def test_a_saturating_fmu_states_its_bounds_and_validates(bounded):
+    *_, md, _, path = bounded
+    assert validate_fmu(str(path)) == []
+    said = {v.name: v.description for v in md.modelVariables if v.causality == "input"}
+    assert said["F"].endswith(", saturated to [-5.0, 5.0]")
+    assert said["T"].endswith(", saturated to [-inf, 1.0]")
+
+
+@pytest.mark.parametrize("kind", ["CoSimulation", "ModelExchange"])
+def test_fmpy_input_beyond_its_bound_runs_as_the_input_at_the_bound(bounded, kind):
+    """Through FMPy, F = 20, T = 3 give bit for bit the trajectory of F = 5, T = 1."""
+    *_, path = bounded
+
+    def run_with(F, T):
+        signal = np.array([(0.0, F, T), (2.0, F, T)], dtype=[("time", "f8"), ("F", "f8"),
+                                                             ("T", "f8")])
+        res = simulate_fmu(str(path), fmi_type=kind, stop_time=2.0, output_interval=0.1,
+                           input=signal, output=["x", "th", "v", "w"])
+        return state_columns(res, ["x", "th", "v", "w"])
+
+    beyond, edge = run_with(20.0, 3.0), run_with(5.0, 1.0)
+    assert np.array_equal(beyond, edge)
+    assert not np.array_equal(beyond, run_with(4.0, 1.0))
+
+
+def test_set_real_stores_the_clamped_input_and_logs_it(bounded):
+    """fmi2SetReal keeps an input clamped (fmi2GetReal reads the bound back; logged with
+    debug logging on); a co-simulation step is the saturating step API's, bit for bit."""
+    scene, model, md, folder, _ = bounded
+    make, made = instances((scene, model, md, folder), "bounded")
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    try:
+        cs = initialized(make())
+        cs.setDebugLogging(True, [])
+        LOG.clear()
+        cs.setReal([vr["F"], vr["T"]], [20.0, -40.0])
+        assert cs.getReal([vr["F"], vr["T"]]) == [5.0, -40.0]
+        assert [m for _, m in LOG] == ["fmi2SetReal: input F = 20 clamped to its bound 5"]
+        stepper = Stepper(model, "dopri5", 0.0, scene.x0(model.layout), rtol=DEFAULT_RTOL,
+                          atol=DEFAULT_ATOL)
+        cs.doStep(0.0, 0.5)
+        states = [vr[n] for n in model.state_names]
+        assert np.array_equal(cs.getReal(states), stepper.step(0.5, r=[20.0, -40.0]))
+        assert stepper.n_saturated == 1
+    finally:
+        for fmu in made:
+            fmu.freeInstance()

@@ -204,6 +204,7 @@ TOPICS = {
     "cli/test_conventions.py": "the conventions every command keeps",
     "cli/test_cli_errors.py": "every command's errors and exit codes",
     "codegen/test_determinism.py": "generated text independent of hash seeds and machines",
+    "derivation/test_armature.py": "joint armature through every derivation",
     "derivation/test_damping.py": "dampers through every derivation",
     "derivation/test_derive.py": "derive(), the package's front",
     "derivation/test_sympy_oracle.py": "every derivation against sympy.physics.mechanics",

@@ -4,7 +4,9 @@ Nothing here is imported by the library; ``mbgen bench WHAT`` (:mod:`mbgen.cli.b
 them.  :mod:`~mbgen.bench.arm` (the spatial arm, mbgen vs sympy vs Pinocchio; its Pinocchio
 side in :mod:`~mbgen.bench.arm_pinocchio`), :mod:`~mbgen.bench.constraints` (the Whipple
 bicycle and the four-bar), :mod:`~mbgen.bench.robot` (one robot file: mbgen vs Pinocchio vs
-MuJoCo; its peers in :mod:`~mbgen.bench.robot_peers`), :mod:`~mbgen.bench.scaling` (the
+MuJoCo; its peers in :mod:`~mbgen.bench.robot_peers`), :mod:`~mbgen.bench.interop` (an
+IPOPT NLP with mbgen's CasADi external vs CasADi's SX; JAX vs C batch vs MJX throughput),
+:mod:`~mbgen.bench.scaling` (the
 n-link pendulum, mbgen vs sympy), :mod:`~mbgen.bench.stages` (every pipeline stage of a
 scene under a budget) and :mod:`~mbgen.bench.targets` (batch RHS, ensembles, FMU round trip:
 ``python -m mbgen.bench.targets``) and :mod:`~mbgen.bench.crossing` (a call of the arm's RHS

@@ -31,14 +31,9 @@ import numpy as np
 from ..build.extension import compiler
 from ..codegen.templating import environment
 from ..errors import BenchmarkError
+from ..model.robots import ROBOTS, robot_path
 from .arm_pinocchio import PINOCCHIO_DEFINES, cmeel_prefix, import_pinocchio
 from .timing import DRIVER_FLAGS, MIN_LOOP_S
-
-#: Robots by name: path under example-robot-data's ``robots`` folder, floating base.
-ROBOTS = {"panda": ("panda_description/urdf/panda.urdf", False),
-          "ur5": ("ur_description/urdf/ur5_robot.urdf", False),
-          "solo12": ("solo_description/robots/solo12.urdf", True),
-          "g1": ("g1_description/urdf/g1_29dof_rev_1_0.urdf", True)}
 
 #: What mbgen does not model, switched off in MuJoCo (``mjtDisableBit`` names).
 SWITCHED_OFF = ("mjDSBL_CONTACT", "mjDSBL_LIMIT", "mjDSBL_EQUALITY", "mjDSBL_FRICTIONLOSS",
@@ -48,13 +43,10 @@ SWITCHED_OFF = ("mjDSBL_CONTACT", "mjDSBL_LIMIT", "mjDSBL_EQUALITY", "mjDSBL_FRI
 def robot_file(name_or_path: str) -> tuple[Path, bool | None]:
     """``(path, floating)`` of a robot named in :data:`ROBOTS` (None: a path's, not known)."""
     if name_or_path in ROBOTS:
-        relative, floating = ROBOTS[name_or_path]
         import_pinocchio()
-        import pinocchio
-        for parent in Path(pinocchio.__file__).resolve().parents:
-            candidate = parent / "share" / "example-robot-data" / "robots" / relative
-            if candidate.is_file():
-                return candidate, floating
+        found = robot_path(name_or_path)
+        if found is not None:
+            return found, ROBOTS[name_or_path][1]
         raise BenchmarkError(f"robot {name_or_path!r} needs example-robot-data: pip install "
                              f"example-robot-data")
     path = Path(name_or_path)

@@ -5,8 +5,10 @@ extension module, cached by content hash (``load``): cffi writes the wrapper, th
 compiler runs in child processes read through pipes, so that threads may build at once;
 :mod:`~mbgen.build.cache` keeps the folder of compiled modules private and decides
 which file may be loaded (owner, mode, SHA-256 record, checked on the open file that is
-then loaded); :mod:`~mbgen.build.fmu` compiles
-an FMU's sources into this platform's shared library and writes the ``.fmu`` zip.
+then loaded); :mod:`~mbgen.build.warm` is the cache's second index, the rendered code of
+an unchanged model keyed by what the user gave (its canonical form,
+:mod:`~mbgen.build.canonical`), so that a warm run derives nothing; :mod:`~mbgen.build.fmu`
+compiles an FMU's sources into this platform's shared library and writes the ``.fmu`` zip.
 Nothing here renders code (:mod:`mbgen.codegen`) or calls a model (:mod:`mbgen.runtime`).
 
 How to add a build

@@ -33,6 +33,10 @@ ssh applies to ``~/.ssh`` and pip to its private folders:
 
 Builds happen in a folder of their own (``<module>-<random>``) holding an ``owner`` file
 (host and process id); :func:`remove_stale_builds` removes those of killed builds.
+
+The warm cache's records (:mod:`mbgen.build.warm`: pickled rendered code, which runs code
+when read, as a module does when loaded) are written and read under the same rules
+(:func:`write_verified`, :func:`read_verified`).
 """
 
 from __future__ import annotations
@@ -295,6 +299,40 @@ def verified(path: Path) -> bool:
     if fd is not None:
         os.close(fd)
     return fd is not None
+
+
+def read_verified(path: Path) -> bytes | None:
+    """The bytes of the file at ``path`` when it is the user's own, whole and unchanged (the
+    checks of :func:`open_verified`, read from the checked descriptor), else None."""
+    fd = open_verified(path)
+    if fd is None:
+        return None
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        return b"".join(iter(lambda: os.read(fd, 1 << 20), b""))
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+
+
+def write_verified(path: Path, data: bytes) -> None:
+    """Put ``data`` at ``path`` in the cache with its record, as a build puts a module: in a
+    private folder beside it (``<name>-<random>``, with its ``owner`` file, so that
+    :func:`remove_stale_builds` removes a killed write's), then the file and after it the
+    record moved in by atomic renames; a reader sees the old pair or the new one, and a file
+    whose record does not match is never read (:func:`read_verified`).  An OSError as the
+    disk says it."""
+    folder = Path(tempfile.mkdtemp(prefix=f"{path.stem}-", dir=path.parent))
+    try:
+        (folder / "owner").write_text(owner_line())
+        written, record = folder / path.name, folder / "record"
+        written.write_bytes(data)
+        write_record(written, record)
+        os.replace(written, path)
+        os.replace(record, record_path(path))       # after the file: it proves it whole
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 #: Where Linux shows a process's open files as paths (see :func:`loadable`); None elsewhere.

@@ -91,9 +91,10 @@ COMMANDS = {
                  "pendulum, mbgen vs sympy), 'mbgen bench robot' (a URDF or MJCF "
                  "robot FILE: mbgen vs Pinocchio vs MuJoCo), 'mbgen bench arm' (spatial "
                  "arm: mbgen vs "
-                 "sympy vs Pinocchio, RHS timed inside C) or 'mbgen bench constraints' "
+                 "sympy vs Pinocchio, RHS timed inside C), 'mbgen bench constraints' "
                  "(Whipple bicycle: mbgen vs sympy's KanesMethod; four-bar residual "
-                 "against run time)"),
+                 "against run time) or 'mbgen bench interop' (an IPOPT NLP with mbgen's "
+                 "CasADi external vs CasADi's SX; JAX vs C batch vs MJX throughput)"),
     "stress": Command("stress", "stability suite: stiff, extreme, near-singular, long runs, "
                                 "floating point vs 50-digit mpmath"),
     "fmu": Command("fmu", "write an FMI 2.0 FMU (model exchange and co-simulation); "

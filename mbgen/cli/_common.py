@@ -353,7 +353,8 @@ def progress(msg: str) -> None:
 
 #: How :func:`stage_lines` names the pipeline's stages (:func:`mbgen.pipeline.run`).
 STAGES = {"derive": "derive", "bake": "bake the scene's slice", "cse": "CSE",
-          "render": "render", "compile": "compile (C compiler)"}
+          "render": "render", "compile": "compile (C compiler)",
+          "warm": "load (unchanged since a run before: nothing derived)"}
 
 
 def stage_lines(args):

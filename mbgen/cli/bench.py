@@ -20,7 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..bench import arm, constraints, robot, scaling, stages
+from ..bench import arm, constraints, interop, robot, scaling, stages
 from ..errors import EXIT_OK, MissingExtraError, UsageError
 from ..fileio import write_atomic
 from ..model.scene import load_scene
@@ -66,14 +66,15 @@ def _numbers(kind: type, what: str) -> Callable[[str], tuple]:
 
 
 def configure(p: argparse.ArgumentParser) -> None:
-    p.description = ("WHAT chooses the benchmark: a scene, 'scaling', 'arm' or "
-                     "'constraints'; each mode is a group of options below, with what it "
+    p.description = ("WHAT chooses the benchmark: a scene, 'scaling', 'arm', "
+                     "'constraints', 'robot' or 'interop'; each mode is a group of options "
+                     "below, with what it "
                      "measures and the files it writes.  The plots need matplotlib (pip "
                      f"install 'mbgen[{EXTRA}]'); without it the CSV is written, and a note "
                      "says so before the sweep starts.")
     p.add_argument("what", metavar="WHAT",
-                   help="a scene (name or .py file), 'scaling', 'arm', 'constraints' or "
-                        "'robot'")
+                   help="a scene (name or .py file), 'scaling', 'arm', 'constraints', "
+                        "'robot' or 'interop'")
     p.add_argument("file", nargs="?", metavar="FILE",
                    help="robot: a .urdf or MJCF .xml file, or panda, ur5, solo12, g1 "
                         "(example-robot-data)")
@@ -153,6 +154,19 @@ def configure(p: argparse.ArgumentParser) -> None:
                                  "against Pinocchio's computeABADerivatives (and CasADi's)")
     robot_only.add_argument("--no-mujoco", action="store_true", help="leave MuJoCo out")
 
+    inter = p.add_argument_group(
+        "mbgen bench interop", "mbgen's dynamics in CasADi and JAX against the peers' own "
+                               "(the casadi and jax extras; printed, no files): an IPOPT "
+                               "multiple-shooting NLP (arm and UR5) with mbgen's external vs "
+                               "CasADi's SX; UR5's RHS over batches, JAX vs C vs MJX.")
+    inter.add_argument("--arm-n", type=int, default=7, metavar="N",
+                       help="links of the actuated arm in the NLP (default 7)")
+    inter.add_argument("--intervals", type=int, default=interop.N_INTERVALS, metavar="N",
+                       help=f"shooting intervals (default {interop.N_INTERVALS})")
+    inter.add_argument("--batches", type=_numbers(int, "whole numbers"),
+                       default=(1000, 10000), metavar="LIST",
+                       help="batch sizes of the throughput table (default 1000,10000)")
+
     children = p.add_argument_group(
         "mbgen bench constraints", "Whipple bicycle and four-bar (constraints.txt and "
                                    ".json).  Its child processes, arm's and --stages' run "
@@ -218,6 +232,20 @@ def bench_constraints(args) -> int:
     write_atomic(path, text + "\n")
     write_atomic(folder / "constraints.json", bench.to_json())
     print(f"\nwrote {path} and {folder / 'constraints.json'}")
+    return EXIT_OK
+
+
+def bench_interop(args) -> int:
+    """``bench interop``: CasADi NLP and JAX throughput against the peers (printed)."""
+    check_count(args.arm_n, "--arm-n", 1, 32, "links of the arm")
+    check_count(args.intervals, "--intervals", 2, 1000, "shooting intervals")
+    for k in args.batches:
+        check_count(k, "--batches", 1, 10**6, "states in one batch")
+    folder = Path(args.output or Path("bench") / "interop")
+    report = interop.interop_bench(folder, arm_n=args.arm_n, N=args.intervals,
+                                   batches=args.batches, repeats=args.repeats or 5,
+                                   progress=progress)
+    print(interop.format_interop(report))
     return EXIT_OK
 
 
@@ -291,6 +319,7 @@ class Benchmark:
 #: constraints; with scaling it reads 'scaling' as a scene, as it always has).
 BENCHMARKS = {"arm": Benchmark(bench_arm, takes_stages=False),
               "constraints": Benchmark(bench_constraints, takes_stages=False),
+              "interop": Benchmark(bench_interop, takes_stages=False),
               "robot": Benchmark(bench_robot, takes_stages=False),
               "scaling": Benchmark(bench_scaling, takes_stages=True)}
 #: Any other WHAT: a scene.

@@ -58,7 +58,9 @@ class Kernel:
     """Optimised, ready-to-print functions of one model, plus the integrators asked for.
 
     ``layout`` is the ABI: the equations' layout without parameters and inputs
-    that no emitted function reads.
+    that no emitted function reads.  ``input_bounds``: ``((input, lower, upper), ...)``
+    that the step API and the FMU clamp the inputs to (``Scene(saturate=True)``, set by
+    the pipeline); empty: no saturation.
     """
 
     equations: Equations
@@ -71,6 +73,7 @@ class Kernel:
     form: Form = Form.SOLVE   # how u' is computed (see mbgen.codegen.outputs.Form)
     form_costs: tuple = ()    # ((form, operations of the RHS), ...) when both were weighed
     solve_bounded: bool = False   # SOLVE's cost is its L D L^T alone: not tried, it cannot win
+    input_bounds: tuple = ()      # ((input, lower, upper), ...): Scene(saturate=True)
 
     @property
     def outputs(self) -> tuple[Output, ...]:
@@ -176,6 +179,8 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
     solved = set(acceleration_symbols(L.n_u + L.n_d))
     if equations.constraints is not None:
         solved |= set(lambda_symbols(equations.constraints.m))
+    if equations.contacts is not None:   # the contact forces, solved with u'
+        solved |= set(lambda_symbols(equations.contacts.m))
     after_solve = _depends_on(reps, solved - defined)
 
     functions = []

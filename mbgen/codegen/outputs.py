@@ -64,6 +64,7 @@ from ..symbolic.availability import SENSITIVITIES, imported, imported_hint, requ
 from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
 from ..symbolic.graph import differentiate
 from ..symbolic.program import Program, derivatives
+from .contacts import padded
 
 
 def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[Output, ...]:
@@ -130,6 +131,9 @@ class Spec:
     velocity: tuple[Block, ...] = ()   # constrained: CA, CB, evaluated before u_r is solved
     implicit: int = 0   # constrained sensitivities: columns by implicit differentiation
     pivots: bool = False   # reads the recursion's u': every pivot is checked, used or not
+    contact: int = 0   # contact rows m: the solve adds the contacts' (u', lambda) to the L D L^T
+    forces: bool = False   # contact columns: write dlambda (else du') for each column
+    stride: int = 0    # contact columns: DT, DC row-major with this many (padded) columns
 
     @property
     def out_size(self) -> int:
@@ -192,6 +196,13 @@ def _mass_blocks(eq: Equations):
     if eq.constraints is not None:
         blocks += (Block("BETA", eq.constraints.m,
                          tuple(enumerate(eq.constraints.acceleration_bias))),)
+    if eq.contacts is not None:   # the contact solve reads structural nonzeros only
+        J, c = eq.contacts.jacobian, eq.contacts.drift
+        blocks = (Block("M", n * n, tuple((k, e) for k, e in lower if e != 0 or k % (n + 1) == 0)),
+                  blocks[1],
+                  Block("CJ", J.rows * n, tuple((i * n + j, J[i, j]) for i in range(J.rows)
+                                                for j in range(n) if J[i, j] != 0)),
+                  Block("CB", J.rows, tuple(enumerate(c))))
     return blocks
 
 
@@ -213,6 +224,12 @@ def _rhs(eq: Equations, info: OutputInfo, form: Form) -> Spec:
                     doc="First-order right-hand side dxdt = [G(q,u,t); u'] with u' from "
                         "the articulated-body recursion.")
     g = Block("out", L.n_x, tuple(enumerate(eq.kinematics)))
+    if eq.contacts is not None:
+        return Spec(info.output, info.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
+                    solve=True, contact=eq.contacts.m,
+                    doc="First-order right-hand side dxdt = [G(q,u,t); u'] with rigid point "
+                        "contacts: M = L D L^T, u' = M^-1 (F + J^T lambda) with lambda from "
+                        "J u' + c = 0 (the Delassus matrix J M^-1 J^T by L D L^T).")
     if eq.constraints is not None:
         return Spec(info.output, info.array, (L.n_x,), L.derivative_names, (g, *_mass_blocks(eq)),
                     solve=True, velocity=_velocity_blocks(eq),
@@ -273,6 +290,10 @@ def _point_spec(eq: Equations, info: OutputInfo, attribute: str, letter: str, wh
 
 def _reactions(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     """Joint reactions: after the solve (they hold for the actual accelerations)."""
+    if eq.contacts is not None:
+        raise ModelError(f"the model {eq.name!r} has contacts: mbgen does not yet add their "
+                         f"forces to the joint reactions; leave Output.REACTIONS out (the "
+                         f"contact forces are Output.CONSTRAINT_FORCES)")
     J = eq.reactions
     nj = len(J.names)
     entries = tuple(enumerate(J.matrix))
@@ -289,6 +310,14 @@ def _reactions(eq: Equations, info: OutputInfo, form: Form) -> Spec:
 
 
 def _constraint_forces(eq: Equations, info: OutputInfo, form: Form) -> Spec:
+    if eq.contacts is not None:
+        k = eq.contacts
+        return Spec(info.output, info.array, (k.m,), tuple(f"lambda[{n}]" for n in k.labels()),
+                    _mass_blocks(eq), solve=True, contact=k.m,
+                    post=(Block("out", k.m, tuple(enumerate(lambda_symbols(k.m)))),),
+                    doc=f"Contact forces lambda: the force the ground exerts at "
+                        f"{', '.join(k.names)}, Newtonian components (x, y, z of each), of "
+                        f"M u' = F + J^T lambda with J u' + c = 0.")
     c = eq.constraints
     lam = lambda_symbols(c.m)
     return Spec(info.output, info.array, (c.m,), tuple(f"lambda[{n}]" for n in c.names),
@@ -337,6 +366,8 @@ def _sensitivity(eq: Equations, info: OutputInfo, form: Form) -> Spec:
                     variables=variables, extra=extra, pivots=True)
     if eq.constraints is not None:
         return _implicit_sensitivity(eq, info, variables, shape, labels, tag)
+    if eq.contacts is not None:
+        return _contact_sensitivity(eq, info, variables, shape, labels, tag)
     acc = acceleration_symbols(nu)
     M, F = eq.mass_matrix, eq.forcing
     rows = (list(eq.residual) if eq.residual is not None else
@@ -406,6 +437,71 @@ def _implicit_sensitivity(eq: Equations, info: OutputInfo, variables, shape, lab
                 variables=variables, extra=extra, velocity=_velocity_blocks(eq), implicit=nv)
 
 
+def _contact_sensitivity(eq: Equations, info: OutputInfo, variables, shape, labels, tag,
+                         forces: bool = False) -> Spec:
+    r"""``df/dv`` (and, ``forces``, :math:`\partial\lambda/\partial v` below it) of a model
+    with contacts, by implicit differentiation of
+
+    .. math::
+
+        R = F - M a + J^T\lambda = 0, \qquad C = J a + c = 0
+
+    with ``a`` and :math:`\lambda` held: ``DT`` (:math:`\partial R/\partial v`, ``n_u`` rows of
+    ``stride`` columns, the variables' padded to a multiple of
+    :data:`~mbgen.codegen.contacts.LANES`) and ``DC`` (:math:`\partial C/\partial v`, ``m`` rows)
+    are post blocks, and the
+    generated code solves each column as the contact dynamics itself (same factors):
+    :math:`z = M^{-1}\,\partial_j R`, :math:`d\lambda = -G^{-1}(J z + \partial_j C)`,
+    :math:`da = z + Y d\lambda`.  ``R`` is the inverse-dynamics ``residual`` plus
+    :math:`J^T\lambda` where the equations carry one (differentiated through the program, or
+    its analytic Jacobian :mod:`mbgen.derivation.rnea_partials` plus that of
+    :math:`J^T\lambda`).
+    """
+    L, k = eq.layout, eq.contacts
+    nq, nu, nv, m = L.n_q, L.n_u, len(variables), k.m
+    acc, lam = acceleration_symbols(nu), lambda_symbols(m)
+    JTl, C = k.generalized_force(lam), k.acceleration(acc)
+    analytic = info.output is Output.JACOBIAN and eq.residual_jacobian is not None
+    if analytic:
+        rows = JTl
+    elif eq.residual is not None:
+        rows = [sm.Add(r, f) for r, f in zip(eq.residual, JTl)]
+    else:
+        M, F = eq.mass_matrix, eq.forcing
+        rows = [sm.Add(F[i], *(-M[i, j] * acc[j] for j in range(nu)), JTl[i])
+                for i in range(nu)]
+    exprs = list(eq.kinematics) + rows + C
+    if eq.program:
+        extra, d = derivatives(eq.program, exprs, variables, tag)
+    else:
+        extra, d = Program(), differentiate(exprs, variables)
+    dG, dR, dC = d[:nq], d[nq:nq + nu], d[nq + nu:]
+    if analytic:
+        dR = [[sm.Add(a, b) for a, b in zip(eq.residual_jacobian.row(i), dR[i])]
+              for i in range(nu)]
+    stride = padded(nv)   # row-major, columns padded: the C solves them as vector loops
+    post = (Block("DT", nu * stride, tuple((i * stride + j, dR[i][j]) for i in range(nu)
+                                           for j in range(nv))),
+            Block("DC", m * stride, tuple((r * stride + j, dC[r][j]) for r in range(m)
+                                          for j in range(nv))))
+    size = (L.n_x + (m if forces else 0)) * nv
+    pre = (Block("out", size, tuple((i * nv + j, dG[i][j]) for i in range(nq)
+                                    for j in range(nv))),) + _mass_blocks(eq)
+    return Spec(info.output, info.array, shape, labels, pre, solve=True, post=post, columns=nv,
+                variables=tuple(variables), extra=extra, contact=m, forces=forces,
+                stride=stride)
+
+
+def _contact_jacobian(eq: Equations, info: OutputInfo, form: Form) -> Spec:
+    r""":math:`\partial f/\partial x` and below it :math:`\partial\lambda/\partial x` of the
+    contact forces, from one set of column solves (:func:`_contact_sensitivity`)."""
+    L, k = eq.layout, eq.contacts
+    labels = tuple(f"d({s}')/d({v})" for s in L.state_names for v in L.state_names)
+    labels += tuple(f"d(lambda[{n}])/d({v})" for n in k.labels() for v in L.state_names)
+    return _contact_sensitivity(eq, info, L.states, (L.n_x + k.m, L.n_x), labels,
+                                f"{info.array.lower()}_", forces=True)
+
+
 #: How the kernel computes every expression output: ``build(eq, info, form) -> Spec``, with
 #: ``info`` the output's row of :data:`mbgen.abi.OUTPUT_INFO`.
 BUILDERS: dict[Output, Callable[[Equations, OutputInfo, Form], Spec]] = {
@@ -423,4 +519,5 @@ BUILDERS: dict[Output, Callable[[Equations, OutputInfo, Form], Spec]] = {
     Output.CONSTRAINT_FORCES: _constraint_forces,
     Output.HOLONOMIC: _holonomic,
     Output.HOLONOMIC_JACOBIAN: _holonomic_jacobian,
+    Output.CONTACT_JACOBIAN: _contact_jacobian,
 }

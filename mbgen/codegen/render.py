@@ -23,7 +23,14 @@ header template and by the cdef string, so they cannot drift apart.
 
 from __future__ import annotations
 
-from ..abi import CONSTRAINT_STATUS_CODES, STATUS_CODES, FunctionInfo, Output, Rendered
+from ..abi import (
+    CONSTRAINT_STATUS_CODES,
+    CONTACT_STATUS_CODES,
+    STATUS_CODES,
+    FunctionInfo,
+    Output,
+    Rendered,
+)
 from ..names import model_prefix
 from . import header as head
 from .optimize import Kernel
@@ -56,6 +63,8 @@ def render(kernel: Kernel, targets=None) -> Rendered:
     codes = STATUS_CODES + tuple(dict.fromkeys(c for t in active for c in t.status_codes))
     if eq.constraints is not None:
         codes += CONSTRAINT_STATUS_CODES
+    if eq.contacts is not None:
+        codes += CONTACT_STATUS_CODES
     ctx["defines"] += [(f"{prefix.upper()}_{code}", value, text) for code, value, text in codes]
     runtime = Runtime(ctx)
     for t in active:
@@ -92,7 +101,8 @@ def render(kernel: Kernel, targets=None) -> Rendered:
                     {str(sym): eq.defaults[str(sym)] for sym in kernel.layout.parameters
                      if str(sym) in eq.defaults}, kernel.outputs, extension,
                     "\n".join(cdef) + "\n", digest, tuple(sorted(bounds.items())), step_methods,
-                    _joints(kernel), c.names if c is not None else (),
+                    _joints(kernel), c.names if c is not None else
+                    eq.contacts.labels() if eq.contacts is not None else (),
                     tuple(map(str, c.dependent_coordinates)) if c is not None else ())
 
 

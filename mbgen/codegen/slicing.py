@@ -120,4 +120,7 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
         residual=None if equations.residual is None else bake_matrix(equations.residual),
         residual_jacobian=(None if equations.residual_jacobian is None
                            else bake_matrix(equations.residual_jacobian)),
+        contacts=(None if equations.contacts is None else replace(
+            equations.contacts, jacobian=bake_matrix(equations.contacts.jacobian),
+            drift=bake_matrix(equations.contacts.drift))),
     )

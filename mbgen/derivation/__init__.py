@@ -8,7 +8,8 @@ every method:
    the kinematic differential equations solved for ``q'``, and the kinematic
    tree (:mod:`~mbgen.derivation.tree`);
 2. the derivation method, looked up in :data:`METHODS` -- the equations of motion;
-3. :mod:`~mbgen.derivation.constraints` -- the model's stated constraints.
+3. :mod:`~mbgen.derivation.constraints` -- the model's stated constraints, and
+   :mod:`~mbgen.derivation.contacts` -- its rigid point contacts.
 
 Equations that sympy's own methods formed come in through
 :func:`~mbgen.derivation.from_sympy.from_sympy` instead.
@@ -104,6 +105,7 @@ from . import kane, newton_euler, prepare
 from .choice import CHAIN, COMPARE_SPEEDS, Structure, structure
 from .common import Wants
 from .constraints import constrain
+from .contacts import with_contacts
 from .prepare import Prepared
 
 
@@ -229,7 +231,7 @@ def derive(model: Model | Prepared, method: Method | None = None, *, energy: boo
     else:
         reason = NAMED
     eq = METHODS[named](prep, Wants(energy, tuple(points), reactions, jacobian))
-    return replace(constrain(eq, prep), method_reason=reason,
+    return replace(with_contacts(constrain(eq, prep), prep), method_reason=reason,
                    defaults={**eq.defaults, **model.defaults_})   # Model.constants(defaults=)
 
 

@@ -13,7 +13,10 @@ massless parts), the inward pass (:func:`_aba_inward`, leaves first: one
     \qquad
     p^A_b = -g_b + \sum_c X_c^T(p^A_c + U_c D_c^{-1} u_c)
 
-with :math:`U = \mathcal I^A S`, :math:`D = S^T U`, :math:`u = \tau - S^T p^A`, and
+with :math:`U = \mathcal I^A S`, :math:`D = S^T U + \operatorname{diag}(a)`,
+:math:`u = \tau - S^T p^A` (``a`` the armature of the joint's speeds,
+:meth:`mbgen.Model.armature`, on the pivots alone: with it, row and column ``m`` of
+:math:`\mathcal I^A - U D^{-1} U^T` no longer vanish for ``S = e_m``), and
 the outward pass (:func:`_aba_outward`, root first)
 :math:`u'_b = D_b^{-1}(u_b - U_b^T X_b \hat a_p)`, :math:`\hat a_b = X_b \hat a_p + S_b u'_b`.
 Pivots of ``D`` must be positive (they are checked in the generated code).
@@ -103,27 +106,29 @@ def _articulated_body(ne: NewtonEuler, b: Body, joint: dict, tau: dict) -> Artic
     ks = tuple(sorted(S))
     U = [P.vector(matvec6(I, S[k])) for k in ks]
     D = [[dot6(S[ks[i]], U[j]) for j in range(len(ks))] for i in range(len(ks))]
+    for i, k in enumerate(ks):
+        D[i][i] = add(D[i][i], ne.armature.get(k, S0))
     u = [add(tau.get(k, S0), mul(-1, dot6(S[k], p))) for k in ks]
     if not ks:
         return ArticulatedJoint(I, p, ks, U, u, None)
     solve = _SmallSolve(P, D)
-    Ia, pa = _handed_on(P, I, p, S, ks, U, u, solve, tau)
+    Ia, pa = _handed_on(P, I, p, S, ks, U, u, solve, tau, ne.armature)
     return ArticulatedJoint(Ia, pa, ks, U, u, solve)
 
 
-def _handed_on(P: ProgramBuilder, I, p, S, ks, U, u, solve, tau) -> tuple:
+def _handed_on(P: ProgramBuilder, I, p, S, ks, U, u, solve, tau, armature) -> tuple:
     r""":math:`(\mathcal I^A - U D^{-1} U^T,\ p^A + U D^{-1} u)`, the joint's free motions
-    projected out: what the parent receives."""
+    projected out: what the parent receives (``armature``: speed -> a_k, in ``D``)."""
     n = len(ks)
     Dinv_u = solve(u)
     W = [solve([U[i][row] for i in range(n)]) for row in range(6)]
     low = {(i, j): add(I[i][j], mul(-1, add(*(mul(U[k][i], W[j][k]) for k in range(n)))))
            for i in range(6) for j in range(i + 1)}
     pa = vadd6(p, tuple(add(*(mul(U[k][i], Dinv_u[k]) for k in range(n))) for i in range(6)))
-    m = _unit_index(S[ks[0]]) if n == 1 else None
+    m = _unit_index(S[ks[0]]) if n == 1 and ks[0] not in armature else None
     if m is not None:
-        # S = e_m: row and column m of I - U U^T / D vanish exactly, and
-        # component m of the bias is the joint's generalized force.
+        # S = e_m and D = I_mm (no armature): row and column m of I - U U^T / D vanish
+        # exactly, and component m of the bias is the joint's generalized force.
         low = {(i, j): S0 if m in (i, j) else v for (i, j), v in low.items()}
         pa = tuple(mul(S[ks[0]][m], tau.get(ks[0], S0)) if i == m else v
                    for i, v in enumerate(pa))

@@ -10,7 +10,8 @@ Kane's equations :math:`F_r + F_r^* = 0` give :math:`M u' = F` with
     F_r &= \sum_k v_{k,r}\cdot(R_k - m_k a^t_k)
           + \omega_{k,r}\cdot(T_k - I_k\alpha^t_k - \omega_k\times I_k\omega_k)
 
-where :math:`a^t, \alpha^t` are accelerations with every :math:`u' = 0`.
+where :math:`a^t, \alpha^t` are accelerations with every :math:`u' = 0`; a speed's
+armature :math:`a_k` (:meth:`mbgen.Model.armature`) adds to :math:`M_{kk}` alone.
 
 A mass centre's velocity is a sum of atom velocities (see
 :mod:`mbgen.derivation.tree`), so the translational sums regroup as
@@ -64,10 +65,14 @@ def kane(prep: Prepared, wants: Wants) -> Equations:
     _translational(prep, grp, M, F)
     _rotational(prep, M, F)
     _applied(prep, F)
+    for k, a in prep.armature:      # armature: M_kk += a_k
+        M[k][k] = add(M[k][k], a)
     for r in range(nu):
         for s in range(r):
             M[s][r] = M[r][s]
     kinetic, potential = energies(prep, grp) if wants.energy else (None, None)
+    if kinetic is not None and prep.armature:
+        kinetic = add(kinetic, prep.armature_energy())
     program, loads = reactions_for(prep) if wants.reactions else (Program(), None)
     return Equations(
         name=model.name,

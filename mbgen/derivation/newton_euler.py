@@ -41,6 +41,7 @@ from ..symbolic.program import Program
 from .articulated import articulated
 from .common import Grouping, Wants, point_kinematics, potential_energy
 from .constraints import ordered
+from .contacts import recursive_contacts
 from .prepare import Prepared
 from .reactions import constraint_loads, joint_reactions
 from .recursion import outward_pass
@@ -60,7 +61,8 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
     rows = ne.mass_matrix()
     nu = layout.n_u
     M = [[rows[max(r, s)][min(r, s)] for s in range(nu)] for r in range(nu)]
-    udot = articulated(ne) if not model.constraints_ else None
+    contacts = recursive_contacts(ne) if getattr(model, "contacts_", ()) else None
+    udot = articulated(ne) if not model.constraints_ and not contacts else None
     residual = ne.residual(acceleration_symbols(nu)) if not model.constraints_ else None
     loads = (joint_reactions(ne, extra=constraint_loads(ne, ordered(model)))
              if wants.reactions else None)
@@ -87,6 +89,7 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
         reactions=loads,
         residual=sm.ImmutableMatrix(residual) if residual is not None else None,
         residual_jacobian=partials[0] if partials is not None else None,
+        contacts=contacts,
     )
 
 

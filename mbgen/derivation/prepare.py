@@ -63,6 +63,9 @@ class Prepared:
         The Newton–Euler outward pass of the model where the choice of method has run it
         (:func:`mbgen.derivation.choose_method`), for the derivations to fork rather than
         run again (:func:`mbgen.derivation.recursion.outward_pass`); None before that.
+    armature : tuple of (int, Expr)
+        ``(k, a_k)``: the generalized inertia :math:`a_k` on speed ``k`` (layout order) of
+        each :meth:`~mbgen.Model.armature`; every method adds it to :math:`M_{kk}`.
     """
 
     model: Model
@@ -79,6 +82,7 @@ class Prepared:
     to_plain: dict = field(default_factory=dict, repr=False)
     known: frozenset = field(default_factory=frozenset, repr=False)
     outward: object = field(default=None, repr=False)
+    armature: tuple = ()
 
     def plain(self, expr, where: str) -> sm.Expr:
         """``expr`` in plain symbols; :class:`ModelError` naming ``where`` if it holds
@@ -88,6 +92,11 @@ class Prepared:
     def terms(self, vector, where: str) -> list[tuple[FrameNode, Vec3]]:
         """A sympy Vector as ``[(node, components)]``, one per frame, zeros dropped."""
         return _terms(vector, where, self.frame_nodes, self.plain)
+
+    def armature_energy(self) -> sm.Expr:
+        r""":math:`\tfrac12 \sum_k a_k u_k^2`, the kinetic energy of the armature."""
+        speeds = self.layout.speeds
+        return sm.Rational(1, 2) * sm.Add(*(a * speeds[k] ** 2 for k, a in self.armature))
 
 
 def prepare(model: Model) -> Prepared:
@@ -135,8 +144,10 @@ def prepare(model: Model) -> Prepared:
         point_atoms[point] = (point_atoms[pd.parent] if pd.parent is not None else ()) + own
     masses = _masses(model, point_atoms, nodes, plain)
     gravity, forces, torques, lines = _loads(model, point_atoms, nodes, plain, terms)
+    armature = tuple((u_f.index(a.speed), plain(a.value, f"armature on {a.speed.func}"))
+                     for a in model.armatures_)
     return Prepared(model, layout, tree, qdot, nodes, point_atoms, masses, gravity, forces,
-                    torques, lines, to_plain, known)
+                    torques, lines, to_plain, known, armature=armature)
 
 
 def _plain(expr, where: str, to_plain: dict, known) -> sm.Expr:

@@ -32,7 +32,10 @@ joints' free motions; **composite rigid bodies** give the mass matrix:
     \qquad M_{ij} = S_i^T X^T \mathcal I^C_j S_j,
 
 ``tau`` the generalized forces of loads on massless parts (why these are the
-equations of motion: :mod:`mbgen.derivation.newton_euler`).
+equations of motion: :mod:`mbgen.derivation.newton_euler`).  A joint's armature
+:math:`a_k` (:meth:`mbgen.Model.armature`) is no body: it adds to the joint's own
+diagonal, :math:`M_{kk} \mathrel{+}= a_k`, and :math:`-a_k u'_k` to the inverse
+dynamics' residual (and to the articulated-body pivot, :mod:`mbgen.derivation.articulated`).
 
 Every per-body quantity is a named intermediate (:class:`mbgen.symbolic.program.Program`),
 so the recursion's size is linear in the number of bodies.
@@ -146,6 +149,8 @@ class NewtonEuler:
         self.bt = bodies or build_bodies(prep)
         self.bodies: list[Body] = self.bt.bodies
         self.nu = prep.layout.n_u
+        #: speed index -> its armature a_k (Model.armature)
+        self.armature: dict = dict(prep.armature)
         self.P = ProgramBuilder("ne")
         self._rotations: dict = {}
         g = prep.gravity
@@ -415,7 +420,7 @@ class NewtonEuler:
             vel[b] = P.vector(cancelled(v) if k.through else v)
             V = join(k.omega, vel[b])
             terms.append(dot6(V, matvec6(self.inertia[b].spatial, V)))
-        return mul(sm.Rational(1, 2), add(*terms))
+        return add(mul(sm.Rational(1, 2), add(*terms)), self.prep.armature_energy())
 
     # ------------------------------------------------------------------ equations of motion
     def children_sum(self, b: Body, of: dict):
@@ -457,19 +462,22 @@ class NewtonEuler:
 
     def residual(self, udot) -> list:
         r"""``F - M u'`` for the accelerations ``udot`` by inverse dynamics (linear in the
-        number of bodies): :math:`(F - M u')_k = \tau_k - \sum_b S_{b,k}^T f_b(u')`
-        with :meth:`body_forces`.  Its derivatives with ``u'`` held are those of
-        :math:`R = F - M u'` that the Jacobians need (:mod:`mbgen.codegen.outputs`),
-        without differentiating ``M``."""
+        number of bodies): :math:`(F - M u')_k = \tau_k - a_k u'_k - \sum_b S_{b,k}^T
+        f_b(u')` with :meth:`body_forces` (``a_k`` the armature).  Its derivatives with
+        ``u'`` held are those of :math:`R = F - M u'` that the Jacobians need
+        (:mod:`mbgen.codegen.outputs`), without differentiating ``M``."""
         f = self.body_forces(udot)
         rows = [list(self.tau.get(k, ())) for k in range(self.nu)]
+        for k, a in self.armature.items():
+            rows[k].append(mul(-1, mul(a, udot[k])))
         for b in self.bodies:
             for k, s in self.kin[b].S.items():
                 rows[k].append(mul(-1, dot6(s, f[b])))
         return [self.P.scalar(add(*r)) for r in rows]
 
     def mass_matrix(self) -> list:
-        """``M`` by composite rigid bodies (rows of sympy expressions)."""
+        """``M`` by composite rigid bodies, the armature on its diagonal (rows of sympy
+        expressions; the lower triangle, None above it)."""
         P = self.P
         IC = {}
         for b in reversed(self.bodies):
@@ -479,6 +487,8 @@ class NewtonEuler:
                 low = {key: add(v, con[key]) for key, v in low.items()}
             IC[b] = symmetric({key: P.scalar(v) for key, v in low.items()})
         M = [[[] for _ in range(self.nu)] for _ in range(self.nu)]
+        for k, a in self.armature.items():
+            M[k][k].append(a)
         for j in self.bodies:
             for s, col in self.kin[j].S.items():
                 f = P.vector(matvec6(IC[j], col))

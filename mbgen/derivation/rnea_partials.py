@@ -45,7 +45,9 @@ and on the diagonal :math:`J_b\cdot F_{q,b}`, :math:`J_b\cdot F_{v,b}`.  ``B`` n
 12 numbers, not 36 (:meth:`_World._coriolis`).  Loads
 other than gravity (and generalized forces on massless parts) enter ``R`` as
 :math:`\tau^{app}_k + \sum_b S_{b,k}\cdot G^{app}_b`, differentiated through the
-program in forward mode (cheap: they touch few bodies).  Every per-body quantity
+program in forward mode (cheap: they touch few bodies).  A joint's armature adds
+:math:`-a_k u'_k` to ``R`` (:meth:`~mbgen.derivation.recursion.NewtonEuler.residual`):
+a constant times the held ``u'``, it changes neither partial.  Every per-body quantity
 is a named intermediate: :math:`O(n)` 6x6 work and :math:`O(n^2)` dot products.
 """
 

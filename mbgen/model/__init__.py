@@ -26,6 +26,9 @@
   what it is: a folder, a pipe, a device);
 * :mod:`~mbgen.model.free_base` -- a floating base must move mass whichever way it moves
   (its articulated-body inertia), checked by both robot readers.
+* :mod:`~mbgen.model.ground` -- a compliant ground (``Model.ground``) as ordinary loads;
+  :mod:`~mbgen.model.hold` -- a joint PD hold so a robot can stand on it;
+  :mod:`~mbgen.model.robots` -- ``example-robot-data``'s robots by name (``solo12``).
 
 Nothing here derives, generates or runs anything: this package imports only
 the layers below it (``symbolic``, ``names``, ``abi``, ``summary``, ``errors``).
@@ -44,6 +47,8 @@ How to add a model element
    ``derive/kane.py`` (generalized forces), ``derive/recursion.py``
    (``NewtonEuler._collect_loads``: body wrenches), and ``derive/common.py``
    (``energies``) when it has a potential.
+   An element made of the loads above (``Model.ground``: forces and torques whose
+   vectors hold the law) stops here: every derivation already takes them.
 4. Tests: add it to ``loaded()`` in ``tests/derivation/test_derive.py``, which fails when
    a derivation method misses it (every method must agree with Kane), and
    check its physics against a derivation by hand in ``tests/scenes/test_physics.py``.

@@ -48,8 +48,10 @@ from sympy.physics import vector as spv
 from ..errors import ModelError
 from ..names import check_name, model_prefix
 from .elements import (
+    Armature,
     Bound,
     Constraint,
+    Contact,
     Force,
     FrameDef,
     Gravity,
@@ -59,12 +61,15 @@ from .elements import (
     PointDef,
     RigidBody,
     Torque,
+    armature_record,
     axis_index,
     bound_record,
     constant_defaults,
+    contact_record,
     inertia_matrix,
 )
 from .expressions import expression
+from .ground import FRICTION, SLIP_VELOCITY, add_ground
 from .limits import MAX_BODIES, MAX_SPEEDS, check_count, guard_range
 from .summary import model_html
 
@@ -136,9 +141,12 @@ class Model:
         self.kinematic_equations_: list[sm.Expr] = []
         self.prescribed_: dict[str, sm.Expr] = {}
         self.joints_: list[Joint] = []
+        self.armatures_: list[Armature] = []
+        self.contacts_: list[Contact] = []
         self.constraints_: list[Constraint] = []
         self.defaults_: dict[str, float] = {}     # constant name -> default value
         self.bounds_: dict[str, Bound] = {}       # name -> its range (data only)
+        self.ground_ = None                       # Ground record (model.ground)
         self._names: set[str] = set()
         self.N: spv.ReferenceFrame | None = None
         self.origin: spv.Point | None = None
@@ -433,6 +441,18 @@ class Model:
         self.loads.append(el)
         return el
 
+    def ground(self, points, *, k=None, c=None, mu=FRICTION, slip=SLIP_VELOCITY, radius=0.0,
+               frames=None):
+        """A compliant ground ``z <= 0`` under ``points`` (points or names; one call): per
+        point (a sphere of ``radius``), the normal force ``max(0, -k h - c h')`` while its
+        height ``h`` is negative and the friction ``-mu f_n v_t / sqrt(|v_t|^2 + slip^2)``,
+        as loads (:mod:`mbgen.model.ground`: the law, energy, defaults).  Numbers become
+        the parameters ``k_ground``, ``c_ground``, ``mu``, ``v_slip``; ``k``, ``c`` left out
+        follow from the mass; ``frames``: where each sphere is fixed, if not inferred.
+        Returns the :class:`~mbgen.model.elements.Ground` record (``model.ground_``)."""
+        return add_ground(self, points, k=k, c=c, mu=mu, slip=slip, radius=radius,
+                          frames=frames)
+
     # ------------------------------------------------------------------ joints
     def joint(self, child, parent=None, point: spv.Point | None = None, *,
               frame: spv.ReferenceFrame | None = None, name: str | None = None) -> Joint:
@@ -475,6 +495,21 @@ class Model:
         j = Joint(name, child_name, parent, point, frame)
         self.joints_.append(j)
         return j
+
+    def armature(self, speed, value) -> Armature:
+        """Add the generalized inertia ``value`` to the speed ``speed`` alone: a joint's
+        armature (a geared rotor's reflected inertia, MuJoCo's ``dof_armature``).
+
+        The mass matrix gets ``value`` on its diagonal entry of ``speed`` (and the kinetic
+        energy ``value * speed**2 / 2``), as if a rotor of that inertia turned with the
+        speed and with nothing else.  ``value`` is a number >= 0 or an expression in
+        constants; ``speed`` a speed of the model (or its name), one armature each.
+        Every derivation keeps it on the joint's diagonal (Newton–Euler inside the
+        recursion), so it costs no joint tree of its own.
+        """
+        record = armature_record(self, speed, value)
+        self.armatures_.append(record)
+        return record
 
     def _mass_name(self, element, what: str) -> str:
         names = [p.name for p in self.particles] + [b.name for b in self.bodies]
@@ -626,6 +661,24 @@ class Model:
             out.append(self._add_constraint(Constraint(cname, "holonomic", None, q, u, (a, b),
                                                        frame, k)))
         return tuple(out)
+
+    def contact(self, point: spv.Point, *, name: str | None = None, anchor=None) -> Contact:
+        r"""Hold ``point`` fixed in the Newtonian frame: a rigid 3D point contact (a foot).
+
+        Unlike the constraints above it makes no speed dependent: every speed stays a
+        state and the contact acts on the accelerations, :math:`J u' + \gamma = -k_d v -
+        k_p (r - r_0)` with the point's velocity ``v = J u`` and position ``r`` in N
+        (Pinocchio's ``CONTACT_3D`` in ``LOCAL_WORLD_ALIGNED``).  Its force, the one the
+        ground exerts on the model at the point in N components, is three rows of
+        ``constraint_forces`` (contacts in the order stated).  Declares the constants
+        ``<name>_x0, <name>_y0, <name>_z0`` (the anchor :math:`r_0`, default ``anchor``
+        or the origin) and, with the first contact, the Baumgarte gains ``contact_kp`` and
+        ``contact_kd`` (default 0: no correction).  See :mod:`mbgen.derivation.contacts`.
+        """
+        name = None if name is None else check_name(name, "contact")
+        record = contact_record(self, point, name, anchor)
+        self.contacts_.append(record)
+        return record
 
     @staticmethod
     def _listed(value) -> list:

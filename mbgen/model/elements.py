@@ -4,7 +4,8 @@ Each ``Model`` method that adds something validates its arguments and appends
 one of these records: frames (:class:`FrameDef`) and points (:class:`PointDef`)
 of the kinematic tree; masses (:class:`Particle`, :class:`RigidBody`); loads
 (:class:`Force`, :class:`Torque`, :class:`Gravity`, :class:`LineElement`);
-stated joints (:class:`Joint`) and constraints (:class:`Constraint`); and, as data the
+stated joints (:class:`Joint`) and constraints (:class:`Constraint`); generalized inertias
+on single speeds (:class:`Armature`); rigid point contacts (:class:`Contact`); and, as data the
 equations never use, the range a coordinate, speed or input is meant to stay in
 (:class:`Bound`, :func:`bound_record`) and constants' default values
 (:func:`constant_defaults`).  Vectors
@@ -171,6 +172,89 @@ class Constraint:
     body: object = None
 
 
+@dataclass(frozen=True)
+class Armature:
+    r"""A generalized inertia ``value`` on the speed ``speed`` alone (a joint's armature:
+    the reflected inertia of a geared rotor, MuJoCo's ``dof_armature``).
+
+    With :math:`a_k` the ``value`` on speed :math:`u_k` it adds :math:`a_k` to the
+    diagonal entry :math:`M_{kk}` of the mass matrix and :math:`\tfrac12 a_k u_k^2` to the
+    kinetic energy: the generalized force :math:`-a_k u_k'` in Kane's equations, which no
+    other motion sees.  ``value`` is a constant (a number or constants, never
+    coordinates, speeds, inputs or time), so it changes no partial derivative with respect
+    to the state.
+    """
+
+    speed: object
+    value: sm.Expr
+
+
+def armature_record(model, speed, value) -> Armature:
+    """``value`` on the speed ``speed`` of ``model`` (the speed, or its name), checked: a
+    declared speed without armature yet, and a constant that is not negative."""
+    name = speed if isinstance(speed, str) else str(getattr(speed, "func", speed))
+    found = [s for s in model.speeds_ if str(s.func) == name]
+    if not found:
+        raise ModelError(f"armature on {speed!r}: not a speed of model {model.name!r}; "
+                         f"speeds: {', '.join(str(s.func) for s in model.speeds_) or 'none'}")
+    if any(str(a.speed.func) == name for a in model.armatures_):
+        raise ModelError(f"speed {name!r} already has armature; give one armature per speed "
+                         f"(the sum of its rotors' inertias)")
+    value = model._scalar(value, f"armature on {name!r}")
+    if value.free_symbols - set(model.constants_):     # q(t), u(t), r(t) hold t
+        raise ModelError(f"armature on {name!r} must be a number or constants, not "
+                         f"{value}: a constant inertia, free of coordinates, speeds, inputs "
+                         f"and time")
+    if value.is_number and not (value.is_real and value.is_finite and value >= 0):
+        raise ModelError(f"armature on {name!r} must be a finite number >= 0, got {value}")
+    return Armature(found[0], value)
+
+
+@dataclass(frozen=True)
+class Contact:
+    r"""A rigid point contact: ``point`` held fixed in the Newtonian frame at ``anchor``.
+
+    The constraint acts on the accelerations (every speed stays a state): with
+    :math:`J` the point's velocity Jacobian and :math:`\gamma` its acceleration at
+    :math:`u' = 0`, both in Newtonian components,
+    :math:`J u' + \gamma + k_d v + k_p (r - r_0) = 0` (Baumgarte), and the ground's force
+    :math:`\lambda` on the robot at the point enters :math:`M u' = F + J^T\lambda`
+    (:mod:`mbgen.derivation.contacts`).  ``anchor`` are the constants :math:`r_0`
+    (``<name>_x0``, ``_y0``, ``_z0``), ``gains`` the constants ``(k_p, k_d)``.
+    """
+
+    name: str
+    point: object
+    anchor: tuple
+    gains: tuple
+
+
+#: The names of the Baumgarte gains every contact of a model shares (default 0).
+CONTACT_GAINS = ("contact_kp", "contact_kd")
+
+
+def contact_record(model, point, name, anchor) -> Contact:
+    """A contact at ``point`` of ``model`` named ``name`` (default: the point's), its anchor
+    constants declared with the defaults ``anchor`` (three numbers; None: the origin), and
+    the gains :data:`CONTACT_GAINS` on the first contact."""
+    model._check_point(point)
+    name = point.name if name is None else name
+    if any(c.name == name for c in model.contacts_):
+        raise ModelError(f"a contact named {name!r} already exists; pass name=")
+    if any(c.point is point for c in model.contacts_):
+        raise ModelError(f"point {point.name!r} already has a contact: two contacts at one point "
+                         f"leave their forces undetermined")
+    values = (0.0, 0.0, 0.0) if anchor is None else anchor
+    if isinstance(values, str) or not hasattr(values, "__len__") or len(values) != 3:
+        raise ModelError(f"anchor of contact {name!r} must be three numbers (x, y, z), got "
+                         f"{anchor!r}")
+    if not model.contacts_:
+        model.constants(list(CONTACT_GAINS), defaults=[0.0, 0.0])
+    r0 = model.constants([f"{name}_{axis}0" for axis in "xyz"], defaults=list(values))
+    gains = tuple(next(s for s in model.constants_ if str(s) == g) for g in CONTACT_GAINS)
+    return Contact(name, point, tuple(r0), gains)
+
+
 #: What a :class:`Bound` may bound: the Model's list attribute of each kind.
 BOUNDED = {"coordinates": "coordinates_", "speeds": "speeds_", "inputs": "inputs_"}
 
@@ -253,7 +337,34 @@ def inertia_matrix(name: str, frame, inertia, scalar) -> sm.ImmutableMatrix:
     return sm.ImmutableMatrix(mat)
 
 
+
+@dataclass(frozen=True)
+class Ground:
+    r"""A compliant ground: the half-space :math:`z \le 0` of the Newtonian frame, touched
+    by ``points`` (:meth:`~mbgen.model.builder.Model.ground`, :mod:`mbgen.model.ground`).
+
+    ``radii`` are the radii of spheres centred on the points (0: the point itself),
+    ``frames`` the frame each point is fixed in (where the friction's moment acts),
+    ``gaps`` and ``rates`` each contact's height above the ground and its rate
+    (expressions in the model's coordinates and speeds), and ``stiffness``, ``damping``,
+    ``friction`` and ``slip`` the constants (or expressions) :math:`k`, :math:`c`,
+    :math:`\mu` and :math:`v_s` of the law.  The forces themselves are ordinary
+    :class:`Force` (and, for a sphere, :class:`Torque`) loads of the model.
+    """
+
+    points: tuple
+    radii: tuple
+    frames: tuple
+    gaps: tuple
+    rates: tuple
+    stiffness: sm.Expr
+    damping: sm.Expr
+    friction: sm.Expr
+    slip: sm.Expr
+
 __all__ = ["AXES", "BOUNDED", "Bound", "bound_record", "constant_defaults", "axis_index",
            "FrameDef", "inertia_matrix",
            "PointDef", "Particle", "RigidBody", "Force",
-           "Torque", "Gravity", "LineElement", "Joint", "Constraint"]
+           "Torque", "Gravity", "LineElement", "Joint", "Constraint", "Armature",
+           "armature_record", "Contact", "CONTACT_GAINS", "contact_record"]
+__all__ += ["Ground"]

@@ -43,9 +43,10 @@ Conventions (MuJoCo's, so that a state compares one to one with ``mj_forward``):
   file's order, named ``ctrl_<actuator>``, never clamped: so ``r = (qfrc_applied, ctrl)``.
 * passive forces as MuJoCo states them: damping :math:`-d\,u` per degree of freedom
   (``dof_damping``), hinge and slide springs :math:`-k\,(q - q_\mathrm{spring})`; joint
-  armature (``dof_armature``) adds to the diagonal of the mass matrix, a rotor inertia
-  about the joint's axis that sees no other motion (modelled as a massless body turning
-  with that one speed about a fixed axis).
+  armature (``dof_armature``, with the actuators' reflected through their gear) adds to
+  the diagonal of the mass matrix, :meth:`Model.armature <mbgen.Model.armature>` on the
+  joint's speed (a rotor inertia that sees no other motion: no body of its own, so the
+  Newton–Euler tree stays the file's).
 * gravity ``g`` times the direction of ``opt.gravity``, ``g = |opt.gravity|`` the model's
   one constant (none, and ``g = 0``, under ``<flag gravity="disable"/>``); every inertial
   number is baked in.  Bodies without joints are welded to
@@ -78,14 +79,23 @@ import numpy as np
 import sympy as sm
 
 from ..errors import MissingExtraError, MjcfError
-from ..names import C_KEYWORDS, MAX_NAME_LENGTH
+from ..names import C_KEYWORDS, MAX_NAME_LENGTH, did_you_mean
 from . import free_base
 from .builder import Model
 from .mjcf_physics import FLAG, read_physics, warn_dropped
 from .mjcf_xml import MAX_MAGNITUDE, scan_mjcf
-from .urdf import Group, axis_rotation, frame_vector, identifier, quaternion_matrix, simple
+from .urdf import (
+    Group,
+    axis_rotation,
+    contact_names,
+    frame_vector,
+    identifier,
+    quaternion_matrix,
+    simple,
+)
 
 HINGE, SLIDE, BALL, FREE = 3, 2, 1, 0   # mjtJoint
+SPHERE = 2                              # mjtGeom
 
 
 def import_mujoco():
@@ -114,7 +124,7 @@ def compile_mjcf(path):
                         f"{' '.join(str(exc).split())}") from None
 
 
-def from_mjcf(path) -> Model:
+def from_mjcf(path, *, ground=None, contacts=()) -> Model:
     """The model of the MJCF file at ``path``, compiled by MuJoCo (module docstring), named
     after the file (``cartpole.xml``: ``cartpole``, whatever its ``<mujoco model>``).
 
@@ -122,14 +132,25 @@ def from_mjcf(path) -> Model:
     compile, or that holds what mbgen refuses (:mod:`~mbgen.model.mjcf_physics`);
     :class:`~mbgen.errors.ModelSizeError` for more than
     :data:`~mbgen.model.limits.MAX_BODIES` bodies (unless forced); one
-    :class:`~mbgen.errors.ModelWarning` naming what it drops (contacts, limits, ...)."""
-    return from_mujoco(compile_mjcf(path), name=file_model_name(path))
+    :class:`~mbgen.errors.ModelWarning` naming what it drops (contacts, limits, ...).
+    ``ground``, ``contacts``: see :func:`from_mujoco`."""
+    return from_mujoco(compile_mjcf(path), name=file_model_name(path), ground=ground,
+                       contacts=contacts)
 
 
-def from_mujoco(mj, *, name: str | None = None) -> Model:
+def from_mujoco(mj, *, name: str | None = None, ground=None, contacts=()) -> Model:
     """The model of a compiled ``mujoco.MjModel`` (see the module docstring), named ``name``
-    (an identifier) or else after MuJoCo's model name (``<mujoco model>``)."""
-    return _Builder(mj).build(name or model_name(mj))
+    (an identifier) or else after MuJoCo's model name (``<mujoco model>``).
+
+    ``ground``: names of sphere geoms (each a contact sphere of its radius) and sites (each
+    a contact point), a sequence or ``"a,b"``, that touch a compliant ground
+    (:meth:`Model.ground <mbgen.Model.ground>`; MuJoCo's own contacts stay dropped).
+
+    ``contacts``: names of sites and bodies whose point (a site's position, a body's frame
+    origin) is a rigid point contact with the ground (:meth:`mbgen.Model.contact`, named
+    after the site or body, in the order given; its force is ``constraint_forces``)."""
+    return _Builder(mj).build(name or model_name(mj), ground, contact_names(contacts,
+                                                                            "from_mujoco"))
 
 
 # ------------------------------------------------------------------ the compiled model
@@ -339,7 +360,7 @@ class _Builder:
         R = np.array(data.xmat[int(mj.jnt_bodyid[j])]).reshape(3, 3)   # a ball
         return np.hstack([free_base.revolute_motion(R[:, k], anchor) for k in range(3)])
 
-    def build(self, title: str) -> Model:
+    def build(self, title: str, ground=None, contacts=()) -> Model:
         self.check()
         mj = self.mj
         m = Model(title)
@@ -357,7 +378,6 @@ class _Builder:
             self.symbols[actuator.input] = made[0] if isinstance(made, tuple) else made
         groups = {0: Group(None, N, m.origin)}
         place = {0: (np.eye(3), np.zeros(3))}
-        rotors = []
         for b in range(1, mj.nbody):
             parent = int(mj.body_parentid[b])
             group = groups[parent]
@@ -368,7 +388,7 @@ class _Builder:
             label = label if label[:1].isalpha() else f"body_{label}"
             start, count = int(mj.body_jntadr[b]), int(mj.body_jntnum[b])
             for j in range(start, start + count):
-                group, A, d = self.joint(m, j, group, A, d, label, rotors)
+                group, A, d = self.joint(m, j, group, A, d, label)
             groups[b], place[b] = group, (A, d)
             if mj.body_mass[b] > 0 or np.any(mj.body_inertia[b]):
                 R = A @ _quat(mj.body_iquat[b], f"body {label!r}: body_iquat")
@@ -378,11 +398,12 @@ class _Builder:
         for group in dict.fromkeys(groups.values()):
             if group.name is not None:
                 self.add_body(m, group)
-        for name, speed, armature in rotors:
-            frame = m.orient(N, self.internal(f"{name}_rotor"), sm.eye(3), (0, 0, speed))
-            m.body(self.internal(f"{name}_rotor_body"), frame, 0, (0, 0, armature), m.origin)
         if gnorm > 0:
             m.gravity(g * frame_vector(N, gvec / gnorm))
+        if ground:
+            _ground(self, m, groups, place, ground)
+        if contacts:
+            _contacts(self, m, groups, place, contacts)
         warn_dropped(title, self.physics.dropped)
         return m
 
@@ -397,7 +418,7 @@ class _Builder:
         m.body(self.internal(group.name), group.frame, float(mass),
                [[float(v) for v in row] for row in inertia], point)
 
-    def joint(self, m: Model, j: int, group: Group, A, d, label: str, rotors: list):
+    def joint(self, m: Model, j: int, group: Group, A, d, label: str):
         """One joint of a body: the new ``(group, A, d)`` of the body's frame after it."""
         mj = self.mj
         kind, base, qs, us, rs = self.joints[j]
@@ -408,7 +429,7 @@ class _Builder:
         damping = list(self.physics.damping[dof:dof + len(u)])
         for k, s in enumerate(u):
             if self.physics.armature[dof + k]:
-                rotors.append((f"{base}{k}", s, self.physics.armature[dof + k]))
+                m.armature(s, self.physics.armature[dof + k])
         axis = A @ _unit(mj.jnt_axis[j], f"joint {base!r}: jnt_axis") \
             if kind in (HINGE, SLIDE) else None
         jpos = np.array(mj.jnt_pos[j], dtype=float)
@@ -472,6 +493,57 @@ class _Builder:
         m.torque(frame, frame_vector_sym(frame, [r[3 + i] - damping[3 + i] * w[i]
                                                  for i in range(3)]))
         return Group(label, frame, point), np.eye(3), np.zeros(3)
+
+
+def _ground(builder: _Builder, m: Model, groups, place, ground) -> None:
+    """``m.ground`` at the named sphere geoms (their centres and radii) and sites (points)."""
+    mj = builder.mj
+    geoms, sites = names_of(mj, "geom", mj.ngeom), names_of(mj, "site", mj.nsite)
+    names = [n.strip() for n in ground.split(",")] if isinstance(ground, str) else list(ground)
+    points, radii = [], []
+    for name in names:
+        if name in geoms:
+            i = geoms.index(name)
+            if int(mj.geom_type[i]) != SPHERE:
+                raise MjcfError(f"MuJoCo model: geom {name!r} is no sphere; the ground takes "
+                                f"sphere geoms and sites")
+            body, at, radius = int(mj.geom_bodyid[i]), mj.geom_pos[i], float(mj.geom_size[i, 0])
+        elif name in sites:
+            i = sites.index(name)
+            body, at, radius = int(mj.site_bodyid[i]), mj.site_pos[i], 0.0
+        else:
+            raise MjcfError(f"MuJoCo model has no geom or site {name!r} for the ground"
+                            f"{did_you_mean(name, [n for n in geoms + sites if n])}")
+        (A, d), group = place[body], groups[body]
+        points.append(m.point(builder.internal(name), group.point,
+                              frame_vector(group.frame, d + A @ np.array(at, dtype=float))))
+        radii.append(radius)
+    m.ground(points, radius=radii)
+
+
+def _contacts(builder: _Builder, m: Model, groups, place, contacts) -> None:
+    """``m.contact`` at each named site (its position) or body (its frame's origin)."""
+    mj = builder.mj
+    sites, bodies = names_of(mj, "site", mj.nsite), names_of(mj, "body", mj.nbody)
+    found = []
+    for name in contacts:
+        key = identifier(name)
+        if key in sites:
+            i = sites.index(key)
+            body, at = int(mj.site_bodyid[i]), np.array(mj.site_pos[i], dtype=float)
+        elif key in bodies[1:]:
+            body, at = bodies.index(key), np.zeros(3)
+        else:
+            raise MjcfError(f"MuJoCo model has no site or body {name!r} for a contact"
+                            f"{did_you_mean(name, [n for n in sites + bodies[1:] if n])}")
+        found.append((key if key[:1].isalpha() else f"contact_{key}", body, at))
+    for key, body, at in found:
+        (A, d), group = place[body], groups[body]
+        offset = d + A @ at
+        point = group.point if not offset.any() else \
+            m.point(builder.internal(f"{key}_contact"), group.point,
+                    frame_vector(group.frame, offset))
+        m.contact(point, name=key)
 
 
 def frame_vector_sym(frame, comps):

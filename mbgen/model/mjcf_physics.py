@@ -9,9 +9,11 @@ Honoured
     joint or actuator damping); ``<flag actuation="disable"/>`` (no actuator inputs);
     joint ``armature`` and ``damping``, and an actuator's ``armature`` and ``damping`` on a
     hinge or slide joint (:math:`\mathrm{gear}^2` times each joins the joint's, as MuJoCo
-    adds them); and the actuators of :class:`Actuator`: a ``motor``, ``position``,
-    ``velocity`` or ``general`` actuator with a fixed or affine gain, no or an affine bias
-    and no activation dynamics, on a hinge or slide joint.
+    adds them; the armature becomes :meth:`Model.armature <mbgen.Model.armature>` on each
+    of the joint's speeds, ball and free joints included); and the actuators of
+    :class:`Actuator`: a ``motor``, ``position``, ``velocity`` or ``general`` actuator
+    with a fixed or affine gain, no or an affine bias and no activation dynamics, on a
+    hinge or slide joint.
 Refused (:class:`~mbgen.errors.MjcfError`, every one named in one message)
     forces mbgen has no term for: gravity compensation, fluid forces (``density`` or
     ``viscosity``), tendon springs, dampers and armature, springs on ball and free joints,

@@ -48,8 +48,11 @@ from ..names import check_name, did_you_mean
 from ..symbolic.equations import Equations
 from .builder import Model
 from .files import require_regular_file
+from .ground import DROP, drop_state, free_height
+from .hold import hold_gains, hold_posture
 from .limits import allow_large_models, check_size
 from .mjcf import compile_mjcf, file_model_name, from_mujoco, scene_values
+from .robots import ROBOTS, robot_path
 from .urdf import build_model, read_urdf
 
 #: The name of equations imported without one (``from_sympy(obj)``); a scene holding
@@ -111,6 +114,17 @@ class Scene:
         ``mbgen.Targets(step=True)`` puts the step API into the generated
         ``.h``/``.c`` (``mbgen generate`` writes it; ``--step`` asks for it
         without the scene).  None: the outputs only.
+    saturate : bool
+        Clamp every input to its bounds (the model's ``Model.bound`` records of inputs,
+        e.g. a URDF joint's ``<limit effort>``: :meth:`input_bounds`) before the
+        right-hand side reads it, in the generated step API (its header states the
+        bounds as ``<prefix>_input_lower`` / ``_upper``; ``mem->n_saturated`` counts the
+        clamped inputs) and the FMU (``fmi2SetReal`` stores an input clamped); ``mbgen
+        simulate`` follows it (``--saturate`` / ``--no-saturate`` overrides), as does
+        :func:`mbgen.simulate` given ``saturate=scene.input_bounds()``.  Default False:
+        the generated code is what it is without bounds.  Speed and coordinate bounds are
+        never applied (clamping a state inside an integrator is not physics): they stay
+        data, ``model.bounds("speeds")``, to check a trajectory against.
     """
 
     name: str
@@ -130,6 +144,7 @@ class Scene:
     source: str = ""
     method: Any = None
     targets: Any = None
+    saturate: bool = False
 
     def __post_init__(self):
         try:
@@ -153,6 +168,7 @@ class Scene:
         check_span(t0, t1, f"scene {self.name!r}: t_span")
         _check_symbol_names(self)
         _check_targets(self)
+        _check_saturate(self)
         if isinstance(self.model, Equations):  # a Model checks its size as it is built
             L = self.model.layout
             check_size(L.n_u + L.n_d, f"scene {self.name!r}")
@@ -166,6 +182,16 @@ class Scene:
             raise SceneError(f"scene {self.name!r}: initial_state names {sorted(unknown)} are not "
                              f"states; states are {list(layout.state_names)}")
         return np.array([float(self.initial_state.get(n, 0.0)) for n in layout.state_names])
+
+    def input_bounds(self) -> dict[str, tuple[float, float]]:
+        """``{input: (lower, upper)}`` of the model's bounded inputs that the scene keeps
+        (``Model.bounds("inputs")``; an unbounded side is an infinity; equations imported
+        without a model have none): what ``saturate`` clamps to."""
+        if not isinstance(self.model, Model):
+            return {}
+        kept = self.inputs
+        return {n: b for n, b in self.model.bounds("inputs").items()
+                if kept is None or n in kept}
 
     def p(self, layout) -> np.ndarray:
         """Parameter values in ``layout`` order; every parameter needs a value."""
@@ -263,6 +289,17 @@ def _check_targets(scn: Scene) -> None:
                          f"targets=mbgen.Targets(step=True); got {_shown(targets)}")
 
 
+def _check_saturate(scn: Scene) -> None:
+    """``saturate`` is a bool, and True only where the scene keeps a bounded input."""
+    if not isinstance(scn.saturate, bool):
+        raise SceneError(f"scene {scn.name!r}: saturate must be True or False; got "
+                         f"{_shown(scn.saturate)}")
+    if scn.saturate and not scn.input_bounds():
+        raise SceneError(f"scene {scn.name!r}: saturate=True, but no input it keeps has "
+                         f"bounds; bound one with Model.bound(input, lower, upper) (a URDF "
+                         f"joint's <limit effort> does it), or leave saturate off")
+
+
 def source_label(scn: Scene) -> str:
     """The scene's name and file as generated files record them: ``scene 'x' (x.py)``.
 
@@ -304,52 +341,104 @@ def _module_for(name_or_path: str):
             raise SceneError(f"scene file {str(path)!r} failed to import: "
                              f"{type(exc).__name__}: {exc}") from exc
         return module, str(path.resolve())
+    if name_or_path in ROBOTS and not os.path.lexists(path):   # example-robot-data's
+        path = _robot_file(name_or_path)
     if path.suffix.lower() == ".urdf":
         _require_file(path, "URDF file")
 
-        def scene(floating: bool = False) -> Scene:
-            return urdf_scene(path, floating=floating)
+        def scene(floating: bool = False, saturate: bool = False, ground: str = "",
+                  hold: str = "", drop: float = DROP) -> Scene:
+            return urdf_scene(path, floating=floating, saturate=saturate, ground=ground,
+                              hold=hold, drop=drop)
         return SimpleNamespace(scene=scene), str(path.resolve())
     if path.suffix.lower() == ".xml":
         _require_file(path, "MJCF file")
-        return SimpleNamespace(scene=lambda: mjcf_scene(path)), str(path.resolve())
+
+        def mjcf(ground: str = "", hold: str = "", drop: float = DROP) -> Scene:
+            return mjcf_scene(path, ground=ground, hold=hold, drop=drop)
+        return SimpleNamespace(scene=mjcf), str(path.resolve())
     raise SceneError(f"no scene {name_or_path!r}: built-in scenes are "
                      f"{', '.join(builtin_names())}; or give the path of a .py scene file "
-                     f"or a .urdf or MJCF (.xml) robot")
+                     f"or a .urdf or MJCF (.xml) robot, or name one of example-robot-data's "
+                     f"({', '.join(ROBOTS)})")
 
 
-def urdf_scene(path, *, floating: bool = False) -> Scene:
-    """The scene of a URDF robot (``mbgen check robot.urdf``; option ``floating``).
+def _robot_file(name: str) -> Path:
+    """The URDF file of a robot of :data:`mbgen.model.robots.ROBOTS`, or a SceneError."""
+    found = robot_path(name)
+    if found is None:
+        raise SceneError(f"scene {name!r} is example-robot-data's robot, which is not "
+                         f"installed: pip install example-robot-data (or give a .urdf path)")
+    return found
+
+
+def urdf_scene(path, *, floating: bool = False, saturate: bool = False, ground=(),
+               hold=None, drop: float = DROP) -> Scene:
+    """The scene of a URDF robot (``mbgen check robot.urdf``; options ``floating`` and
+    ``saturate``: the joint torques clamped to ``<limit effort>``, :class:`Scene`; and
+    ``ground``, ``hold``, ``drop`` below).
 
     The model is :func:`mbgen.from_urdf`'s; ``g = 9.81``; it starts at rest with
     every joint at zero (and the identity quaternion for a floating base) and runs
     for a second.  Its outputs are the right-hand side and the C ``dopri5`` integrator
     (``mbgen simulate robot.urdf --integrator dopri5`` needs no Jacobian).
+
+    ``ground`` (link names, ``"A,B"`` on the command line: ``--ground``) puts the robot on
+    a compliant ground (:mod:`mbgen.model.ground`) touched at those links; ``hold``
+    (``(kp, kd)`` or ``"KP,KD"``: ``--hold``) holds the joints at the initial posture
+    (:mod:`mbgen.model.hold`).  With a ground the scene is stiff: its outputs are the
+    right-hand side, the Jacobian and the C ``rosenbrock`` integrator, its points the
+    contacts (for ``Output.POSITIONS``); a floating base starts with its lowest contact
+    ``drop`` (m) above the ground, and it runs for 3 s.
     """
     robot = read_urdf(path)
-    model = build_model(robot, floating=floating)
+    model = build_model(robot, floating=floating, ground=ground or None)
     joints = len(model.coordinates_) - (7 if floating else 0)
-    return Scene(name=model.name, model=model, parameters={"g": 9.81},
-                 initial_state={"root_qw": 1.0} if floating else {}, t_span=(0.0, 1.0),
-                 outputs=(Output.RHS, Output.DOPRI5), source=str(Path(path).resolve()),
+    state, outputs, span, points, what = _standing(
+        model, {"root_qw": 1.0} if floating else {}, hold, drop)
+    return Scene(name=model.name, model=model, parameters=dict(model.defaults_),
+                 initial_state=state, t_span=span, points=points,
+                 outputs=outputs, source=str(Path(path).resolve()),
+                 saturate=saturate,
                  description=f"URDF robot {robot.name!r}: {joints} joints"
-                             f"{', floating base' if floating else ''}, gravity")
+                             f"{', floating base' if floating else ''}, gravity{what}")
 
 
-def mjcf_scene(path) -> Scene:
+def _standing(model, state: dict, hold, drop: float):
+    """``(initial state, outputs, t_span, points, words)`` of a robot's scene: its joints
+    held (``hold``), and on its ground (if it has one) a floating base lifted so that the
+    lowest contact starts ``drop`` up, outputs for a stiff model, 3 s, the contacts."""
+    words = ""
+    if hold:
+        hold_posture(model, *hold_gains(hold))
+        words = ", holding its posture"
+    if model.ground_ is None:
+        return state, (Output.RHS, Output.DOPRI5), (0.0, 1.0), (), words
+    if free_height(model) is not None:
+        state = drop_state(model, state, drop)
+    points = tuple(p.name for p in model.ground_.points)
+    return (state, (Output.RHS, Output.JACOBIAN, Output.ROSENBROCK), (0.0, 3.0), points,
+            f", on a ground under {', '.join(points)}{words}")
+
+
+def mjcf_scene(path, *, ground=(), hold=None, drop: float = DROP) -> Scene:
     """The scene of a MuJoCo model file (``mbgen check robot.xml``; :func:`mbgen.from_mjcf`).
 
     Named after the file (``cartpole.xml``: ``cartpole``); ``g`` is ``|opt.gravity|`` (0
     under ``<flag gravity="disable"/>``); it starts at MuJoCo's ``qpos0`` at rest and runs
-    for a second; outputs as :func:`urdf_scene`'s.
+    for a second; outputs as :func:`urdf_scene`'s, and so are ``ground`` (sphere geoms and
+    sites), ``hold`` and ``drop``.
     """
     mj = compile_mjcf(path)
-    model = from_mujoco(mj, name=file_model_name(path))
+    model = from_mujoco(mj, name=file_model_name(path), ground=ground or None)
     parameters, initial = scene_values(mj)
-    return Scene(name=model.name, model=model, parameters=parameters, initial_state=initial,
-                 t_span=(0.0, 1.0), outputs=(Output.RHS, Output.DOPRI5),
+    state, outputs, span, points, what = _standing(model, initial, hold, drop)
+    return Scene(name=model.name, model=model,
+                 parameters={**model.defaults_, **parameters}, initial_state=state,
+                 t_span=span, outputs=outputs, points=points,
                  source=str(Path(path).resolve()),
-                 description=f"MuJoCo model {model.name!r}: {mj.njnt} joints, {mj.nv} speeds")
+                 description=f"MuJoCo model {model.name!r}: {mj.njnt} joints, {mj.nv} "
+                             f"speeds{what}")
 
 
 def scene_options(name_or_path: str) -> dict[str, Any]:

@@ -60,7 +60,7 @@ import numpy as np
 import sympy as sm
 
 from ..errors import ArgumentTypeError, UrdfInertiaError, UrdfStructureError
-from ..names import C_KEYWORDS, MAX_NAME_LENGTH
+from ..names import C_KEYWORDS, MAX_NAME_LENGTH, did_you_mean
 from . import free_base
 from .builder import Model
 from .limits import allow_large_models, check_size
@@ -88,7 +88,7 @@ _SNAP = 1e-12
 
 def from_urdf(path, *, floating: bool = False, force: bool = False, mimic: str = "coupled",
               damping: bool = False, friction=False, soft_limits=None,
-              strict: bool = False) -> Model:
+              strict: bool = False, ground=None, contacts=()) -> Model:
     """The robot of the URDF file at ``path`` as a :class:`Model` (see the module docstring).
 
     Parameters
@@ -105,6 +105,18 @@ def from_urdf(path, *, floating: bool = False, force: bool = False, mimic: str =
     strict : bool
         Refuse an inertia that breaks the triangle inequality (else read with a
         :class:`~mbgen.errors.ModelWarning`, :mod:`mbgen.model.urdf_xml`).
+    ground : sequence of str, str or mapping, optional
+        A compliant ground (:meth:`Model.ground <mbgen.model.builder.Model.ground>`,
+        :mod:`mbgen.model.ground`) touched by the origins of these links (``("FL_FOOT",
+        ...)`` or ``"FL_FOOT,FR_FOOT"``; a link merged into its parent by a fixed joint
+        too), each a point named after its link (``<link>_origin`` where that name is
+        the link's body's); a mapping ``{link: radius}`` makes
+        each a sphere.  Its stiffness and damping follow from the robot's mass.
+    contacts : sequence of str
+        Links (a link merged away by a fixed joint included: a foot) whose origin is a
+        rigid point contact with the ground (:meth:`mbgen.Model.contact`, named after the
+        link, in the order given): Pinocchio's ``RigidConstraintModel(CONTACT_3D, ...,
+        LOCAL_WORLD_ALIGNED)`` at that frame; its force is the ``constraint_forces`` output.
 
     Raises
     ------
@@ -129,9 +141,26 @@ def from_urdf(path, *, floating: bool = False, force: bool = False, mimic: str =
     if force:
         with allow_large_models():
             return build_model(read_urdf(path, strict=bool(strict)), floating=bool(floating),
-                               options=options)
+                               options=options, ground=ground,
+                               contacts=contact_names(contacts, "from_urdf"))
     return build_model(read_urdf(path, strict=bool(strict)), floating=bool(floating),
-                       options=options)
+                       options=options, ground=ground,
+                       contacts=contact_names(contacts, "from_urdf"))
+
+
+def contact_names(contacts, where: str) -> tuple[str, ...]:
+    """``contacts`` (a name or a sequence of names) as a tuple of distinct strings."""
+    names = (contacts,) if isinstance(contacts, str) else contacts
+    try:
+        names = tuple(names)
+    except TypeError:
+        names = (None,)
+    if not all(isinstance(n, str) for n in names):
+        raise ArgumentTypeError(f"{where}: contacts must be link or frame names (strings), "
+                                f"got {contacts!r}")
+    if len(set(names)) != len(names):
+        raise ArgumentTypeError(f"{where}: contacts names a frame twice: {list(names)}")
+    return names
 
 
 # ------------------------------------------------------------------------------ rotations
@@ -274,7 +303,8 @@ _DEFAULT_JOINT_OPTIONS = JointOptions()
 
 
 def build_model(robot: Robot, *, floating: bool = False,
-                options: JointOptions = _DEFAULT_JOINT_OPTIONS) -> Model:
+                options: JointOptions = _DEFAULT_JOINT_OPTIONS, ground=None,
+                contacts=()) -> Model:
     """The :class:`Model` of a checked :class:`~mbgen.model.urdf_xml.Robot`, its joints as
     ``options`` say (:mod:`mbgen.model.urdf_joints`): its size, (``floating``) its root
     and the numbers the options use are checked before anything is made."""
@@ -323,7 +353,60 @@ def build_model(robot: Robot, *, floating: bool = False,
         if group.name is not None:
             _add_body(m, names, group)
     m.gravity(-c["g"] * N.z)
+    if ground:
+        _ground(m, robot, names, groups, place, ground)
+    _contacts(m, robot, names, groups, place, contacts)
     return m
+
+
+def _contacts(m: Model, robot: Robot, names: _Names, groups, place, contacts) -> None:
+    """``m.contact`` at the origin of each link of ``contacts`` (:func:`from_urdf`), in the
+    body it belongs to (a link merged by a fixed joint included), named after the link."""
+    for link in contacts:
+        if link not in robot.links:
+            raise UrdfStructureError(f"URDF file {robot.source!r} has no link {link!r} for a "
+                                     f"contact{did_you_mean(link, list(robot.links))}")
+    for link in contacts:
+        group, d = groups[link], place[link][1]
+        name = identifier(link) if identifier(link)[:1].isalpha() else "link_" + identifier(link)
+        point = group.point if not snap(d).any() else \
+            m.point(names.internal(f"{name}_contact"), group.point, frame_vector(group.frame, d))
+        m.contact(point, name=name)
+
+
+def _ground(m: Model, robot: Robot, names: _Names, groups, place, ground) -> None:
+    """``m.ground`` at a point on each link of ``ground`` (:func:`from_urdf`), at the link's
+    origin in the body it belongs to (a link merged by a fixed joint included)."""
+    links, radii = ground_links(ground)
+    for link in links:
+        if link not in robot.links:
+            raise UrdfStructureError(f"URDF file {robot.source!r} has no link {link!r} for the "
+                                     f"ground{did_you_mean(link, list(robot.links))}")
+    points = []
+    for link in links:
+        base = identifier(link) if identifier(link)[:1].isalpha() else "link_" + identifier(link)
+        name = names.internal(base + "_origin" if base in names.taken else base)
+        points.append(m.point(name, groups[link].point,
+                              frame_vector(groups[link].frame, place[link][1])))
+    m.ground(points, radius=radii)
+
+
+def ground_links(ground) -> tuple[list[str], list[float]]:
+    """``(links, radii)`` of :func:`from_urdf`'s ``ground``: names (a sequence, or one string
+    of comma-separated names), or a mapping of names to sphere radii."""
+    if isinstance(ground, str):
+        ground = [n.strip() for n in ground.split(",") if n.strip()]
+    if isinstance(ground, dict):
+        links, radii = list(ground), list(ground.values())
+    elif isinstance(ground, (list, tuple)):
+        links, radii = list(ground), [0.0] * len(ground)
+    else:
+        links, radii = [None], [0.0]
+    if not all(isinstance(n, str) for n in links) or not all(
+            isinstance(r, (int, float)) and not isinstance(r, bool) for r in radii):
+        raise ArgumentTypeError(f"from_urdf: ground must be link names (a sequence or "
+                                f"'A,B,C') or a mapping link -> radius, not {ground!r:.60}")
+    return links, [float(r) for r in radii]
 
 
 def _visible_names(robot: Robot, joints, coupled, constants, floating: bool):

@@ -165,6 +165,11 @@ class ModelBase:
                 f"{self.name}.{what}: the constraint Jacobian of the dependent speeds is singular "
                 f"{where}: a locked or singular configuration (a four-bar at its dead point, ...); "
                 f"choose other dependent speeds or avoid the configuration")
+        if status == 9:
+            raise SingularConstraintError(
+                f"{self.name}.{what}: the contacts' Delassus matrix J M^-1 J^T is singular "
+                f"{where}: the contact forces are undetermined (two contacts on one point, a "
+                f"leg stretched straight); drop a contact or avoid the configuration")
         raise MbgenError(f"{self.name}.{what}: error status {status} {where}")  # pragma: no cover
 
     @property
@@ -191,6 +196,7 @@ class ModelBase:
     constraint_forces = _accessor(Output.CONSTRAINT_FORCES)
     holonomic = _accessor(Output.HOLONOMIC)
     holonomic_jacobian = _accessor(Output.HOLONOMIC_JACOBIAN)
+    contact_jacobian = _accessor(Output.CONTACT_JACOBIAN)
 
     def _evaluate(self, output: Output, t, x, p, r) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError

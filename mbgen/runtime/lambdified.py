@@ -222,8 +222,45 @@ class LambdifiedModel(ModelBase):
         acc, lam = self._solve_saddle(M, A, F, -beta)
         return _Solved(A, ur, M, G, acc, lam)
 
+    def _solve_contacts(self, output, at: _At):
+        """``(M, J, acc, lam)`` of a model with contacts: the saddle-point system
+        ``[M -J^T; J 0] [a; lambda] = [F; -c]`` by numpy's dense solve, nondimensionalised
+        (:meth:`_solve_saddle`), after the generated code's two checks: ``M`` positive
+        definite, and the Delassus matrix ``J M^-1 J^T`` (status 9) by its rule."""
+        eq, n = self.equations, self._n_u
+        k = eq.contacts
+        M, F = self._mf(output, at)
+        J = self._value(at, "CJ", lambda: k.jacobian).reshape(k.m, n)
+        c = self._value(at, "CB", lambda: k.drift).reshape(-1)
+        G = J @ self._solve_mass(M, J.T)
+        if not _delassus_regular(G, n):
+            self._fail(9, output.value, at.t, at.x)
+        acc, lam = self._solve_saddle(M, J, F, -c)
+        return M, J, acc, lam
+
+    def _contact_sensitivity(self, output, at: _At, variables, forces: bool = False):
+        """``df/dv`` (``forces``: and ``dlambda/dv`` below it) of a model with contacts: implicit
+        differentiation, with numpy, of ``R = F - M a + J^T lambda`` and ``C = J a + c``."""
+        eq, L = self.equations, self.layout
+        k = eq.contacts
+        n, m, nq, nv = L.n_u, k.m, L.n_q, len(variables)
+        M, J, acc, lam = self._solve_contacts(output, at)
+        accs, lams = list(sm.symbols(f"ra0:{n}")), list(sm.symbols(f"rl0:{m}"))
+        R = (sm.Matrix(eq.forcing) - sm.Matrix(eq.mass_matrix) * sm.Matrix(accs)
+             + sm.Matrix(k.jacobian).T * sm.Matrix(lams))
+        C = sm.Matrix(k.jacobian) * sm.Matrix(accs) + sm.Matrix(k.drift)
+        D = self._value(at, ("contact", output), lambda: sm.Matrix(differentiate(
+            list(eq.kinematics) + list(R) + list(C), list(variables))), None, (accs, lams),
+                        (acc, lam)).reshape(-1, nv)
+        dG, dR, dC = D[:nq], D[nq:nq + n], D[nq + n:]
+        da, dl = self._solve_saddle(M, J, dR, -dC)
+        return np.vstack([dG, da] + ([dl] if forces else []))
+
     # ------------------------------------------------------------ the outputs
     def _rhs(self, output, at: _At):
+        if self.equations.contacts is not None:
+            G = self._value(at, "G", lambda: self.equations.kinematics).reshape(-1)
+            return np.concatenate([G, self._solve_contacts(output, at)[2]])
         if self.equations.constraints is not None:
             s = self._solve_constrained(output, at)
             return np.concatenate([s.G, s.acc[:self.layout.n_u]])
@@ -258,6 +295,10 @@ class LambdifiedModel(ModelBase):
 
     def _reactions(self, output, at: _At):
         eq = self.equations
+        if eq.contacts is not None:
+            raise ModelError(f"{self.name}: the reference adds no contact forces to the joint "
+                             f"reactions (nor does the generated code); leave Output.REACTIONS "
+                             f"out")
         if eq.constraints is not None:
             s = self._solve_constrained(output, at)
             symbols = (list(acceleration_symbols(len(s.acc))), list(lambda_symbols(len(s.lam))))
@@ -269,7 +310,12 @@ class LambdifiedModel(ModelBase):
                            (self._solve_mass(M, F),)).reshape(-1, 6)
 
     def _constraint_forces(self, output, at: _At):
+        if self.equations.contacts is not None:
+            return self._solve_contacts(output, at)[3]
         return self._solve_constrained(output, at).lam
+
+    def _contact_jacobian(self, output, at: _At):
+        return self._contact_sensitivity(output, at, self.layout.states, forces=True)
 
     def _holonomic(self, output, at: _At):
         return self._value(at, "fh", lambda: self.equations.constraints.holonomic).reshape(-1)
@@ -286,6 +332,8 @@ class LambdifiedModel(ModelBase):
         variables = tuple(sensitivity.variables(eq, L))
         if eq.constraints is not None:
             out = self._implicit_sensitivity(output, at, variables)
+        elif eq.contacts is not None:
+            out = self._contact_sensitivity(output, at, variables)
         else:
             acc = list(sm.symbols(f"acc0:{L.n_u}"))
             dG = self._lambdify(("dG", output), lambda: sm.Matrix(
@@ -341,6 +389,7 @@ REFERENCES: dict[Output, Callable] = {
     Output.CONSTRAINT_FORCES: LambdifiedModel._constraint_forces,
     Output.HOLONOMIC: LambdifiedModel._holonomic,
     Output.HOLONOMIC_JACOBIAN: LambdifiedModel._holonomic_jacobian,
+    Output.CONTACT_JACOBIAN: LambdifiedModel._contact_jacobian,
 }
 
 
@@ -396,6 +445,18 @@ def _positive_definite(M, magnitude) -> bool:
     return bool(np.all(pivots > PIVOT_ULPS * n * np.finfo(float).eps * np.diag(magnitude)))
 
 
+def _delassus_regular(G, n_u: int) -> bool:
+    """Whether the contacts' Delassus matrix ``G`` (``m x m``) is regular by the generated
+    code's rule (``templates/runtime/contact.c.j2``): every squared Cholesky pivot above
+    ``PIVOT_ULPS (n_u + m) eps G_jj``."""
+    m = G.shape[0]
+    try:
+        pivots = np.diag(np.linalg.cholesky((G + G.T) / 2)) ** 2
+    except np.linalg.LinAlgError:
+        return False
+    return bool(np.all(pivots > PIVOT_ULPS * (n_u + m) * np.finfo(float).eps * np.diag(G)))
+
+
 def _smallest_lu_pivot(A) -> float:
     """``min_k |u_kk|`` of the LU factorisation of the square ``A`` with partial pivoting."""
     U = np.array(A, dtype=float)
@@ -422,6 +483,8 @@ def _inlined(eq: Equations) -> Equations:
     if not P:
         return eq
     matrices = [eq.mass_matrix, eq.forcing, eq.kinematics]
+    if eq.contacts is not None:
+        matrices += [eq.contacts.jacobian, eq.contacts.drift]
     matrices += [m for pk in eq.points for m in (pk.position, pk.velocity)]
     if eq.reactions is not None:
         matrices.append(eq.reactions.matrix)
@@ -433,6 +496,10 @@ def _inlined(eq: Equations) -> Equations:
            for m in matrices]
     T, V = next(it), next(it)
     M, F, G, *rest = out
+    contacts = eq.contacts
+    if contacts is not None:
+        contacts = replace(contacts, jacobian=rest[0], drift=rest[1])
+        rest = rest[2:]
     points = tuple(replace(pk, position=rest[2 * i], velocity=rest[2 * i + 1])
                    for i, pk in enumerate(eq.points))
     reactions = (replace(eq.reactions, matrix=rest[-1]) if eq.reactions is not None else None)
@@ -440,4 +507,4 @@ def _inlined(eq: Equations) -> Equations:
                    kinetic_energy=None if eq.kinetic_energy is None else T,
                    potential_energy=None if eq.potential_energy is None else V,
                    points=points, program=Program(), accelerations=None, reactions=reactions,
-                   residual=None, residual_jacobian=None)
+                   residual=None, residual_jacobian=None, contacts=contacts)

@@ -55,6 +55,8 @@ class PythonModel(GeneratedModel):
             self._fail(2, output.value, t, xa)
         except getattr(self.module, "ConstraintSingular", ()):
             self._fail(7, output.value, t, xa)
+        except getattr(self.module, "ContactSingular", ()):
+            self._fail(9, output.value, t, xa)
 
     def _batch(self, output, fn, t, x, p, r):
         k, (xa, xs), (pa, ps), (ra, rs) = batch_args(self, x, p, r)

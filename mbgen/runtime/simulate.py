@@ -10,10 +10,24 @@
    radius ``rho`` of ``df/dx`` near the method's stability limit, after 2000
    steps) it says so and continues with ``Radau``.
 
+A model known to be stiff (``stiff=True``: a compliant ground, :mod:`mbgen.model.ground`,
+whose contact springs and regularised friction are its fastest time scales; ``mbgen
+simulate`` passes it for such a scene) goes straight to an implicit method instead: the
+generated C ``rosenbrock`` where the model has it (and the inputs are no Python function),
+else scipy's ``Radau``; its steps are at most :data:`STIFF_MAX_STEP` long.
+
 The implicit solve_ivp methods (``Radau``, ``BDF``, ``LSODA``) always get the
 compiled Jacobian when the model has the ``jacobian`` output.  A named explicit
 method that turns out stiffness-bound is kept, with a note naming the better
 choice.  Runs longer than about 2 s show a progress bar (tqdm, on stderr).
+
+Saturation (``saturate={input: (lower, upper)}``, e.g. ``scene.input_bounds()``; off by
+default): the inputs are clamped to their bounds before any right-hand side reads them,
+as the generated step API and FMU clamp them (:func:`saturated`): constant inputs once,
+a function's every value, and an :class:`~mbgen.runtime.named.InputTable` by a table of
+its own whose knots include every time the signal crosses a bound, so that the C
+integrators' linear interpolation of it is the clamped signal.  A constant input beyond
+its bound gives bit for bit the trajectory of the input at the bound.
 """
 
 from __future__ import annotations
@@ -22,16 +36,23 @@ import sys
 import threading
 import time
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 
 import numpy as np
 from scipy import integrate as ivp
 
 from ..abi import INTEGRATORS, Output
-from ..errors import ArgumentError, IntegrationError, StiffnessWarning, UsageError
+from ..errors import (
+    ArgumentError,
+    ArgumentTypeError,
+    IntegrationError,
+    StiffnessWarning,
+    UsageError,
+)
 from ..integrators import DEFAULT_ATOL, DEFAULT_RTOL, METHODS
 from . import named
+from .arguments import real_number
 from .base import ModelBase
 from .integration import Trajectory
 
@@ -45,6 +66,10 @@ STIFF_MIN_STEPS = 2000      # below this many steps nothing is called stiffness-
 PROGRESS_DELAY = 2.0        # seconds before a progress bar appears
 MAX_STEPS = 1_000_000       # default step limit of the solve_ivp paths (C: the integrator's own)
 RK4_STEPS = 10_000          # default steps of the fixed-step rk4 over the span
+#: Longest step (s) of a stiff run (``stiff=True``): a ground contact lasts tens of
+#: milliseconds (a period of 2 pi sqrt(delta / g) = 63 ms at the default 1 mm sinking), and
+#: a step that leaps into the ground from free flight evaluates states far inside it.
+STIFF_MAX_STEP = 0.01
 
 
 def holonomic_outputs(scene) -> tuple:
@@ -86,11 +111,118 @@ def _residual(model, t, x, p, r) -> float:
     return max(float(np.max(np.abs(model.holonomic(ti, xi, p, r)))) for ti, xi in zip(t, x))
 
 
-def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[str, str]:
+def input_limits(model: ModelBase, bounds) -> tuple[np.ndarray, np.ndarray]:
+    """``(lower, upper)``, shape ``(n_r,)`` each, in ``model``'s input order, of
+    ``bounds = {input: (lower, upper)}`` (inputs left out, and None ends: unbounded).
+
+    Raises
+    ------
+    ArgumentTypeError
+        ``bounds`` is not a mapping, or an end is not a real number.
+    UnknownNameError
+        A name is not an input of ``model``.
+    ArgumentError
+        An end is NaN, or ``lower > upper``.
+    """
+    if not isinstance(bounds, Mapping):
+        raise ArgumentTypeError(f"saturate must be a mapping {{input: (lower, upper)}}, e.g. "
+                                f"scene.input_bounds(); got {type(bounds).__name__} "
+                                f"{bounds!r:.60}")
+    named.check_names(bounds, model.input_names, "inputs", model.name)
+    lower = np.full(model.n_r, -np.inf)
+    upper = np.full(model.n_r, np.inf)
+    for name, ends in bounds.items():
+        i = model.input_names.index(name)
+        try:
+            lo, hi = ends
+        except (TypeError, ValueError):
+            raise ArgumentTypeError(f"saturate[{name!r}] must be a pair (lower, upper); got "
+                                    f"{ends!r:.60}") from None
+        if lo is not None:
+            lower[i] = real_number(lo, f"saturate[{name!r}] lower")
+        if hi is not None:
+            upper[i] = real_number(hi, f"saturate[{name!r}] upper")
+        if not lower[i] <= upper[i]:
+            raise ArgumentError(f"saturate[{name!r}] = {ends!r}: give lower <= upper, "
+                                f"neither NaN")
+    return lower, upper
+
+
+def clamp(values, lower, upper) -> np.ndarray:
+    """``values`` (shape ``(..., n_r)``) clamped as the generated ``<prefix>_saturate_inputs``
+    does: below ``lower`` is ``lower``, above ``upper`` is ``upper``, the rest (NaN too) as is."""
+    values = np.asarray(values, dtype=float)
+    return np.where(values < lower, lower, np.where(values > upper, upper, values))
+
+
+def saturated(model: ModelBase, r, bounds):
+    """The inputs ``r`` (as :func:`simulate` takes them) clamped to ``bounds``
+    (:func:`input_limits`): an array for constant inputs (None: zeros, clamped), a function
+    for a function, a table for a table.
+
+    A table's clamped signal ``clamp(r(t))`` is piecewise linear with a knot wherever
+    ``r(t)`` crosses a bound inside a segment: those knots are added (the crossing time by
+    linear interpolation, the value there the bound itself), the original knots keep their
+    clamped values, so the C integrators interpolate the clamped signal (exactly at the
+    original knots, up to rounding at the added ones).
+    """
+    lower, upper = input_limits(model, bounds)
+    if isinstance(r, named.InputTable):
+        return _clamped_table(r.for_model(model), lower, upper)
+    if callable(r):
+        check_r = model._r
+        return lambda t, x: clamp(check_r(r(t, x)), lower, upper)
+    return clamp(model._r(r), lower, upper)
+
+
+def _clamped_table(table: named.InputTable, lower, upper) -> named.InputTable:
+    """``table`` clamped with its bound crossings as knots (see :func:`saturated`)."""
+    t, v = table.times, table.values
+    crossings = []
+    for j in range(v.shape[1]):
+        for bound in (lower[j], upper[j]):
+            if not np.isfinite(bound):
+                continue
+            side = np.sign(v[:, j] - bound)
+            k = np.nonzero(side[:-1] * side[1:] < 0)[0]     # strictly across, inside a segment
+            share = (bound - v[k, j]) / (v[k + 1, j] - v[k, j])
+            crossings.append(t[k] + share * (t[k + 1] - t[k]))
+    added = np.setdiff1d(np.concatenate(crossings), t) if crossings else np.zeros(0)
+    if added.size == 0:
+        return named.InputTable(t, clamp(v, lower, upper))
+    times = np.union1d(t, added)
+    values = np.stack([np.interp(times, t, col) for col in v.T], axis=1)
+    values[np.searchsorted(times, t)] = v                      # the original knots as given
+    return named.InputTable(times, clamp(values, lower, upper))
+
+
+def beyond_bounds(traj: Trajectory, bounds) -> dict[str, tuple[float, float]]:
+    """``{state: (t, value)}`` of the states of ``traj`` that leave their ``bounds``
+    (``{state: (lower, upper)}``, e.g. ``model.bounds("speeds")``; names not in ``traj``
+    are skipped) at an output time: the first such time and the value farthest outside.
+
+    States are never clamped (saturating a state inside an integrator is no physics: see
+    :mod:`mbgen.codegen.targets.step`); this reports a speed over its ``<limit velocity>``
+    after the fact, at the output times only (a short excursion between them is missed).
+    """
+    out = {}
+    for name, (lo, hi) in bounds.items():
+        if name not in traj.names:
+            continue
+        v = traj.x[:, traj.names.index(name)]
+        outside = np.nonzero((v < lo) | (v > hi))[0]
+        if outside.size:
+            excess = np.maximum(lo - v, v - hi)
+            out[name] = float(traj.t[outside[0]]), float(v[int(np.argmax(excess))])
+    return out
+
+
+def choose_method(model: ModelBase, method: str | None = None, r=None,
+                  stiff: bool = False) -> tuple[str, str]:
     """``(method, reason)``: the method :func:`simulate` will use.
 
     ``method`` is a solve_ivp name (any case), a generated C integrator or
-    ``None``/``"auto"``.
+    ``None``/``"auto"``; ``stiff`` makes auto choose an implicit one (module notes).
 
     Raises
     ------
@@ -99,6 +231,8 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
         a C integrator asked to follow a Python input function.
     """
     python_inputs = callable(r) and not isinstance(r, named.InputTable)
+    if (method is None or str(method).lower() == "auto") and stiff:
+        return _stiff_choice(model, python_inputs)
     if method is None or str(method).lower() == "auto":
         own = [o.value for o in model.c_integrators]
         if own and not python_inputs:
@@ -126,12 +260,21 @@ def choose_method(model: ModelBase, method: str | None = None, r=None) -> tuple[
     return by_lower[name.lower()], "as asked"
 
 
+def _stiff_choice(model: ModelBase, python_inputs: bool) -> tuple[str, str]:
+    """Auto's choice for a stiff model: C ``rosenbrock`` if compiled, else ``Radau``."""
+    if Output.ROSENBROCK in model.c_integrators and not python_inputs:
+        return "rosenbrock", "stiff: the model's generated C integrator 'rosenbrock'"
+    jac = "with" if Output.JACOBIAN in model.outputs else "without"
+    return "Radau", f"stiff: scipy Radau ({jac} the compiled Jacobian)"
+
+
 def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None = None,
              rtol: float = DEFAULT_RTOL, atol: float = DEFAULT_ATOL, n_out: int = 201,
              t_eval=None,
              progress: bool = True, say: Callable[[str], None] | None = None,
              rk4_steps: int = RK4_STEPS, project: bool = True,
-             max_steps: int | None = None) -> Trajectory:
+             max_steps: int | None = None, saturate=None,
+             stiff: bool = False) -> Trajectory:
     """Integrate ``model`` from ``x0`` over ``t_span``.
 
     Parameters
@@ -165,6 +308,15 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
     max_steps : int, optional
         Step limit (attempted steps in C; accepted steps in solve_ivp, default
         :data:`MAX_STEPS`); reaching it is an :class:`IntegrationError`.
+    saturate : mapping input name -> (lower, upper), optional
+        Clamp the inputs to these bounds before the right-hand side reads them (None ends:
+        unbounded), as the generated step API does for ``Scene(saturate=True)``; e.g.
+        ``saturate=scene.input_bounds()`` (see the module notes and :func:`saturated`).
+        Default None: the inputs as given.
+    stiff : bool
+        The model is stiff (a compliant ground): auto (``method=None``) takes the C
+        ``rosenbrock`` where compiled, else ``Radau``, without trying DOP853 first; no
+        adaptive step is longer than :data:`STIFF_MAX_STEP`.
 
     Models with configuration constraints start from :func:`consistent_start`;
     solve_ivp does not project, so their trajectory drifts off the constraints
@@ -180,7 +332,9 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
         The dependent coordinates of ``x0`` cannot be completed.
     """
     say = say or (lambda msg: warnings.warn(msg, StiffnessWarning, stacklevel=3))
-    chosen, reason = choose_method(model, method, r)
+    if saturate is not None:
+        r = saturated(model, r, saturate)
+    chosen, reason = choose_method(model, method, r, stiff=bool(stiff))
     t0, t1 = float(t_span[0]), float(t_span[1])
     if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
         raise ArgumentError(f"t_span {t_span!r}: give two finite times, the second after the "
@@ -193,13 +347,14 @@ def simulate(model: ModelBase, x0, t_span, *, p=None, r=None, method: str | None
     t_eval = np.linspace(t0, t1, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if chosen in C_METHODS:
         return _in_c(model, chosen, x0, p, r, t_eval, rtol, atol, rk4_steps, progress, reason,
-                     project, int(max_steps or 0))
+                     project, int(max_steps or 0), STIFF_MAX_STEP if stiff else 0.0)
     auto = method is None or str(method).lower() == "auto"
     if t_eval.ndim != 1 or t_eval.size < 1 or np.any(np.diff(t_eval) <= 0) \
             or t_eval[0] < t0 or t_eval[-1] > t1:
         raise ValueError(f"t_eval must be increasing times within t_span {(t0, t1)}")
     return _solve_ivp(model, chosen, x0, p, r, (t0, t1), t_eval, rtol, atol, progress, say,
-                      auto, reason, int(max_steps or MAX_STEPS))
+                      auto, reason, int(max_steps or MAX_STEPS),
+                      STIFF_MAX_STEP if stiff else np.inf)
 
 
 def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = DEFAULT_RTOL,
@@ -213,14 +368,16 @@ def simulate_in_c(model, x0, t_span, *, method: str = "dopri5", rtol: float = DE
 
 # ------------------------------------------------------------------ C integrators
 def _in_c(model, method, x0, p, r, t, rtol, atol, rk4_steps, progress, reason,
-          project=True, max_steps=0) -> Trajectory:
+          project=True, max_steps=0, h_max=0.0) -> Trajectory:
     h = None if METHODS[Output(method)].adaptive else (t[-1] - t[0]) / rk4_steps
     done: dict = {}
 
     def work():  # cffi releases the GIL: the bar below keeps time while C runs
         try:
             done["result"] = model.integrate(method, t, x0, p, r, rtol=rtol, atol=atol, h=h,
-                                             project=project, max_steps=max_steps)
+                                             project=project, max_steps=max_steps,
+                                             **({"h_max": h_max} if h_max and h is None
+                                                else {}))
         except BaseException as exc:  # re-raised in the caller's thread
             done["error"] = exc
 
@@ -260,7 +417,7 @@ def _spectral_radius(jac, f, t, y, fy) -> float:
 
 
 def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, say, auto,
-               reason, max_steps=MAX_STEPS) -> Trajectory:
+               reason, max_steps=MAX_STEPS, max_step=np.inf) -> Trajectory:
     f = model.bind(p, r)
     has_jac = Output.JACOBIAN in model.outputs
     jac = model.bind(p, r, Output.JACOBIAN) if has_jac else None
@@ -284,7 +441,7 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
         while t < t1:
             cls = SOLVE_IVP[method]
             kw = {"jac": jac} if method in IMPLICIT and jac is not None else {}
-            solver = cls(f, t, y, t1, rtol=rtol, atol=atol, **kw)
+            solver = cls(f, t, y, t1, rtol=rtol, atol=atol, max_step=max_step, **kw)
             stiff = False
             while solver.status == "running":
                 message = solver.step()
@@ -344,4 +501,5 @@ def _solve_ivp(model, method, x0, p, r, t_span, t_eval, rtol, atol, progress, sa
 
 
 __all__ = ["simulate", "simulate_in_c", "consistent_start", "holonomic_outputs",
-           "choose_method", "SOLVE_IVP", "IMPLICIT", "C_METHODS"]
+           "choose_method", "saturated", "input_limits", "clamp", "beyond_bounds", "SOLVE_IVP",
+           "IMPLICIT", "C_METHODS"]

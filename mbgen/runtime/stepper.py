@@ -25,7 +25,8 @@ class Stepper:
 
     ``Stepper(model, "dopri5", t0, x0, rtol=1e-6, atol=1e-9)``; then
     ``step(h, p=None, r=None)`` advances ``t``, ``x`` by ``h``.  The memory is one
-    ``<prefix>_<method>_memory`` owned by this object.
+    ``<prefix>_<method>_memory`` owned by this object.  A model generated from a scene with
+    ``saturate=True`` clamps ``r`` to its input bounds in C (:attr:`n_saturated` counts).
     """
 
     def __init__(self, model, method: str, t0: float, x0, *, rtol: float = DEFAULT_RTOL,
@@ -64,6 +65,12 @@ class Stepper:
     def max_residual(self) -> float:
         """Largest constraint residual met before projecting (NaN without projection)."""
         return float(getattr(self.memory, "max_residual", float("nan")))
+
+    @property
+    def n_saturated(self) -> int:
+        """Inputs the steps clamped to their bounds since init, summed over the calls (0 when
+        the model was not generated with ``Scene(saturate=True)``)."""
+        return int(getattr(self.memory, "n_saturated", 0))
 
     @property
     def h(self) -> float:

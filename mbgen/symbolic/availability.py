@@ -38,6 +38,8 @@ def motion_exprs(eq: Equations) -> list:
     if eq.constraints is not None:
         c = eq.constraints
         out += list(c.velocity_matrix) + list(c.velocity_bias) + list(c.acceleration_bias)
+    if eq.contacts is not None:
+        out += eq.contacts.expressions()
     return out
 
 
@@ -109,6 +111,14 @@ CONDITIONS: dict[Need, Requirement] = {
     Need.CONFIGURATION: Requirement(
         lambda eq: eq.constraints.m_h > 0,
         lambda eq, o: f"the model {eq.name!r} has no configuration (holonomic) constraints"),
+    Need.MULTIPLIERS: Requirement(
+        lambda eq: eq.constraints is not None or eq.contacts is not None,
+        lambda eq, o: f"the model {eq.name!r} has no constraints or contacts, so no "
+                      f"{o.value}"),
+    Need.CONTACTS: Requirement(
+        lambda eq: eq.contacts is not None,
+        lambda eq, o: f"the model {eq.name!r} has no contacts, so no {o.value} (state them "
+                      f"with model.contact(point) or contacts=... of from_urdf/from_mjcf)"),
 }
 
 #: What each output needs of the equations, checked in order (absent: always applies):

@@ -85,6 +85,57 @@ class Constraints:
 
 
 @dataclass(frozen=True)
+class Contacts:
+    r"""Rigid point contacts held fixed in the Newtonian frame, at the acceleration level.
+
+    Every speed stays a state (nothing is reduced, unlike :class:`Constraints`).  Contact
+    ``i`` is the point :math:`P_i` and three rows: with :math:`J` (``jacobian``, shape
+    ``(m, n_u)``, ``m = 3 k``) the points' velocity Jacobian :math:`\partial v_P/\partial u`
+    and ``drift`` (``(m, 1)``) the rest of the constraint,
+
+    .. math::
+
+        J u' + c = 0, \qquad c = \gamma + k_d\, v_P + k_p (r_P - r_0),
+
+    :math:`\gamma` the points' accelerations at :math:`u' = 0`, :math:`v_P` and
+    :math:`r_P` their velocities and positions, :math:`r_0` the anchors and
+    :math:`k_p, k_d` the Baumgarte gains (parameters), all in Newtonian components.  The
+    multipliers :math:`\lambda` (the placeholders :func:`lambda_symbols`, three per
+    contact) are the forces the ground exerts on the model at the points:
+    :math:`M u' = F + J^T\lambda`.  ``names`` name the contacts, ``points`` their points.
+    """
+
+    names: tuple[str, ...]
+    points: tuple[str, ...]
+    jacobian: sm.ImmutableMatrix
+    drift: sm.ImmutableMatrix
+
+    @property
+    def m(self) -> int:
+        """Rows: three per contact."""
+        return self.jacobian.rows
+
+    def labels(self) -> tuple[str, ...]:
+        """One label per row: ``FL_FOOT.x`` ... (the force's Newtonian components)."""
+        return tuple(f"{n}.{axis}" for n in self.names for axis in "xyz")
+
+    def expressions(self) -> list:
+        return list(self.jacobian) + list(self.drift)
+
+    def generalized_force(self, lam) -> list:
+        r""":math:`J^T\lambda` (``n_u``): the generalized force of the contact forces ``lam``."""
+        J = self.jacobian
+        return [sm.Add(*(J[r, i] * lam[r] for r in range(J.rows) if J[r, i] != 0))
+                for i in range(J.cols)]
+
+    def acceleration(self, acc) -> list:
+        r""":math:`J a + c` (``m``): the contact rows at the accelerations ``acc``."""
+        J = self.jacobian
+        return [sm.Add(*(J[r, i] * acc[i] for i in range(J.cols) if J[r, i] != 0),
+                       self.drift[r]) for r in range(J.rows)]
+
+
+@dataclass(frozen=True)
 class JointLoads:
     r"""The force and moment that every joint's parent exerts on its child.
 
@@ -175,6 +226,10 @@ class Equations:
         Holonomic and motion constraints (None: an unconstrained model).  ``M``
         and ``F`` are then those of the unconstrained system over every speed,
         independent and dependent (``layout.all_speeds``).
+    contacts : Contacts or None
+        Rigid point contacts (None: none): ``M u' = F + J^T lambda`` with ``J u' + c = 0``;
+        ``M``, ``F`` and the ``residual`` stay those without the contacts' forces, and
+        ``accelerations`` is None (the recursion knows no contact).
     """
 
     name: str
@@ -195,6 +250,7 @@ class Equations:
     residual: sm.ImmutableMatrix | None = None
     constraints: Constraints | None = None
     residual_jacobian: sm.ImmutableMatrix | None = None
+    contacts: Contacts | None = None
 
     def __post_init__(self):
         self._check_shapes()
@@ -231,6 +287,12 @@ class Equations:
         if self.accelerations is not None and self.accelerations.shape != (n, 1):
             raise ModelError(f"accelerations have shape {self.accelerations.shape}, "
                              f"expected ({L.n_u}, 1)")
+        c = self.contacts
+        if c is not None and (c.jacobian.shape != (c.m, n) or c.drift.shape != (c.m, 1)
+                              or c.m != 3 * len(c.names)):
+            raise ModelError(f"contacts: Jacobian {c.jacobian.shape} and drift {c.drift.shape} "
+                             f"for {len(c.names)} contacts, expected ({3 * len(c.names)}, {n}) "
+                             f"and ({3 * len(c.names)}, 1)")
 
     def _checked_parts(self) -> tuple[list, set]:
         """``(checked, known)``: the named parts whose symbols are checked (the residual's
@@ -258,6 +320,8 @@ class Equations:
             checked.append(("residual Jacobian", self.residual_jacobian))
         if self.constraints is not None:
             checked.append(("constraints", self.constraints.expressions()))
+        if self.contacts is not None:
+            checked.append(("contacts", self.contacts.expressions()))
         return checked, known
 
     @property
@@ -323,6 +387,9 @@ def equations_html(eq: Equations) -> str:
         c = eq.constraints
         rows.append(("constraints", f"{c.m} ({c.m_h} configuration): {names(c.names)}; "
                                     f"dependent speeds {names(L.dependent_speeds)}"))
+    if eq.contacts is not None:
+        rows.append(("contacts", f"{len(eq.contacts.names)} rigid point contacts: "
+                                 f"{names(eq.contacts.names)}"))
     if eq.source:
         rows.append(("source", html.escape(eq.source)))
     return table(f"Equations {eq.name!r}", rows)

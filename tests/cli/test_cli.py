@@ -66,6 +66,50 @@ def test_a_command_imports_only_its_own_module():
     assert _cli_modules_after(["check", "--help"]) == {"mbgen.cli.check", "mbgen.cli._common"}
 
 
+#: What ``import mbgen``, ``mbgen --version`` and ``mbgen --help`` must not import (issue
+#: 32: about 4 s of imports on a loaded machine, before a command even started).
+HEAVY = ("sympy", "numpy", "scipy", "jinja2", "symengine", "cffi", "mbgen.model",
+         "mbgen.derivation", "mbgen.codegen", "mbgen.runtime", "mbgen.pipeline")
+
+
+#: The packages of sys.modules that ran (a package _moved registers to load on first use,
+#: a LazyLoader's module, has not), each as its top name (``mbgen.X`` for mbgen's).
+RAN = ("import sys\nprint(sorted({m.split('.')[0] if not m.startswith('mbgen.') else "
+       "'.'.join(m.split('.')[:2]) for m, mod in list(sys.modules.items()) "
+       "if type(mod).__name__ != '_LazyModule'}))")
+
+
+def _heavy_modules_after(code: str) -> list:
+    done = subprocess.run([sys.executable, "-c", code + "\n" + RAN], capture_output=True,
+                          text=True)
+    assert done.returncode == 0, done.stderr
+    loaded = set(eval(done.stdout.strip().splitlines()[-1]))
+    return sorted(loaded & set(HEAVY))
+
+
+@pytest.mark.parametrize("argv", [["--version"], ["--help"]])
+def test_version_and_help_import_no_stage(argv):
+    code = f"from mbgen.cli import main\ntry:\n    main({argv!r})\nexcept SystemExit:\n    pass"
+    assert _heavy_modules_after(code) == []
+
+
+def test_import_mbgen_imports_no_stage_until_a_name_is_used():
+    assert _heavy_modules_after("import mbgen") == []
+    assert _heavy_modules_after("from mbgen import Output") == []
+    assert "sympy" in _heavy_modules_after("from mbgen import Model")
+
+
+def test_every_public_name_resolves_lazily():
+    names = set(mbgen.__all__)
+    assert names == {n for n in dir(mbgen) if not n.startswith("__")} | {"__version__"}
+    for name in sorted(names):
+        assert getattr(mbgen, name) is not None, name
+    from mbgen import Scene, run
+    assert run is mbgen.pipeline.run and Scene is mbgen.model.scene.Scene
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        mbgen.nothing  # noqa: B018
+
+
 def test_scenes_lists_builtins(capsys):
     assert main(["scenes"]) == EXIT_OK
     out = capsys.readouterr().out

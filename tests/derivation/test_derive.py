@@ -37,6 +37,7 @@ def loaded() -> mbgen.Model:
     m.damper("damper", Ao, m.origin, c)
     m.force(Bc, f * N.y, reaction=Ao)
     m.torque(B, tau * A.x, reaction=A)
+    m.armature("u2", 0.04)              # a generalized inertia on one speed
     return m
 
 

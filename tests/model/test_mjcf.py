@@ -29,6 +29,7 @@ import pytest
 
 import mbgen
 from mbgen.abi import Output
+from mbgen.derivation import Method
 from mbgen.errors import MissingExtraError, MjcfError, ModelSizeError, ModelWarning
 from mbgen.model.mjcf import scene_values
 from mbgen.model.scene import Scene, load_scene
@@ -197,9 +198,9 @@ TURNS = """
 class _Lambdified:
     """The right-hand side through sympy.lambdify: no C compiler, a second for a small model."""
 
-    def __init__(self, mj):
-        self.model = mbgen.LambdifiedModel(mbgen.equations_of(mbgen.from_mujoco(mj)),
-                                           outputs=(Output.RHS,))
+    def __init__(self, mj, equations=None):
+        equations = equations or mbgen.equations_of(mbgen.from_mujoco(mj))
+        self.model = mbgen.LambdifiedModel(equations, outputs=(Output.RHS,))
         self.p = np.array([scene_values(mj)[0]["g"]])
 
     def rhs(self, t, x, p, r):
@@ -216,6 +217,20 @@ def test_ball_under_a_turned_parent_and_a_turned_free_body_match_mj_forward():
     assert list(backend.model.layout.state_names)[:4] == ["q_ball_qw", "q_ball_qx",
                                                           "q_ball_qy", "q_ball_qz"]
     compare(mj, [backend], samples=4, seed=11)
+
+
+def test_armature_sits_on_the_joint_diagonal_for_newton_euler():
+    """MuJoCo's armature is ``Model.armature`` on the joint's speed, no rotor body: the
+    joint tree stays the file's, so Newton–Euler derives it (the recursion with the armature
+    in its pivots) and agrees with mj_forward."""
+    mj = mujoco.MjModel.from_xml_string(CHAIN.format(extra="", wrist="hinge"))
+    model = mbgen.from_mujoco(mj)
+    assert {str(a.speed.func): float(a.value) for a in model.armatures_} == {
+        "u_shoulder": 0.02, "u_slide": 0.5, "u_wrist": 0.01}
+    assert [b.name for b in model.bodies] == ["base", "upper", "slider", "wrist"]
+    equations = mbgen.equations_of(model, Method.NEWTON_EULER)
+    assert equations.accelerations is not None      # the articulated-body recursion
+    compare(mj, [_Lambdified(mj, equations)], samples=3, seed=7)
 
 
 # ------------------------------------------------------------- files MuJoCo must not read

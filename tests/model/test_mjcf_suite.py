@@ -14,9 +14,13 @@ gravity), to 1e-9 relative (:func:`test_mjcf.compare`).
 dm_control's suite imported): refused for its fluid forces (``density``), and compared with
 the density set to zero in the compiled model.
 
-Fast by default: finger (its gravity flag, two geared motors) and swimmer; the rest are
-``slow`` (one to two seconds each; humanoid one to two minutes: 27 speeds, derived by Kane's
-method, which the rotors of its armature leave mbgen to choose).
+The files' joint armature is ``Model.armature`` on each joint's diagonal, so cheetah, hopper,
+walker and humanoid keep the file's joint tree and are derived by Newton–Euler (the
+articulated-body recursion, armature in its pivots), as the default choice has it.
+
+Fast by default: finger (its gravity flag, two geared motors), humanoid (27 speeds, about
+8 s to generate and compile; 62 s by Kane's method when its armature was rotor bodies) and
+swimmer; the rest are ``slow`` (one to two seconds each).
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ from mbgen.errors import MjcfError, ModelWarning
 from mbgen.model.elements import Gravity
 from mbgen.model.mjcf import scene_values
 from mbgen.model.scene import Scene
+from mbgen.pipeline import run
 from mujoco_models import RTOL, compare
 
 mujoco = pytest.importorskip("mujoco")
@@ -56,6 +61,8 @@ MODELS = {
     "humanoid": (28, 27, 21, True, ["contacts", "limits of 'abdomen_z'"]),
 }
 FAST = {"finger"}
+#: The models whose joint tree the default choice derives by Newton–Euler.
+NEWTON_EULER = {"cheetah", "hopper", "walker", "humanoid"}
 
 
 @pytest.mark.parametrize("name", [
@@ -75,9 +82,11 @@ def test_suite_model_matches_mj_forward_with_actuation_on(name, tmp_path, monkey
     parameters, initial = scene_values(mj)
     assert (parameters["g"] > 0) == gravity         # finger.xml: <flag gravity="disable"/>
     assert any(isinstance(load, Gravity) for load in model.loads) == gravity
-    compiled = mbgen.compile(Scene(name=model.name, model=model, parameters=parameters,
-                                   initial_state=initial, t_span=(0.0, 1.0),
-                                   outputs=(Output.RHS,)))
+    result = run(Scene(name=model.name, model=model, parameters=parameters,
+                       initial_state=initial, t_span=(0.0, 1.0), outputs=(Output.RHS,)))
+    compiled = result.compiled
+    if name in NEWTON_EULER:
+        assert result.equations.method == "newton_euler", result.equations.method_reason
     inputs = list(compiled.layout.input_names)
     assert len(inputs) == nv + nu and all(n.startswith("ctrl_") for n in inputs[nv:])
     assert compare(mj, [compiled], samples=6, seed=5) <= RTOL

@@ -2,6 +2,7 @@
 step size kept between calls, caller-owned memory (the stated stack bounds:
 ``tests/codegen/test_header.py``)."""
 
+import dataclasses
 import shutil
 import subprocess
 
@@ -13,7 +14,7 @@ import mbgen
 import models
 from mbgen.abi import INTEGRATOR_STATUS_CODES
 from mbgen.codegen.targets import Targets
-from mbgen.errors import ArgumentTypeError
+from mbgen.errors import ArgumentTypeError, SceneError
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.runtime.stepper import Stepper
@@ -262,3 +263,101 @@ def test_numbers_of_the_wrong_type_are_refused_naming_the_argument(pendulum, nam
         Stepper(model, "dopri5", kw["t0"], x0, rtol=kw["rtol"], atol=kw["atol"]).step(kw["h"])
     s = Stepper(model, "dopri5", np.float64(0.0), x0, rtol=np.float32(1e-6), atol=np.int64(1))
     assert s.step(np.float64(0.01)).shape == x0.shape and s.t == 0.01
+
+
+# ------------------------------------------------------------------ input bounds (saturate)
+def bounded_models(outputs=("rhs", "dopri5")):
+    """The bounded cart (F in [-5, 5], T <= 1) with the step API, saturated and not."""
+    return {on: mbgen.compile(models.bounded_cart(on, outputs), targets=Targets(step=True))
+            for on in (True, False)}
+
+
+@pytest.fixture(scope="module")
+def bounded():
+    return bounded_models()
+
+
+def _steps(model, method, r, n=4, h=0.1):
+    s = Stepper(model, method, 0.0, [0.1, 0.2, 0.0, 0.0], rtol=1e-8, atol=1e-10)
+    for _ in range(n):
+        s.step(h, r=r)
+    return s
+
+
+def _beyond_is_at_the_bound(bounded, method):
+    """Saturated: F = 20, T = 3 take bit for bit the steps of F = 5, T = 1 (and F = -20 those
+    of F = -5, T unbounded below passes -40); each call counts its clamped inputs; inside the
+    bounds the saturated model steps as the unsaturated one."""
+    model = bounded[True]
+    for beyond, at, clamped in (([20.0, 3.0], [5.0, 1.0], 2), ([-20.0, -40.0], [-5.0, -40.0], 1)):
+        over, edge = _steps(model, method, beyond), _steps(model, method, at)
+        assert np.array_equal(over.x, edge.x) and over.t == edge.t
+        assert over.memory.n_steps == edge.memory.n_steps
+        assert (over.n_saturated, edge.n_saturated) == (4 * clamped, 0)
+    inside = [4.5, -0.5]
+    assert np.array_equal(_steps(model, method, inside).x, _steps(bounded[False], method,
+                                                                   inside).x)
+
+
+@pytest.mark.parametrize("method", ["rk4", "dopri5"])
+def test_an_input_beyond_its_bound_steps_as_the_input_at_the_bound(bounded, method):
+    _beyond_is_at_the_bound(bounded, method)
+
+
+@pytest.mark.slow
+def test_rosenbrock_steps_saturate_too(tmp_path):
+    """The implicit step (and its Jacobian's inputs) reads the clamped inputs; strict C/C++."""
+    rosenbrock = bounded_models(("rhs", "jacobian", "rosenbrock"))
+    _beyond_is_at_the_bound(rosenbrock, "rosenbrock")
+    _compiles_strictly(rosenbrock[True].rendered, tmp_path)
+
+
+def test_without_saturation_the_inputs_pass_as_given(bounded):
+    """saturate off (the default): no clamp, no bounds in the header, no counter."""
+    model = bounded[False]
+    assert not np.array_equal(_steps(model, "dopri5", [20.0, 3.0]).x,
+                              _steps(model, "dopri5", [5.0, 1.0]).x)
+    assert "saturate" not in model.rendered.header + model.rendered.source
+    assert _steps(model, "rk4", [20.0, 3.0]).n_saturated == 0
+
+
+def test_the_header_states_the_bounds_by_input(bounded):
+    model = bounded[True]
+    header = model.rendered.header
+    assert " *   r[0] F: [-5.0, 5.0]\n *   r[1] T: [-HUGE_VAL, 1.0]\n" in header
+    assert "extern const double cart_pendulum_input_upper[2];" in header
+    assert "long n_saturated;" in header
+    lib = model.lib
+    assert list(lib.cart_pendulum_input_lower) == [-5.0, -np.inf]
+    assert list(lib.cart_pendulum_input_upper) == [5.0, 1.0]
+    r = model.ffi.new("double[2]", [7.0, float("nan")])
+    assert lib.cart_pendulum_saturate_inputs(r, r) == 1           # NaN passes, unclamped
+    assert r[0] == 5.0 and np.isnan(r[1])
+
+
+def _compiles_strictly(rendered, folder):
+    for fname, text in rendered.files.items():
+        (folder / fname).write_text(text)
+    for tool, flags in ((CC, ["-std=c99"]), (CXX, ["-x", "c++", "-std=c++11"])):
+        done = subprocess.run([tool, *flags, "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2",
+                               "-c", f"{rendered.prefix}.c", "-o", "m.o"], cwd=folder,
+                              capture_output=True, text=True)
+        assert done.returncode == 0 and not done.stderr, done.stderr
+
+
+def test_saturated_step_target_compiles_strictly_as_c_and_cxx(bounded, tmp_path):
+    _compiles_strictly(bounded[True].rendered, tmp_path)
+
+
+def test_saturate_needs_a_bounded_input():
+    with pytest.raises(SceneError, match="no input it keeps has bounds"):
+        dataclasses.replace(models.two_input_cart(), saturate=True)
+    scene = models.two_input_cart()
+    scene.model.bound("F", -5.0, 5.0)
+    with pytest.raises(SceneError, match="no input it keeps has bounds"):
+        dataclasses.replace(scene, inputs=("T",), saturate=True)    # F is sliced away
+    with pytest.raises(SceneError, match="saturate must be True or False"):
+        dataclasses.replace(models.bounded_cart(False), saturate="yes")
+    assert models.bounded_cart().input_bounds() == {"F": (-5.0, 5.0), "T": (-np.inf, 1.0)}
+    only_t = dataclasses.replace(models.bounded_cart(), inputs=("T",))
+    assert only_t.input_bounds() == {"T": (-np.inf, 1.0)}

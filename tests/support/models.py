@@ -1,6 +1,7 @@
 """Small models shared by several test files, a scene file of the pendulum, and two helpers
 of the robot-file tests (a counter of joint reads, a read that must not block on a pipe)."""
 
+import dataclasses
 import os
 import threading
 from pathlib import Path
@@ -68,6 +69,16 @@ def two_input_cart() -> mbgen.Scene:
     scene = mbgen.Scene("cart_pendulum", m, parameters=dict(mc=2.0, mp=0.7, l=0.9, g=9.81,
                                                             k=3.0))
     return scene
+
+
+def bounded_cart(saturate: bool = True, outputs=("rhs", "dopri5", "rk4")) -> mbgen.Scene:
+    """:func:`two_input_cart` with input bounds, ``F`` in ``[-5, 5]`` and ``T <= 1``
+    (unbounded below), saturated or not (``Scene(saturate=...)``)."""
+    scene = two_input_cart()
+    scene.model.bound("F", -5.0, 5.0)
+    scene.model.bound("T", None, 1.0)
+    return dataclasses.replace(scene, saturate=saturate, outputs=outputs,
+                               initial_state={"x": 0.1, "th": 0.2})
 
 
 def massless_link_scene() -> mbgen.Scene:

@@ -7,8 +7,8 @@ stack bounds of its public C functions, the runtime routines its C calls
 (:mod:`~mbgen.codegen.targets.runtime`) and what it writes into an output folder.  Two
 loops read the rows and name none: :func:`mbgen.codegen.render.render` (``Kernel ->
 Rendered``) and :func:`mbgen.export.generate` (a scene into a folder, ``mbgen generate
-SCENE --target c,python,step,batch,example,fmu``).  The model's templates include the
-sections the active targets list, never a template they know by name.
+SCENE --target c,python,step,batch,example,fmu,casadi,jax``).  The model's templates
+include the sections the active targets list, never a template they know by name.
 
 ``c`` (:data:`C`, :mod:`~mbgen.codegen.targets.model`)
     ``<prefix>.h``, ``<prefix>.c``: the requested outputs in C.  Always rendered.
@@ -30,6 +30,13 @@ sections the active targets list, never a template they know by name.
 ``fmu`` (:data:`FMU`, :mod:`~mbgen.codegen.targets.fmu`)
     An FMI 2.0 FMU, ``<prefix>.fmu``: the model description and glue rendered from a scene
     after the pipeline, with the step API, compiled and zipped (``mbgen fmu``).
+``casadi`` (:data:`CASADI`, :mod:`~mbgen.codegen.targets.casadi`)
+    ``<prefix>_casadi.c``: the right-hand side and its analytic Jacobian behind CasADi's
+    external-function interface, and ``<prefix>_casadi.py``, a loader; needs ``c``
+    (:func:`mbgen.casadi_function` builds and loads the same).
+``jax`` (:data:`JAX`, :mod:`~mbgen.codegen.targets.jax`)
+    ``<prefix>_jax.py``: the outputs as pure ``jax.numpy`` functions
+    (:func:`mbgen.jax_function` loads the same).
 
 The header's index macros and content hash are :mod:`mbgen.codegen.header`'s, with the units
 of the stack bounds every row states for its own functions.
@@ -63,9 +70,11 @@ from ...errors import UsageError
 from ...names import did_you_mean
 from .base import Job, Target
 from .batch import BATCH
+from .casadi import CASADI
 from .example import EXAMPLE
 from .fmu import FMU
 from .integrators import INTEGRATORS
+from .jax import JAX
 from .model import PYTHON, C
 from .step import STEP
 
@@ -85,7 +94,8 @@ class Targets:
 
 
 #: Every target, in file order (the model's sections in the order they follow it).
-TARGETS: tuple[Target, ...] = (C, PYTHON, INTEGRATORS, STEP, BATCH, EXAMPLE, FMU)
+TARGETS: tuple[Target, ...] = (C, PYTHON, INTEGRATORS, STEP, BATCH, EXAMPLE, FMU, CASADI,
+                                JAX)
 #: The targets that add sections to the model's files, in the order of their sections.
 SECTIONS: tuple[Target, ...] = tuple(t for t in TARGETS
                                      if any(w in ("header", "source") for _, w in t.files))
@@ -127,4 +137,5 @@ def switches(rows, scene_targets: Targets | None = None) -> Targets:
 
 
 __all__ = ["Targets", "Target", "Job", "TARGETS", "SECTIONS", "DEFAULT", "CHOSEN", "C", "PYTHON",
-           "INTEGRATORS", "STEP", "BATCH", "EXAMPLE", "FMU", "target", "select", "switches"]
+           "INTEGRATORS", "STEP", "BATCH", "EXAMPLE", "FMU", "CASADI", "JAX", "target", "select",
+           "switches"]

@@ -51,6 +51,15 @@ Reference-FMUs allow for the master's rounding: a step backwards or a jump ahead
 refused), and a ``communicationStepSize`` that is not a positive finite number.
 ``fmi2SetupExperiment`` and ``fmi2SetTime`` refuse a time that is not finite.
 
+Input bounds (``Scene(saturate=True)``, off by default): ``fmi2SetReal`` stores an input
+clamped to its bounds (the step API's ``<prefix>_input_lower`` / ``_upper``, see
+:mod:`~mbgen.codegen.targets.step`), so both modes and every output read the clamped value,
+``fmi2GetReal`` reads it back, and with debug logging on each clamp is logged (category
+``logAll``: the input, the value given and the bound).  The input's description in the
+model description states its bounds.  The XML's ``min`` / ``max`` attributes are not set:
+the standard makes a value outside them illegal to set, while a saturating FMU takes any
+value.
+
 Configuration constraints: co-simulation projects after every step (the step
 API).  Model exchange cannot, as the importer's integrator owns the state: so
 ``fmi2CompletedIntegratorStep`` asks for a step event once the residual
@@ -80,7 +89,7 @@ from ...integrators import DEFAULT_ATOL, DEFAULT_RTOL
 from ..escape import xml_attr
 from ..templating import environment
 from .base import Job, Target
-from .step import adaptive_method
+from .step import adaptive_method, saturation
 
 #: Model exchange: residual (relative to 1 + max|q_r|) above which a step event projects.
 PROJECT_TOL = 1e-9
@@ -176,6 +185,15 @@ def _c(v) -> str:
     return repr(float(v))
 
 
+def _bounds(saturate: list | None, i: int) -> str:
+    """``, saturated to [lower, upper]`` of input ``i`` (nothing without saturation)."""
+    if not saturate:
+        return ""
+    b = saturate[i]
+    ends = [v.replace("HUGE_VAL", "inf") for v in (b["lower"], b["upper"])]
+    return f", saturated to [{ends[0]}, {ends[1]}]"
+
+
 def fmu_files(scene, kernel, rendered) -> dict[str, str]:
     """``{path inside the FMU: text}`` (all but the binary) of ``scene``.
 
@@ -202,9 +220,11 @@ def fmu_files(scene, kernel, rendered) -> dict[str, str]:
                        causality="parameter", variability="tunable", initial="exact",
                        start=_c(p0[i]), derivative=None)
                   for i, n in enumerate(L.parameter_names)]
+    saturate = saturation(kernel)
     variables += [dict(name=n, vr=vr["r"] + i, description="input (force or torque), "
-                       "held constant over a co-simulation step", causality="input",
-                       variability="continuous", initial=None, start="0.0", derivative=None)
+                       "held constant over a co-simulation step" + _bounds(saturate, i),
+                       causality="input", variability="continuous", initial=None, start="0.0",
+                       derivative=None)
                   for i, n in enumerate(L.input_names)]
     outputs, start = [], vr["out"]
     for o in FMU_OUTPUTS:
@@ -261,7 +281,7 @@ def fmu_files(scene, kernel, rendered) -> dict[str, str]:
         project_tol=_c(PROJECT_TOL),
         rhs_args="".join(f", c->{a}" for a in infos[Output.RHS].args[2:]),
         step_args="".join(f", m->{a}" for a, n in (("p", n_p), ("r", n_r)) if n),
-        project=project, states=FMI2_STATES, allowed=FMI2_ALLOWED,
+        project=project, states=FMI2_STATES, allowed=FMI2_ALLOWED, saturate=saturate,
         point_tol=_c(COMMUNICATION_POINT_TOL)))
     files = {xml: description,
              types: env.get_template(types_t).render(

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from ..._version import __version__
 from ...abi import Output
 from ...symbolic.equations import acceleration_symbols, lambda_symbols
+from ..contacts import contact_solver
 from ..header import SMALL, frame
 from ..optimize import Kernel, KernelFunction
 from ..outputs import Form
@@ -79,6 +80,9 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
         post=blocks(fn.post),
         columns=s.columns,
         implicit=s.implicit,
+        contact=s.contact,
+        forces=s.forces,
+        stride=s.stride,
         velocity=blocks(fn.velocity),
         velocity_temps=temps(fn.velocity_temporaries),
         n_q=L.n_q,
@@ -120,6 +124,9 @@ def function_views(kernel: Kernel, prefix: str) -> Views:
     constrained = eq.constraints is not None
     for i, a in enumerate(acceleration_symbols(L.n_u + L.n_d)):
         c_names[a] = py_names[a] = f"ACC[{i}]" if constrained else f"F[{i}]"
+    if eq.contacts is not None:   # the contact forces, solved into LAM with u' into F
+        for i, lam in enumerate(lambda_symbols(eq.contacts.m)):
+            c_names[lam] = py_names[lam] = f"LAM[{i}]"
     if constrained:
         for i, u in enumerate(L.dependent_speeds):
             c_names[u] = py_names[u] = f"UR[{i}]"
@@ -128,13 +135,18 @@ def function_views(kernel: Kernel, prefix: str) -> Views:
     args = signature_args(kernel)
     sort = kernel.ops_after <= SORT_TERMS_MAX_OPS
     c_views = [_view(kernel, fn, prefix, CPrinter(c_names, sort)) for fn in kernel.functions]
+    solver = contact_solver(eq) if eq.contacts is not None else None
+    for v in c_views:   # contact columns: the solves as vector loops (mbgen.codegen.contacts)
+        v["contact_columns"] = solver.columns_c(v["stride"], CONTACT_ARRAYS) \
+            if v["contact"] and v["columns"] else []
     py_views = [_view(kernel, fn, prefix, PyPrinter(py_names, sort)) for fn in kernel.functions]
     for v in c_views:
         v["prototype"] = _c_prototype(v, args)
         if constrained:     # its temporaries may read ACC, LAM, UR: kept in one function
             split_view(v, L.identifiers[L.time], (), split_chars=float("inf"))
         else:
-            split_view(v, L.identifiers[L.time], ("F",) if v["solve"] else ())
+            split_view(v, L.identifiers[L.time], (("F", "LAM") if v["contact"] else ("F",))
+                       if v["solve"] else ())
     return Views(c_views, py_views)
 
 
@@ -143,10 +155,38 @@ def function_bytes(view: dict) -> int:
     temps = sum(len(view[s]) for s in ("temps", "post_temps") if s not in view["split"])
     imports = sum(len(v) for v in view["main_imports"].values())
     doubles = int(view["main_uses_time"]) + len(view["main_loads"]) + temps + imports \
-        + view["work"] + sum(b["size"] for b in view["pre"] + view["post"] if b["local"])
+        + view["work"] + sum(b["size"] for b in view["pre"] + view["post"] if b["local"]) \
+        + contact_doubles(view)
     ints = int(bool(view["solve"])) + int(bool(view["columns"])) + 1 \
         + int(any(p["status"] for p in view["parts"]))
     return frame(doubles, ints) - frame()
+
+
+#: The names of the contact factors in a model function (``templates/model/model.c.j2``).
+CONTACT_ARRAYS = {"M": "M", "ID": "CD", "W": "CW", "V": "CV", "G": "CG"}
+
+
+def contact_doubles(view: dict) -> int:
+    """The contact solve's arrays in a function: ``CD`` (``n_u``), ``CW``, ``CV`` (``m x n_u``
+    each), ``CG`` (``m x m``), ``LAM`` (``m``) and, solving columns, ``DL`` (``m x stride``)."""
+    m, n = view["contact"], view["n_u"]
+    return n + m * (2 * n + m + 1 + (view["stride"] if view["columns"] else 0)) if m else 0
+
+
+def _contact_python(kernel: Kernel) -> dict:
+    """The Python lines of the contact solve (:mod:`mbgen.codegen.contacts`; the C's are the
+    ``contact`` routine's, :func:`~mbgen.codegen.targets.runtime.routine_context`)."""
+    if kernel.equations.contacts is None:
+        return dict(contact_factor_py=[], contact_solve_py=[])
+    solver = contact_solver(kernel.equations)
+    return dict(
+        contact_factor_py=py_lines(solver.factor_mass(), "NotPositiveDefinite('mass matrix is "
+                                                         "not positive definite')")
+        + py_lines(solver.factor_rows(), "")
+        + py_lines(solver.factor_delassus(), "ContactSingular('the Delassus matrix of the "
+                                             "contacts is singular')"),
+        contact_solve_py=py_lines(solver.solve(b=lambda p: f"b[o + {p}*s]",
+                                               c=lambda r: f"c[co + {r}*s]"), ""))
 
 
 def part_bytes(view: dict) -> int:
@@ -161,7 +201,7 @@ class ModelC(Target):
     name = "c"
     folder = "model"
     files = (("model.h.j2", "{prefix}.h"), ("model.c.j2", "{prefix}.c"))
-    requires = ("ldl", "ldl_columns", "lu", "lu_solve_t")
+    requires = ("ldl", "ldl_columns", "lu", "lu_solve_t", "contact")
     bundled = True
 
     def context(self, kernel: Kernel, views: Views, prefix: str) -> dict:
@@ -234,10 +274,14 @@ class ModelC(Target):
             m=eq.constraints.m if constrained else 0,
             n_all=L.n_u + L.n_d,
             any_kkt=constrained and any_solve,
+            any_contact=any(fn.spec.contact for fn in kernel.functions),
+            any_ldl=any(fn.spec.solve and not fn.spec.contact for fn in kernel.functions),
+            **_contact_python(kernel),
             declarations=prototypes,
             sections=[],
             **routine_context(kernel, 0 if unrolled else max(
-                (fn.spec.columns for fn in kernel.functions), default=0)),
+                (fn.spec.columns for fn in kernel.functions if not fn.spec.contact),
+                default=0)),
         )
 
     def stack_bounds(self, kernel, ctx: dict, known: dict) -> dict[str, int]:
@@ -252,8 +296,10 @@ class ModelC(Target):
             callees = [SMALL, solves, frame() + part_bytes(v) if v["parts"] else 0]
             if v["solve"] or v["columns"]:
                 callees.append(routines["ldl"])
-            if v["columns"] and not ctx["unrolled"]:
+            if v["columns"] and not ctx["unrolled"] and not v["contact"]:
                 callees.append(routines["ldl_columns"])
+            if v["contact"]:
+                callees.append(routines["contact"])
             bounds[v["name"]] = frame() + function_bytes(v) + max(callees)
         if ctx["has_defaults"]:
             bounds[f"{ctx['prefix']}_default_parameters"] = frame()
@@ -283,4 +329,4 @@ C = ModelC()
 PYTHON = ModelPython()
 
 __all__ = ["C", "PYTHON", "ModelC", "ModelPython", "Views", "function_views", "signature_args",
-           "function_bytes", "part_bytes"]
+           "function_bytes", "part_bytes", "contact_doubles"]

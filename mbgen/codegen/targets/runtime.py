@@ -30,6 +30,10 @@ routine                 functions (``<prefix>_...``)
 ``lu``                  ``lu_factor``, ``lu_solve``: partial pivoting, one pivot rule
                         (:data:`mbgen.codegen.solver.LU_PIVOT`)
 ``lu_solve_t``          ``lu_solve_t``: the transposed solve with ``lu``'s factors
+``contact``             ``contact_factor``, ``contact_solve``: rigid point contacts, ``M``
+                        and the Delassus matrix ``J M^-1 J^T`` factored, then ``lambda`` and
+                        ``u'``, straight-line over the structural nonzeros
+                        (:mod:`mbgen.codegen.contacts`)
 ``rms``                 ``rms``: the adaptive methods' error norm
 ``initial_step``        ``initial_step``: the adaptive methods' first step (scipy's rule)
 ======================  =====================================================================
@@ -52,8 +56,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from ...names import model_prefix
+from ..contacts import contact_solver
 from ..header import SMALL, frame
-from ..solver import LU_PIVOT, factor_program
+from ..solver import LU_PIVOT, c_lines, factor_program, pivot_factor
 from ..templating import environment
 
 
@@ -63,6 +69,12 @@ def _ldl_bound(kernel, ctx: dict, known: dict) -> int:
     if ctx["unrolled"]:
         return frame(sum(1 for s in factor_program(n, kernel.mass_pattern) if s.kind == "let"))
     return frame(n + 3, 3)
+
+
+def _contact_bound(kernel, ctx: dict, known: dict) -> int:
+    """``contact_factor``: one double per ``let`` of its straight-line code."""
+    c = kernel.equations.contacts
+    return frame(contact_solver(kernel.equations).locals()) if c is not None else SMALL
 
 
 def _initial_step_bound(kernel, ctx: dict, known: dict) -> int:
@@ -106,6 +118,7 @@ ROUTINES: dict[str, Routine] = {r.name: r for r in (
             bound=lambda kernel, ctx, known: frame(ctx["routine"]["columns"] + 6, 5)),
     Routine("lu", ("lu_factor", "lu_solve"), bound=lambda kernel, ctx, known: frame(6, 6)),
     Routine("lu_solve_t", ("lu_solve_t",), ("lu",)),
+    Routine("contact", ("contact_factor", "contact_solve"), bound=_contact_bound),
     Routine("rms", ("rms",)),
     Routine("initial_step", ("initial_step",), ("rms",), bound=_initial_step_bound),
 )}
@@ -116,16 +129,35 @@ def routine_context(kernel, columns: int) -> dict:
 
     ``n``: a state's length (at least 1); ``params``, ``args``: the trailing parameters and
     arguments ``p``, ``r`` of a model function; ``lu_pivot``: the LU's pivot rule;
-    ``columns``: the most columns a function solves row by row (0: ``ldl_columns`` unused).
+    ``columns``: the most columns a function solves row by row (0: ``ldl_columns`` unused);
+    ``contacts``: the contact rows ``m`` (0: none), ``contact_pivot`` the factor of
+    ``G_rr`` below which a pivot of the Delassus matrix is singular (the mass matrix's rule,
+    :func:`~mbgen.codegen.solver.pivot_factor`, for ``n_u + m``), ``contact_order`` the
+    elimination order and ``contact_factor_c``, ``contact_solve_c`` the routine's lines
+    (:class:`~mbgen.codegen.contacts.ContactSolver`).
     """
     L = kernel.layout
     tail = [a for a, n in (("p", L.n_p), ("r", L.n_r)) if n]
+    c = kernel.equations.contacts
+    m = c.m if c is not None else 0
+    contact = {}
+    if c is not None:
+        solver = contact_solver(kernel.equations)
+        upper = model_prefix(kernel.equations.name).upper()
+        contact = dict(
+            contact_order=" ".join(map(str, solver.order)),
+            contact_factor_c=c_lines(solver.factor_mass(), f"{upper}_NOT_POSITIVE_DEFINITE")
+            + c_lines(solver.factor_rows(), "")
+            + c_lines(solver.factor_delassus(), f"{upper}_CONTACT_SINGULAR"),
+            contact_solve_c=c_lines(solver.solve(), ""))
     return dict(routine=dict(
         n=max(L.n_x, 1),
         params="".join(f", const double *{a}" for a in tail),
         args="".join(f", {a}" for a in tail),
         lu_pivot=repr(LU_PIVOT),
-        columns=columns))
+        columns=columns,
+        contacts=m,
+        contact_pivot=pivot_factor(L.n_u + m), **contact))
 
 
 class Runtime:

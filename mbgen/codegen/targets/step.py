@@ -50,6 +50,22 @@ first stage at the projected state.  The dependent speeds are not states (the
 RHS computes them), so the state stays consistent step after step.  The
 projection needs the integrators rendered (a scene with an integrator output).
 
+Input bounds (``Scene(saturate=True)``, off by default; :func:`saturation`): the header
+states each input's bounds as ``const double <prefix>_input_lower[N_R]``, ``_upper[N_R]``
+(an unbounded side is ``HUGE_VAL``; the comment above them names each input), and every
+step call first clamps the inputs ``r`` into ``mem->r_in`` with
+``<prefix>_saturate_inputs`` (``v < lower``: ``lower``; ``v > upper``: ``upper``; any other
+value, NaN included, passes unchanged) and adds the number it clamped to the statistic
+``mem->n_saturated`` (cleared by init); the right-hand side reads only the clamped
+values.  So a step with an input beyond its bound is bit for bit the step with the input
+at the bound.  The adaptive methods compare the clamped inputs to reuse ``f``: an input
+that moves while it stays clamped costs no RHS call.  Why inputs only: a bound on an input
+(a motor's torque) is a property of the actuator, which clamps before the dynamics; a
+bound on a speed or coordinate is a property of the state, and clamping a state between
+steps is no physics (it injects or removes energy, breaks the error control and
+first-same-as-last reuse, and makes the answer depend on the step size), so those stay data
+(``Model.bounds("speeds")``) for the caller to check a trajectory against.
+
 The step functions call the runtime routines (:mod:`mbgen.codegen.targets.runtime`) the
 whole-trajectory integrators call -- the error norm, the first step, Rosenbrock's LU --
 so with both targets on each is defined once.  Stack bounds
@@ -59,6 +75,8 @@ and LU.
 """
 
 from __future__ import annotations
+
+import math
 
 from ...abi import INTEGRATOR_STATUS_CODES, Output
 from ...errors import ModelError
@@ -90,6 +108,26 @@ def step_methods(kernel) -> tuple[str, ...]:
 def adaptive_method(kernel) -> str:
     """The adaptive step method an FMU's co-simulation uses: the implicit one of a stiff scene."""
     return [m for m in step_methods(kernel) if method(m).adaptive][-1]
+
+
+def c_bound(value: float) -> str:
+    """A bound as a C double expression: ``repr`` of a finite one, ``(+/-)HUGE_VAL``."""
+    if math.isinf(value):
+        return "HUGE_VAL" if value > 0 else "-HUGE_VAL"
+    return repr(float(value))
+
+
+def saturation(kernel) -> list[dict] | None:
+    """``[{name, index, lower, upper}]`` per input of ``kernel.layout`` (C expressions; an
+    input without bounds gets ``-HUGE_VAL``, ``HUGE_VAL``), or None when the inputs are not
+    saturated (``kernel.input_bounds`` empty, or no inputs)."""
+    names = kernel.layout.input_names
+    if not kernel.input_bounds or not names:
+        return None
+    bounds = {n: (lo, hi) for n, lo, hi in kernel.input_bounds}
+    return [dict(name=n, index=i, lower=c_bound(bounds.get(n, (-math.inf, math.inf))[0]),
+                 upper=c_bound(bounds.get(n, (-math.inf, math.inf))[1]))
+            for i, n in enumerate(names)]
 
 
 def step_context(kernel, prefix: str) -> dict:
@@ -129,6 +167,7 @@ def step_context(kernel, prefix: str) -> dict:
         max_steps=DEFAULT_MAX_STEPS,
         non_autonomous=non_autonomous,
         project=project,
+        saturate=saturation(kernel),
     ))
 
 
@@ -149,13 +188,16 @@ class Step(Target):
 
     def stack_bounds(self, kernel, ctx: dict, known: dict) -> dict[str, int]:
         """``<prefix>_<m>_init``, ``<prefix>_<m>_step`` of every step method; with
-        configuration constraints ``<prefix>_project_state``."""
+        configuration constraints ``<prefix>_project_state``; with saturated inputs
+        ``<prefix>_saturate_inputs`` (a leaf)."""
         prefix = ctx["prefix"]
         routines = routine_bounds(kernel, ctx, known)
         project = project_bound(kernel, prefix, known, routines)
         project_state = frame(14, 2) + project if project else 0
         rhs = max(known.get(f"{prefix}_rhs", 0), project)
         bounds = {f"{prefix}_project_state": project_state} if project else {}
+        if ctx["step"]["saturate"]:
+            bounds[f"{prefix}_saturate_inputs"] = SMALL
         for m in ctx["step"]["names"]:
             T = method(m)
             calls = [rhs, SMALL, project_state]
@@ -172,5 +214,5 @@ class Step(Target):
 #: The step target.
 STEP = Step()
 
-__all__ = ["STEP", "Step", "step_methods", "adaptive_method", "step_context",
-           "DEFAULT_MAX_STEPS"]
+__all__ = ["STEP", "Step", "step_methods", "adaptive_method", "step_context", "saturation",
+           "c_bound", "DEFAULT_MAX_STEPS"]
