@@ -200,7 +200,7 @@ int bent_pipe_dopri5(const double *x0, const double *p, int n_out, const double 
     double w[7];
     double t, t_new, t_end, h, h_abs, h_max, min_step, rtol, atol, err_norm, factor, s;
     long max_steps;
-    int status, i, next, step_rejected;
+    int status, stage_status, i, next, step_rejected;
 
     if (!stats) {
         stats = &local;
@@ -241,9 +241,10 @@ int bent_pipe_dopri5(const double *x0, const double *p, int n_out, const double 
             h_abs = min_step;
         }
         step_rejected = 0;
+        stage_status = BENT_PIPE_OK;
         for (;;) {
             if (h_abs < min_step) {
-                return BENT_PIPE_STEP_TOO_SMALL;
+                return stage_status != BENT_PIPE_OK ? stage_status : BENT_PIPE_STEP_TOO_SMALL;
             }
             if (stats->n_steps + stats->n_rejected >= max_steps) {
                 return BENT_PIPE_MAX_STEPS;
@@ -259,48 +260,72 @@ int bent_pipe_dopri5(const double *x0, const double *p, int n_out, const double 
             }
             status = bent_pipe_rhs(t + 0.2 * h, xs, p, K[1]);
             ++stats->n_rhs;
-            if (status != BENT_PIPE_OK) {
-                return status;
+            if (status != BENT_PIPE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             for (i = 0; i < 4; ++i) {
                 xs[i] = y[i] + (0.075 * K[0][i] + 0.225 * K[1][i]) * h;
             }
             status = bent_pipe_rhs(t + 0.3 * h, xs, p, K[2]);
             ++stats->n_rhs;
-            if (status != BENT_PIPE_OK) {
-                return status;
+            if (status != BENT_PIPE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             for (i = 0; i < 4; ++i) {
                 xs[i] = y[i] + (0.9777777777777777 * K[0][i] - 3.7333333333333334 * K[1][i] + 3.5555555555555554 * K[2][i]) * h;
             }
             status = bent_pipe_rhs(t + 0.8 * h, xs, p, K[3]);
             ++stats->n_rhs;
-            if (status != BENT_PIPE_OK) {
-                return status;
+            if (status != BENT_PIPE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             for (i = 0; i < 4; ++i) {
                 xs[i] = y[i] + (2.9525986892242035 * K[0][i] - 11.595793324188385 * K[1][i] + 9.822892851699436 * K[2][i] - 0.2908093278463649 * K[3][i]) * h;
             }
             status = bent_pipe_rhs(t + 0.8888888888888888 * h, xs, p, K[4]);
             ++stats->n_rhs;
-            if (status != BENT_PIPE_OK) {
-                return status;
+            if (status != BENT_PIPE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             for (i = 0; i < 4; ++i) {
                 xs[i] = y[i] + (2.8462752525252526 * K[0][i] - 10.757575757575758 * K[1][i] + 8.906422717743473 * K[2][i] + 0.2784090909090909 * K[3][i] - 0.2735313036020583 * K[4][i]) * h;
             }
             status = bent_pipe_rhs(t + 1.0 * h, xs, p, K[5]);
             ++stats->n_rhs;
-            if (status != BENT_PIPE_OK) {
-                return status;
+            if (status != BENT_PIPE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             for (i = 0; i < 4; ++i) {
                 y_new[i] = y[i] + h * (0.09114583333333333 * K[0][i] + 0.44923629829290207 * K[2][i] + 0.6510416666666666 * K[3][i] - 0.322376179245283 * K[4][i] + 0.13095238095238096 * K[5][i]);
             }
             status = bent_pipe_rhs(t_new, y_new, p, K[6]);
             ++stats->n_rhs;
-            if (status != BENT_PIPE_OK) {
-                return status;
+            if (status != BENT_PIPE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             for (i = 0; i < 4; ++i) {
                 const double ay = fabs(y[i]), an = fabs(y_new[i]);

@@ -2502,7 +2502,7 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
     double t, t_new, t_end, h, h_abs, h_max, min_step, rtol, atol, err_norm, factor, inv_hg;
     double s, h00, h10, h01, h11;
     long max_steps;
-    int status, i, next, step_rejected;
+    int status, stage_status, i, next, step_rejected;
 
     if (!stats) {
         stats = &local;
@@ -2554,9 +2554,10 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             return status;
         }
         step_rejected = 0;
+        stage_status = BICYCLE_OK;
         for (;;) {
             if (h_abs < min_step) {
-                return BICYCLE_STEP_TOO_SMALL;
+                return stage_status != BICYCLE_OK ? stage_status : BICYCLE_STEP_TOO_SMALL;
             }
             if (stats->n_steps + stats->n_rejected >= max_steps) {
                 return BICYCLE_MAX_STEPS;
@@ -2579,8 +2580,12 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             }
             status = bicycle_lu_factor(G, 10, piv) ? BICYCLE_OK : BICYCLE_SINGULAR_ITERATION_MATRIX;
             ++stats->n_lu;
-            if (status != BICYCLE_OK) {
-                return status;
+            if (status != BICYCLE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             /* stage 1 */
             fs = f;
@@ -2594,8 +2599,12 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             }
             status = bicycle_rhs(t + 0.386 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != BICYCLE_OK) {
-                return status;
+            if (status != BICYCLE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -2608,8 +2617,12 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             }
             status = bicycle_rhs(t + 0.21 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != BICYCLE_OK) {
-                return status;
+            if (status != BICYCLE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -2622,8 +2635,12 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             }
             status = bicycle_rhs(t + 0.63 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != BICYCLE_OK) {
-                return status;
+            if (status != BICYCLE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -2636,8 +2653,12 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             }
             status = bicycle_rhs(t + 1.0 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != BICYCLE_OK) {
-                return status;
+            if (status != BICYCLE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -2650,8 +2671,12 @@ int bicycle_rosenbrock(const double *x0, const double *p, int n_out, const doubl
             }
             status = bicycle_rhs(t + 1.0 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != BICYCLE_OK) {
-                return status;
+            if (status != BICYCLE_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {

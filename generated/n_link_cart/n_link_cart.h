@@ -84,7 +84,7 @@ extern "C" {
 #define N_LINK_CART_R_F 0 /* F */
 
 /* SHA-256 (16 hex digits) of n_link_cart.h, .c and .py with this value blanked. */
-#define N_LINK_CART_CONTENT_HASH "80fd9c300b75b909"
+#define N_LINK_CART_CONTENT_HASH "f393c737995c20b0"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

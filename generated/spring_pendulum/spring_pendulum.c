@@ -373,7 +373,7 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
     double t, t_new, t_end, h, h_abs, h_max, min_step, rtol, atol, err_norm, factor, inv_hg;
     double s, h00, h10, h01, h11;
     long max_steps;
-    int status, i, next, step_rejected;
+    int status, stage_status, i, next, step_rejected;
 
     if (!stats) {
         stats = &local;
@@ -425,9 +425,10 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             return status;
         }
         step_rejected = 0;
+        stage_status = SPRING_PENDULUM_OK;
         for (;;) {
             if (h_abs < min_step) {
-                return SPRING_PENDULUM_STEP_TOO_SMALL;
+                return stage_status != SPRING_PENDULUM_OK ? stage_status : SPRING_PENDULUM_STEP_TOO_SMALL;
             }
             if (stats->n_steps + stats->n_rejected >= max_steps) {
                 return SPRING_PENDULUM_MAX_STEPS;
@@ -450,8 +451,12 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             }
             status = spring_pendulum_lu_factor(G, 4, piv) ? SPRING_PENDULUM_OK : SPRING_PENDULUM_SINGULAR_ITERATION_MATRIX;
             ++stats->n_lu;
-            if (status != SPRING_PENDULUM_OK) {
-                return status;
+            if (status != SPRING_PENDULUM_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             /* stage 1 */
             fs = f;
@@ -465,8 +470,12 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             }
             status = spring_pendulum_rhs(t + 0.386 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != SPRING_PENDULUM_OK) {
-                return status;
+            if (status != SPRING_PENDULUM_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 4; ++i) {
@@ -479,8 +488,12 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             }
             status = spring_pendulum_rhs(t + 0.21 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != SPRING_PENDULUM_OK) {
-                return status;
+            if (status != SPRING_PENDULUM_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 4; ++i) {
@@ -493,8 +506,12 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             }
             status = spring_pendulum_rhs(t + 0.63 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != SPRING_PENDULUM_OK) {
-                return status;
+            if (status != SPRING_PENDULUM_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 4; ++i) {
@@ -507,8 +524,12 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             }
             status = spring_pendulum_rhs(t + 1.0 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != SPRING_PENDULUM_OK) {
-                return status;
+            if (status != SPRING_PENDULUM_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 4; ++i) {
@@ -521,8 +542,12 @@ int spring_pendulum_rosenbrock(const double *x0, const double *p, int n_out, con
             }
             status = spring_pendulum_rhs(t + 1.0 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != SPRING_PENDULUM_OK) {
-                return status;
+            if (status != SPRING_PENDULUM_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 4; ++i) {

@@ -702,7 +702,7 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
     double t, t_new, t_end, h, h_abs, h_max, min_step, rtol, atol, err_norm, factor, inv_hg;
     double s, h00, h10, h01, h11;
     long max_steps;
-    int status, i, next, step_rejected;
+    int status, stage_status, i, next, step_rejected;
 
     if (!stats) {
         stats = &local;
@@ -754,9 +754,10 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             return status;
         }
         step_rejected = 0;
+        stage_status = STIFF_CHAIN_OK;
         for (;;) {
             if (h_abs < min_step) {
-                return STIFF_CHAIN_STEP_TOO_SMALL;
+                return stage_status != STIFF_CHAIN_OK ? stage_status : STIFF_CHAIN_STEP_TOO_SMALL;
             }
             if (stats->n_steps + stats->n_rejected >= max_steps) {
                 return STIFF_CHAIN_MAX_STEPS;
@@ -779,8 +780,12 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             }
             status = stiff_chain_lu_factor(G, 10, piv) ? STIFF_CHAIN_OK : STIFF_CHAIN_SINGULAR_ITERATION_MATRIX;
             ++stats->n_lu;
-            if (status != STIFF_CHAIN_OK) {
-                return status;
+            if (status != STIFF_CHAIN_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             /* stage 1 */
             fs = f;
@@ -794,8 +799,12 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             }
             status = stiff_chain_rhs(t + 0.386 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != STIFF_CHAIN_OK) {
-                return status;
+            if (status != STIFF_CHAIN_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -808,8 +817,12 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             }
             status = stiff_chain_rhs(t + 0.21 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != STIFF_CHAIN_OK) {
-                return status;
+            if (status != STIFF_CHAIN_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -822,8 +835,12 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             }
             status = stiff_chain_rhs(t + 0.63 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != STIFF_CHAIN_OK) {
-                return status;
+            if (status != STIFF_CHAIN_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -836,8 +853,12 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             }
             status = stiff_chain_rhs(t + 1.0 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != STIFF_CHAIN_OK) {
-                return status;
+            if (status != STIFF_CHAIN_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {
@@ -850,8 +871,12 @@ int stiff_chain_rosenbrock(const double *x0, const double *p, int n_out, const d
             }
             status = stiff_chain_rhs(t + 1.0 * h, xs, p, F);
             ++stats->n_rhs;
-            if (status != STIFF_CHAIN_OK) {
-                return status;
+            if (status != STIFF_CHAIN_OK) {  /* a trial state outside the model's domain: a rejected step */
+                stage_status = status;
+                h_abs *= 0.2;
+                step_rejected = 1;
+                ++stats->n_rejected;
+                continue;
             }
             fs = F;
             for (i = 0; i < 10; ++i) {

@@ -14,6 +14,7 @@ import mbgen
 from mbgen import IntegrationError, MbgenError, Output
 from mbgen.integrators import ROSENBROCK, Dopri5, Rodas3, Rodas4
 from mbgen.model.scene import load_scene
+from mbgen.runtime.stepper import Stepper
 from mbgen.scenes import bead_wire
 from models import stiff_pair
 
@@ -409,12 +410,62 @@ def test_generated_integrators_compile_strictly_as_c_and_cpp(which, request, tmp
         depth += line.count("{") - line.count("}")
 
 
-def test_singular_iteration_matrix():
+def test_singular_iteration_matrix_rejects_the_step():
     """bead_wire's Jacobian [[0, 1], [omega^2, 0]] has the eigenvalue omega = 2: with
-    h gamma = 1/omega (h = 2 for Rodas4's gamma = 1/4) I/(h gamma) - J is exactly singular."""
+    h gamma = 1/omega (h = 2 for Rodas4's gamma = 1/4) I/(h gamma) - J is exactly singular.
+    That first attempt is rejected, and a shorter step goes on to the closed form's end."""
     scene = load_scene("bead_wire")
     model = mbgen.compile(scene, outputs=ALL)
     assert ROSENBROCK.gamma == 0.25 and model.default_parameters[0] == 2.0
-    with pytest.raises(IntegrationError, match="SINGULAR_ITERATION_MATRIX") as info:
-        model.integrate("rosenbrock", [0.0, 2.0], scene.x0(model.layout), h=2.0, h_max=2.0)
-    assert info.value.status == 5 and info.value.t == 0.0
+    x0 = scene.x0(model.layout)
+    run = model.integrate("rosenbrock", [0.0, 2.0], x0, h=2.0, h_max=2.0, rtol=1e-10,
+                          atol=1e-12)
+    assert run.n_rejected >= 1
+    reference = model.integrate("dopri5", [0.0, 2.0], x0, rtol=1e-10, atol=1e-12)
+    assert np.abs(run.x[-1] - reference.x[-1]).max() <= 1e-7 * np.abs(reference.x[-1]).max()
+
+
+# ------------------------------------------------- a trial stage outside the model's domain
+def _domain_model(name, pull):
+    """A damped particle pulled to x = 0 by ``pull(x)``; its force also carries
+    ``1e-3 sqrt(x + 0.5)``, NaN for x < -0.5, which the flow from x = 0.9 never reaches but
+    a long first step's stages do (the pull's linearisation overshoots far past 0)."""
+    m = mbgen.Model(name)
+    x, = m.coordinates("x")
+    u, = m.speeds("u")
+    N = m.newtonian()
+    P = m.point("P", m.origin, x * N.x)
+    m.particle("p", P, 1.0)
+    m.force(P, (pull(x) - 50 * u - 1e-3 * sm.sqrt(x + 0.5)) * N.x)
+    return mbgen.compile(m, ("rhs", "jacobian", "dopri5", "rosenbrock"),
+                         targets=mbgen.Targets(step=True))
+
+
+@pytest.fixture(scope="module")
+def domain():
+    return _domain_model("soft_wall", lambda x: -1e3 * sm.tanh(20 * x))
+
+
+@pytest.mark.parametrize("method", ["rosenbrock", "dopri5"])
+def test_a_stage_outside_the_domain_is_a_rejected_step(domain, method):
+    """A stage whose state gives NaN (or a mass matrix that is not positive definite, or
+    a singular iteration matrix) rejects the attempt instead of ending the run: the
+    whole-trajectory integrator and the step API both reach the equilibrium
+    ``x = -1e-3 sqrt(0.5) / 2e4``.  Before, Rosenbrock stopped at t = 0 with NONFINITE."""
+    equilibrium = -1e-3 * np.sqrt(0.5) / 2e4
+    run = domain.integrate(method, [0.0, 1.0], [0.9, 0.0], h=0.5)
+    assert run.n_rejected >= 1
+    assert abs(run.x[-1, 0] - equilibrium) < 1e-8
+    stepper = Stepper(domain, method, 0.0, [0.9, 0.0])
+    stepper.memory.h = 0.5                  # the first attempt: half a second
+    stepper.step(1.0)
+    assert stepper.memory.n_rejected >= 1 and abs(stepper.x[0] - equilibrium) < 1e-8
+
+
+def test_a_flow_into_the_undefined_region_names_the_stage_status():
+    """Where the flow itself runs into the NaN (x reaches -0.5), the steps shrink to the
+    resolution of t and the status is the stages' (NONFINITE), not STEP_TOO_SMALL."""
+    model = _domain_model("into_the_wall", lambda x: -10.0 * x - 1e3)
+    with pytest.raises(IntegrationError, match="NONFINITE") as info:
+        model.integrate("rosenbrock", [0.0, 1.0], [0.0, 0.0])
+    assert info.value.status == 2 and 0.0 < info.value.t < 1.0

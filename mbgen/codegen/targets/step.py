@@ -30,7 +30,13 @@ system, any number in parallel.
 With the same tolerances, ``dopri5_step(mem, T)`` from ``t = t0`` takes exactly
 the steps of ``<prefix>_dopri5`` over ``[t0, t0 + T]`` (and gives the same bits);
 likewise for Rosenbrock.  On failure the status is returned and ``mem->t``,
-``mem->x`` keep the last accepted state.
+``mem->x`` keep the last accepted state.  A trial stage that fails (the right-hand side
+at a stage state gives ``NONFINITE`` or ``NOT_POSITIVE_DEFINITE``, the iteration matrix
+is singular) rejects the attempt like an error estimate over 1: the step shrinks by the
+least factor and is tried again, as in the whole-trajectory integrators (a long step
+may probe states the flow never reaches: a foot deep in the ground, a pendulum past
+its singular pose).  Only when the step falls below the resolution of ``t`` is that
+stage's status returned (not ``STEP_TOO_SMALL``, which would hide the cause).
 
 Arguments: ``mem``, ``x0``, ``p`` or ``r`` ``NULL``, non-finite ``t0``, ``x0`` or
 tolerances, and an ``h`` that is not a positive finite number (or makes ``t + h``
