@@ -31,8 +31,10 @@ How to add a public name
 1. Define it in the stage that owns it (never here), public in its module.
 2. Add it to its module's row of :data:`_PUBLIC` (a new row for a new module); ``__all__``
    is made from the table.
-3. Say it in README.md (its examples run in ``tests/test_readme_blocks.py``);
-   ``tests/test_packaging.py`` imports the installed package.
+3. Give it an entry on a page of ``docs/api/`` (``tests/test_docs.py`` fails until it
+   has one) and show it in use on a page of ``docs/`` (its examples run in
+   ``tests/test_readme_blocks.py``); ``tests/test_packaging.py`` imports the installed
+   package.
 A new stage is a folder placed in the ``layers`` of ``pyproject.toml``'s
 import-linter contract; ``tests/test_layout.py`` fails until it is, and until
 its ``__init__`` says how to add one more of what it holds.

@@ -222,6 +222,7 @@ TOPICS = {
     "viz/test_pictures.py": "every picture (plots and animations)",
     "test_layout.py": "the package's shape",
     "test_packaging.py": "the wheel",
+    "test_docs.py": "the documentation site: links, API reference, build",
     "test_readme_blocks.py": "every code block of the documentation runs",
     "test_reliability.py": "replays of the hardening issues' misuse probes",
 }

@@ -1,7 +1,8 @@
-"""Every code block of README.md and docs/*.md runs, and every excerpt of tool output is what
-the tool prints now (or opts out, explicitly and counted).
+"""Every code block of README.md and of every page of the site (``docs/**/*.md``) runs, and
+every excerpt of tool output is what the tool prints now (or opts out, explicitly and counted).
 
-Code blocks, per Markdown file (``README.md`` and every ``docs/*.md``):
+Code blocks, per Markdown file (``README.md`` and every ``docs/**/*.md`` but the built site
+under ``docs/_build/``):
 
 * ```` ```python ```` blocks run in order, in one namespace per file (a page reads
   top to bottom like a notebook), in a temporary working folder.  A block whose
@@ -69,7 +70,14 @@ import tomllib
 from mbgen.cli import main as mbgen_main
 
 ROOT = Path(__file__).resolve().parent.parent
-PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+#: The pages whose blocks run: README.md and the site's Markdown (its build output aside).
+PAGES = [ROOT / "README.md",
+         *sorted(p for p in (ROOT / "docs").rglob("*.md")
+                 if not p.relative_to(ROOT / "docs").parts[0].startswith("_"))]
+#: Pages whose code blocks take too long for the default run (page: the reason); their
+#: case of test_code_blocks_run is marked ``slow``.  Keep a page's blocks cheap instead
+#: where a smaller model shows the same thing.
+SLOW_PAGES: dict[str, str] = {}
 PYTHON = {"python", "py", "python3"}
 SHELL = {"sh", "bash", "shell", "console"}
 NOT_OUTPUT = PYTHON | {"c", "cpp", "c++"}  # code: never taken for an unmarked excerpt
@@ -336,7 +344,9 @@ def _run_shell(code: str, where: str) -> None:
             run_mbgen(line, where)
 
 
-@pytest.mark.parametrize("page", PAGES, ids=[p.relative_to(ROOT).as_posix() for p in PAGES])
+@pytest.mark.parametrize("page", [
+    pytest.param(p, id=_name(p), marks=[pytest.mark.slow] if _name(p) in SLOW_PAGES else [])
+    for p in PAGES])
 def test_code_blocks_run(page, tmp_path, monkeypatch):
     run, _ = runnable(page)
     monkeypatch.chdir(tmp_path)
@@ -441,7 +451,10 @@ def test_the_checker_sees_stale_and_unmarked_output(tmp_path):
 
 
 def test_opt_outs_are_explicit_and_reported():
-    """Opt-outs need a reason; their number is reported on every run."""
+    """Opt-outs need a reason; their number is reported on every run.  So do the pages
+    whose blocks run in the slow tier only."""
+    for name, reason in SLOW_PAGES.items():
+        assert (ROOT / name).is_file() and len(reason) >= 10, f"SLOW_PAGES: {name}: {reason!r}"
     report = []
     for page in PAGES:
         _, skipped = runnable(page)
@@ -471,9 +484,13 @@ def test_the_runner_sees_a_failing_block(tmp_path, monkeypatch):
         _run_shell(run[1][2], "bad.md")
 
 
-def test_readme_links_the_modelling_page():
+def test_readme_links_the_site():
+    """The front page links the modelling guide and the site's entry pages (every link of
+    every page resolving is tests/test_docs.py's)."""
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    assert "docs/modelling.md" in text
+    for page in ("docs/modelling.md", "docs/getting-started.md", "docs/api/index.md",
+                 "docs/developer.md", "docs/performance.md"):
+        assert f"]({page}" in text, f"README does not link {page}"
     for target in re.findall(r"\]\((docs/[^)#]+)", text):
         assert (ROOT / target).is_file(), f"README links a missing page {target}"
 
@@ -481,7 +498,7 @@ def test_readme_links_the_modelling_page():
 def main(argv=None) -> int:
     """``python tests/test_readme_blocks.py [--update] [--fast]``: check or refresh excerpts."""
     parser = argparse.ArgumentParser(description="Check (or --update) every excerpt of tool "
-                                                 "output in README.md and docs/*.md.")
+                                                 "output in README.md and docs/**/*.md.")
     parser.add_argument("--update", action="store_true",
                         help="rewrite the stale excerpts in place from their commands' output")
     parser.add_argument("--fast", action="store_true",

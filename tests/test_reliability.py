@@ -177,11 +177,11 @@ def test_a_full_disk_in_compile_is_one_error_line(tmp_path):
 
 # --- 5. Scene files are Python and run when loaded
 def test_the_docs_say_scene_files_run_as_code():
-    readme = (ROOT / "README.md").read_text()
-    safety = readme.split("## Safety")[1].split("\n## ")[0]
+    docs = ROOT / "docs"
+    safety = (docs / "reference" / "safety.md").read_text()
     assert "Scene files are Python" in safety and "trust" in safety
-    for text in (readme.split("## Scenes")[1].split("\n## ")[0],
-                 (ROOT / "docs" / "modelling.md").read_text()):
+    for text in ((docs / "tutorials" / "scenes.md").read_text(),
+                 (docs / "modelling.md").read_text()):
         assert "runs when it is loaded" in text
 
 

@@ -25,7 +25,7 @@ sympy (children ``sympy-rhs`` and ``sympy-lin``)
     ``sympy-lin`` derives again and times ``KanesMethod.linearize(A_and_B=True,
     op_point=..., simplify=False)`` at the same operating point; its A's nonzero
     eigenvalues are printed under mbgen's (when A is finite there: measured, it is not --
-    see the README's table).
+    see the table in docs/performance.md).
 
 Four-bar (in this process): :mod:`mbgen.scenes.four_bar` from its start over 10 times its
 span (50 s) with the C ``dopri5``, projection on and off, at a sweep of tolerances: the

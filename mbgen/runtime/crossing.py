@@ -16,7 +16,7 @@ path's signature ``call(t, x, p=None, r=None)``:
 
 Why: through cffi a call of the spatial arm's RHS cost about 1.3 µs at n = 2 (two
 ``ffi.from_buffer``, ``np.empty``, the checks in Python and cffi's call), for about
-30 ns of C; see the README's "Performance" for the figures after.
+30 ns of C; see the site's performance page (docs/performance.md) for the figures after.
 
 An entry reads each array's data pointer at every call (an array may be reallocated
 in place between calls); only the default ``p`` and ``r`` it was given, which it keeps

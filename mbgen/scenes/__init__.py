@@ -20,5 +20,6 @@ How to add a built-in scene
    ``tests/scenes/test_physics.py``, ``tests/derivation/test_newton_euler.py``); a scene
    too slow for the default run goes into ``HEAVY`` in ``tests/support/heavy.py``
    (marked slow, never skipped).
-4. List it in the README's built-in scenes (``mbgen scenes`` shows it by itself).
+4. List it in ``docs/tutorials/scenes.md`` (``mbgen scenes`` and the site's gallery show
+   it by themselves).
 """

@@ -27,8 +27,8 @@ C_FLAGS = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-O2"]
 
 
 def readme_step_snippet() -> str:
-    """The README's C block that uses the step API."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    """The documentation's C block that uses the step API (docs/tutorials/embedding.md)."""
+    text = (ROOT / "docs" / "tutorials" / "embedding.md").read_text(encoding="utf-8")
     blocks = re.findall(r"^```c\n(.*?)^```", text, re.MULTILINE | re.DOTALL)
     [snippet] = [b for b in blocks if "_dopri5_memory" in b]
     return snippet
