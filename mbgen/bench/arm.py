@@ -109,6 +109,7 @@ class ArmRow:
     jac_compile_s: float | None = None
     jac_ops: int | None = None
     jac_c_ns: float | None = None
+    jac_own_ns: float | None = None
     pin_daba_ns: float | None = None
     jac_rel_diff_pin: float | None = None
     jac_status: str = "not run"

@@ -7,7 +7,10 @@ under the same budget and memory cap as the RHS side)
     each stage timed once; its
     operations after CSE (the header's count: the ``L D L^T`` solve excluded); and
     ``<prefix>_jacobian`` (``df/dx`` of the first-order RHS, row-major ``n_x x n_x``)
-    timed inside C by :func:`mbgen.bench.timing.c_function_ns`.  Its lower ``n`` rows,
+    timed inside C by :func:`mbgen.bench.timing.c_function_ns`, twice: its source compiled
+    with the driver's flags (``jac_c_ns``) and with those of the user's module
+    (``jac_own_ns``, :func:`mbgen.build.extension.model_flags`: -O2, -O1 where a function
+    is longer than :data:`~mbgen.build.extension.LARGE_FUNCTION_CHARS`).  Its lower ``n`` rows,
     ``[du'/dq, du'/du]`` at the timed state, go back to the parent.
 Pinocchio
     ``pinocchio::computeABADerivatives`` in the C++ loop of
@@ -36,6 +39,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ..abi import Output
+from ..build.extension import model_flags
 from ..derivation import Method
 from ..pipeline import run
 from ..scenes.spatial_arm import scene as arm_scene
@@ -44,7 +48,7 @@ from .arm_casadi import have_casadi
 from .timing import c_function_ns, pipeline_timer
 
 JAC_STAGES = ("jac_derive_s", "jac_bake_s", "jac_cse_s", "jac_render_s", "jac_compile_s",
-              "jac_c_ns")
+              "jac_c_ns", "jac_own_ns")
 CAS_STAGES = ("cas_trace_s", "cas_generate_s", "cas_compile_s", "cas_c_ns")
 CASJAC_STAGES = ("casjac_trace_s", "casjac_generate_s", "casjac_compile_s", "casjac_c_ns")
 
@@ -65,9 +69,10 @@ def _jacobian_child(n: int, repeats: int, method: str, x: np.ndarray, emit) -> N
     p = np.array([rendered.defaults[k] for k in layout.parameter_names])
     r = np.zeros(layout.n_r)
     emit("jac_block", np.asarray(model.jacobian(0.0, x, p, r))[n:].tolist())
-    with tempfile.TemporaryDirectory(prefix="mbgen-arm-jac-driver-") as tmp:
-        emit("jac_c_ns", c_function_ns(rendered, "jacobian", layout.n_x ** 2, x, p, r, repeats,
-                                       Path(tmp)))
+    for key, flags in (("jac_c_ns", None), ("jac_own_ns", model_flags(rendered))):
+        with tempfile.TemporaryDirectory(prefix="mbgen-arm-jac-driver-") as tmp:
+            emit(key, c_function_ns(rendered, "jacobian", layout.n_x ** 2, x, p, r, repeats,
+                                    Path(tmp), model_flags=flags))
 
 
 def _child_main(argv: Sequence[str]) -> int:
@@ -154,8 +159,10 @@ _JAC_COLUMNS = (
     ("gen s", 7, lambda r: _f(jacobian_generation_s(r), ".2f")),
     ("ops", 8, lambda r: _f(r.jac_ops, "d")),
     ("jac C ns", 9, lambda r: _f(r.jac_c_ns, ".0f")),
+    ("module ns", 9, lambda r: _f(r.jac_own_ns, ".0f")),
     ("dABA C++", 9, lambda r: _f(r.pin_daba_ns, ".0f")),
     ("mb/pin", 6, lambda r: _f(_ratio(r.jac_c_ns, r.pin_daba_ns), ".2f")),
+    ("mod/pin", 7, lambda r: _f(_ratio(r.jac_own_ns, r.pin_daba_ns), ".2f")),
     ("rel diff", 8, lambda r: _f(r.jac_rel_diff_pin, ".0e")),
 )
 
@@ -193,9 +200,10 @@ _CASJAC_COLUMNS = (
 
 LEGEND = """\
 Jacobian: mbgen's <prefix>_jacobian (df/dx, n_x x n_x) generated alone from the scene by
-Newton-Euler (gen s: derive..compile) and timed in a C loop; \
-dABA C++: pinocchio::computeABADerivatives in the C++
-loop; mb/pin: the ratio of the two; rel diff: max |mbgen - Pinocchio| / max |Pinocchio| over
+Newton-Euler (gen s: derive..compile) and timed in a C loop, its source compiled with the
+driver flags (jac C ns) and with the flags of the user's module (module ns: -O2, -O1 for a
+function too long); dABA C++: pinocchio::computeABADerivatives in the C++ loop; mb/pin,
+mod/pin: the ratios of the two to it; rel diff: max |mbgen - Pinocchio| / max |Pinocchio| over
 [ddq_dq, ddq_dv] and mbgen's lower n rows, at the timed state.
 CasADi: the arm's ABA traced on casadi.SX (Function option cse), Function.generate, cc -c with
 the driver flags (cc -O3; cc -O1 apart), timed in a C loop; cas gen s = trace + generate +

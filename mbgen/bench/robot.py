@@ -9,9 +9,17 @@ mbgen (a child process, cold: an empty compile cache)
     the generation stages of :func:`mbgen.pipeline.run` as ``mbgen.compile`` runs them
     (derive, bake, CSE, render, compile; the Jacobian too with ``jacobian=True``), the
     RHS in a C loop (:func:`mbgen.bench.timing.c_rhs_ns`) and ``model.rhs`` from Python.
+    With ``jacobian=True`` also ``<prefix>_jacobian`` in a C loop twice: the model's source
+    compiled with the driver's flags and with the flags of the user's module
+    (:func:`mbgen.build.extension.model_flags`: -O2, or -O1 for a too long function), and
+    ``model.jacobian`` from Python; its accelerations' rows mapped to the speeds' tangent
+    space (:func:`mbgen.tangent_jacobian`: ``[du'/d delta, du'/du]``, ``n_u x 2 n_u``, a
+    floating base's quaternion columns mapped) go to the parent.
 Pinocchio (``pin``; URDF only)
     ``aba`` in a C++ loop over the model Pinocchio builds from the same file, and
-    ``pin.aba`` from Python.  An MJCF file is left out with a note: MuJoCo's ball and free
+    ``pin.aba`` from Python; with ``jacobian=True`` also ``computeABADerivatives`` (the same
+    C++ loop, and from Python), its ``[ddq_dq, ddq_dv]`` compared with mbgen's tangent
+    block.  An MJCF file is left out with a note: MuJoCo's ball and free
     joints are not Pinocchio's.
 MuJoCo (``mujoco``)
     ``mj_forward`` (the whole forward pipeline, with contacts, limits, equality constraints,
@@ -39,14 +47,27 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ..abi import Output
+from ..build.extension import model_flags
 from ..model.mjcf import compile_mjcf, from_mujoco, scene_values
 from ..model.scene import Scene, urdf_scene
 from ..pipeline import run
+from ..runtime.linearize import tangent_jacobian
 from . import children
 from . import robot_peers as peers
-from .timing import DRIVER_FLAGS, c_rhs_ns, per_call_ns, pipeline_timer, staged
+from .timing import (
+    DRIVER_FLAGS,
+    c_function_ns,
+    c_rhs_ns,
+    median_ns,
+    per_call_ns,
+    pipeline_timer,
+    run_driver,
+    staged,
+)
 
 STAGES = ("derive_s", "bake_s", "cse_s", "render_s", "compile_s")
+#: What the child measures of the Jacobian (``jacobian=True``).
+JAC_KEYS = ("jac_c_ns", "jac_own_ns", "jac_py_ns", "jac_tangent")
 
 
 @dataclass
@@ -68,6 +89,12 @@ class RobotReport:
     mj_py_ns: float | None = None
     diff_pin: float | None = None
     diff_mj: float | None = None
+    jac_c_ns: float | None = None
+    jac_own_ns: float | None = None
+    jac_py_ns: float | None = None
+    pin_daba_cxx_ns: float | None = None
+    pin_daba_py_ns: float | None = None
+    diff_pin_jac: float | None = None
     status: str = "not run"
     notes: list = field(default_factory=list)
 
@@ -123,6 +150,20 @@ def _mbgen_child(file: str, floating: bool, jacobian: bool, repeats: int, emit) 
     with tempfile.TemporaryDirectory(prefix="mbgen-robot-driver-") as tmp:
         emit("rhs_c_ns", c_rhs_ns(rendered, x, p, r, repeats, Path(tmp)))
     emit("rhs_py_ns", per_call_ns(lambda: model.rhs(0.0, x, p, r), repeats))
+    if jacobian:
+        _jacobian_child(rendered, model, x, p, r, repeats, emit)
+
+
+def _jacobian_child(rendered, model, x, p, r, repeats: int, emit) -> None:
+    """The Jacobian's C loops (driver flags, the module's flags), its Python call and its
+    tangent-space block ``[du'/d delta, du'/du]``."""
+    n_out = rendered.layout.n_x ** 2
+    for key, flags in (("jac_c_ns", None), ("jac_own_ns", model_flags(rendered))):
+        with tempfile.TemporaryDirectory(prefix="mbgen-robot-jac-") as tmp:
+            emit(key, c_function_ns(rendered, "jacobian", n_out, x, p, r, repeats, Path(tmp),
+                                    model_flags=flags))
+    emit("jac_py_ns", per_call_ns(lambda: model.jacobian(0.0, x, p, r), repeats))
+    emit("jac_tangent", np.hstack(tangent_jacobian(model, x, p, r)).tolist())
 
 
 def _child_main(argv) -> int:
@@ -145,7 +186,7 @@ def _quat_matrix(qx, qy, qz, qw) -> np.ndarray:
     ]) / n
 
 
-def _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say) -> None:
+def _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say, tangent=None) -> None:
     try:
         pin = peers.import_pinocchio()
     except Exception as exc:       # noqa: BLE001 -- a missing peer is a note
@@ -169,6 +210,14 @@ def _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say) -> None:
     ddq = np.array(pin.aba(model, data, qp, v, tau))
     report.diff_pin = float(np.abs(ddq - accel).max() / np.abs(ddq).max())
     report.pin_py_ns = per_call_ns(lambda: pin.aba(model, data, qp, v, tau), repeats)
+    theirs = None
+    if tangent is not None:
+        def derivatives():
+            pin.computeABADerivatives(model, data, qp, v, tau)
+        derivatives()
+        theirs = np.hstack([np.array(data.ddq_dq), np.array(data.ddq_dv)])
+        report.diff_pin_jac = float(np.abs(tangent - theirs).max() / np.abs(theirs).max())
+        report.pin_daba_py_ns = per_call_ns(derivatives, repeats)
     if cxx:
         try:
             with tempfile.TemporaryDirectory(prefix="mbgen-robot-aba-") as tmp:
@@ -176,10 +225,34 @@ def _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say) -> None:
                 exe = peers.build_aba_driver(Path(tmp), repeats)
                 report.pin_cxx_ns, ddq_cxx = peers.run_aba_driver(exe, model, Path(tmp), qp, v,
                                                                    tau)
+                if theirs is not None:
+                    report.pin_daba_cxx_ns, cxx_block = run_aba_derivatives_driver(
+                        exe, model, Path(tmp), qp, v, tau)
+                    if not np.allclose(cxx_block, theirs, rtol=1e-9, atol=1e-9):
+                        report.notes.append("Pinocchio's C++ computeABADerivatives and "
+                                            "pin.computeABADerivatives disagree")
             if not np.allclose(ddq_cxx, ddq, rtol=1e-9, atol=1e-9):
                 report.notes.append("Pinocchio's C++ loop and pin.aba disagree")
         except Exception as exc:   # noqa: BLE001
             report.notes.append(f"Pinocchio's C++ loop skipped: {exc}"[:300])
+
+
+def run_aba_derivatives_driver(exe: Path, model, folder: Path, q, v, tau
+                               ) -> tuple[float, np.ndarray]:
+    """``(median ns per computeABADerivatives call, [ddq_dq, ddq_dv])`` (``n_v x 2 n_v``)
+    from the C++ loop of :func:`mbgen.bench.robot_peers.build_aba_driver`, run with the
+    argument ``derivatives`` on the model :func:`~mbgen.bench.robot_peers.run_aba_driver`
+    saved in ``folder``."""
+    text = "\n".join(" ".join(repr(float(x)) for x in row)
+                     for row in (model.gravity.linear, q, v, tau)) + "\n"
+    out = run_driver([str(exe), str(Path(folder) / "model.bin"), "derivatives"],
+                     "Pinocchio's C++ computeABADerivatives loop", text)
+    n = len(v)
+
+    def values(key):
+        line = next(s for s in out.splitlines() if s.startswith(key + " "))
+        return np.array([float(x) for x in line.split()[1:]]).reshape(n, n)
+    return median_ns(out), np.hstack([values("ddq_dq"), values("ddq_dv")])
 
 
 def _mujoco_state(mj, names, x, r, floating, urdf: bool):
@@ -277,11 +350,15 @@ def robot_bench(what: str, *, floating: bool | None = None, jacobian: bool = Fal
             ["-m", "mbgen.bench.robot", str(clean), "1" if floating else "0",
              "1" if jacobian else "0", str(repeats)], budget_s=budget_s, memory_gb=memory_gb,
             prefix="mbgen-robot-child-")
-        report.status = children.status(res, ["read_s", *STAGES, "rhs_c_ns", "rhs_py_ns"], rc,
-                                         error, budget_s)
+        report.status = children.status(
+            res, ["read_s", *STAGES, "rhs_c_ns", "rhs_py_ns", *(JAC_KEYS if jacobian else ())],
+            rc, error, budget_s)
         report.stages = {k: res[k] for k in ("read_s", *STAGES) if k in res}
         report.ops_after = res.get("ops_after")
         report.rhs_c_ns, report.rhs_py_ns = res.get("rhs_c_ns"), res.get("rhs_py_ns")
+        report.jac_c_ns, report.jac_own_ns = res.get("jac_c_ns"), res.get("jac_own_ns")
+        report.jac_py_ns = res.get("jac_py_ns")
+        tangent = np.array(res["jac_tangent"]) if "jac_tangent" in res else None
         if "dxdt" not in res:
             return report
         names, report.n_q, report.n_u, _ = res["layout"]
@@ -289,7 +366,7 @@ def robot_bench(what: str, *, floating: bool | None = None, jacobian: bool = Fal
         accel = np.array(res["dxdt"])[report.n_q:]
         if pinocchio and urdf:
             say(f"{what}: Pinocchio")
-            _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say)
+            _pinocchio(report, clean, floating, x, r, accel, repeats, cxx, say, tangent)
         elif pinocchio:
             report.notes.append("Pinocchio skipped: an MJCF file's ball and free joints are not "
                                 "Pinocchio's; compare a URDF file")
@@ -327,8 +404,34 @@ def format_robot(rep: RobotReport) -> str:
         "", "MuJoCo: mj_forward, the whole forward pipeline, with contacts, limits, equality "
             "constraints, friction loss and actuation off.",
         f"Driver flags: {' '.join(DRIVER_FLAGS)}; medians of {MIN_REPEATS_TEXT}."]
+    if rep.jac_c_ns is not None or rep.pin_daba_py_ns is not None:
+        lines += _jacobian_lines(rep)
     lines += [f"note: {n}" for n in rep.notes]
     return "\n".join(lines)
+
+
+def _jacobian_lines(rep: RobotReport) -> list[str]:
+    """The derivatives' table: mbgen's Jacobian (driver flags, the module's flags) against
+    ``computeABADerivatives``; the ratio column is each row's C time over mbgen's with the
+    module's flags."""
+    def ratio(a, b):
+        return "-" if a is None or b is None else f"{a / b:.2f}"
+
+    rows = [("mbgen jacobian", rep.jac_c_ns, rep.jac_py_ns),
+            ("  module's flags", rep.jac_own_ns, None),
+            ("Pinocchio dABA", rep.pin_daba_cxx_ns, rep.pin_daba_py_ns)]
+    lines = ["", f"{'derivatives, ns':20s} {'in C/C++':>10s} {'from Python':>12s} "
+                 f"{'C: /module':>10s}"]
+    for name, c, py in rows:
+        lines.append(f"{name:20s} {_f(c, '.0f'):>10s} {_f(py, '.0f'):>12s} "
+                     f"{ratio(c, rep.jac_own_ns):>10s}")
+    return lines + [
+        f"Jacobian [du'/d delta, du'/du] in the speeds' tangent space (mbgen.tangent_jacobian),"
+        f" largest relative difference from Pinocchio's computeABADerivatives: "
+        f"{_f(rep.diff_pin_jac, '.1e')}",
+        "mbgen jacobian: df/dx (n_x x n_x, quaternion columns included) timed in a C loop, "
+        "its source compiled with the driver flags; module's flags: as the user's module "
+        "is built (mbgen.build.extension.model_flags); dABA: computeABADerivatives."]
 
 
 MIN_REPEATS_TEXT = "loops of at least 20 ms each"

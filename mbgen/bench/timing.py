@@ -15,7 +15,7 @@ import gc
 import statistics
 import subprocess
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -92,11 +92,14 @@ def c_rhs_ns(rendered, x: np.ndarray, p: np.ndarray, r: np.ndarray, repeats: int
 
 
 def c_function_ns(rendered, function: str, n_out: int, x: np.ndarray, p: np.ndarray,
-                  r: np.ndarray, repeats: int, folder: Path) -> float:
+                  r: np.ndarray, repeats: int, folder: Path,
+                  model_flags: Sequence[str] | None = None) -> float:
     """Median ns per ``<prefix>_<function>(t, x, [p], [r], out)`` call in a compiled C loop.
 
     ``function`` is an output taking the state (``rhs``, ``jacobian``), ``n_out`` the length
-    of its output array (``n_x`` for the RHS, ``n_x * n_x`` for the Jacobian).
+    of its output array (``n_x`` for the RHS, ``n_x * n_x`` for the Jacobian).  The model's
+    source is compiled with :data:`DRIVER_FLAGS`, or with ``model_flags`` where given (those
+    of the user's module: :func:`mbgen.build.extension.model_flags`).
     """
     layout = rendered.layout
     for name, text in rendered.files.items():
@@ -111,12 +114,19 @@ def c_function_ns(rendered, function: str, n_out: int, x: np.ndarray, p: np.ndar
         repeats=repeats, flags=" ".join(DRIVER_FLAGS))
     (folder / "bench_rhs.c").write_text(driver, encoding="utf-8")
     exe = folder / "bench_rhs"
-    cmd = [compiler(), "-std=c99", *DRIVER_FLAGS, "-o", str(exe), "bench_rhs.c",
-           f"{rendered.prefix}.c", "-lm"]
-    proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
-    if proc.returncode != 0:
-        raise BuildError(f"compiling the {function} benchmark driver failed:\n"
-                         f"{proc.stderr[-3000:]}")
+    model = [f"{rendered.prefix}.c"]
+    if model_flags is not None:
+        model = [f"{rendered.prefix}.o"]
+        cmds = [[compiler(), *model_flags, "-c", f"{rendered.prefix}.c", "-o", model[0]]]
+    else:
+        cmds = []
+    cmds.append([compiler(), "-std=c99", *DRIVER_FLAGS, "-o", str(exe), "bench_rhs.c", *model,
+                 "-lm"])
+    for cmd in cmds:
+        proc = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise BuildError(f"compiling the {function} benchmark driver failed:\n"
+                             f"{proc.stderr[-3000:]}")
     return median_ns(run_driver([str(exe)], f"the {function} driver"))
 
 

@@ -150,8 +150,10 @@ def configure(p: argparse.ArgumentParser) -> None:
                                  "their own)")
     robot_only.add_argument("--jacobian", action="store_true",
                             help="robot: generate the Jacobian too (generation time of "
-                                 "rhs+jacobian); arm: the Jacobian's stages, ops and C loop "
-                                 "against Pinocchio's computeABADerivatives (and CasADi's)")
+                                 "rhs+jacobian) and time it in C against Pinocchio's "
+                                 "computeABADerivatives (tangent space for a floating base); "
+                                 "arm: the Jacobian's stages, ops and C loop against "
+                                 "computeABADerivatives (and CasADi's)")
     robot_only.add_argument("--no-mujoco", action="store_true", help="leave MuJoCo out")
 
     inter = p.add_argument_group(

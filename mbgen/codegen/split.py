@@ -10,23 +10,38 @@ scheduling grow much faster than linearly with the length of one function: the
 at -O2 than the one function at -O1 (15.5 vs 27.5 µs, both measured on a loaded
 2-core machine).
 
-:func:`split_view` cuts each run of temporaries (``temps``, ``post_temps``) of a
-C function view whose printed temporaries exceed :data:`SPLIT_CHARS` into parts
-of about :data:`PART_CHARS` characters, in their order.  Part ``k`` is a
-``static`` function of ``(t, x, p, r, <local arrays read>, W)``; a temporary read
-outside the part that defines it is stored in the work array ``W`` (a local of
-the public function: its size is in the stack bound) and loaded back where it is
-read, by another part (``const double v_k = W[i];``) or by the public function's
-own statements after the part ran.  Values are computed once, in the same order
-and by the same expressions, so the results are bit for bit those of the single
-function (and of the generated Python, which is not split).
+:func:`split_view` cuts each section of a C function view whose printed statements
+exceed :data:`SPLIT_CHARS` into parts of about :data:`PART_CHARS` characters, in their
+order.  A section's statements are its temporaries (``temps``, ``post_temps``) and then the
+entries of the blocks that follow them (:data:`BLOCKS`: ``pre`` after ``temps``, ``post``
+after ``post_temps``).  Part ``k`` is a ``static`` function of
+``(t, x, p, r, <local arrays read>, <arrays written>, W)``; a temporary read outside the
+part that defines it is stored in the work array ``W`` (a local of the public function: its
+size is in the stack bound) and loaded back by the part that reads it
+(``const double v_k = W[i];``); block entries are stored through the array, passed as an
+argument (``DT[17] = -v1*v2;``).  The public function keeps only the calls, the block
+mirrors, the solves and the checks.  Values are computed once, in the same order and by the
+same expressions, so the results are bit for bit those of the single function (and of the
+generated Python, which is not split).
+
+Why the block entries too: they used to stay in the public function, which read what they
+needed from ``W``.  The Jacobian's right-hand sides of the column solve (``DT``,
+``2 n^2`` sums of products) made that function 348 KB of C on the 32-link arm and 171 KB on
+the G1 humanoid (floating), past :data:`mbgen.build.extension.LARGE_FUNCTION_CHARS`, so
+the whole module fell to -O1.  With the entries in parts (the longest function 86 KB and
+77 KB) it keeps -O2: the arm's Jacobian at n = 32 ran in 28.2 µs against 60.2 µs, and gcc
+took 15.4 s and 352 MB against 27.8 s and 652 MB (paired runs on a loaded 2-core machine,
+the module's own flags).  Measured and left: storing each entry right after the last
+temporary it reads (fewer ``W`` round trips: 27.1 vs 27.0 µs, gcc 487 MB), and parts of
+80,000 characters (29.0 vs 27.9 µs, gcc 21 s and 411 MB).
 
 Shapes: a view's ``parts`` is a list of dicts ``{name, section, prototype, call,
-status, loads, imports, temps}`` where ``loads`` are ``(ident, array, index)``,
-``imports`` ``(ident, W index)`` and ``temps`` ``(ident, expr, check, W index or
-None)``; ``main_loads`` replaces ``loads`` in the public function and
-``main_imports[section]`` lists ``(ident, W index)`` to load after that section's
-parts; ``work`` is ``W``'s length.
+status, loads, imports, temps, stores}`` where ``loads`` are ``(ident, array, index)``,
+``imports`` ``(ident, W index)``, ``temps`` ``(ident, expr, check, W index or None)`` and
+``stores`` ``(target, expr)`` (``target`` as ``"DT[17]"``); the split blocks'
+``assignments`` are emptied, ``main_loads`` (empty) replaces ``loads`` in the public
+function and ``main_imports[section]`` (empty: nothing is read after the parts) is kept for
+the template; ``work`` is ``W``'s length.
 
 Functions with constraint solves (``velocity`` blocks) are not split.
 """
@@ -35,9 +50,9 @@ from __future__ import annotations
 
 import re
 
-#: A function whose printed temporaries exceed this many characters is split.
+#: A function whose printed temporaries and block entries exceed this many characters is split.
 SPLIT_CHARS = 100_000
-#: About this many characters of printed temporaries per part.
+#: About this many characters of printed statements per part.
 PART_CHARS = 40_000
 
 _IDENT = re.compile(r"[A-Za-z_]\w*")
@@ -50,9 +65,13 @@ def _names(text: str) -> set[str]:
     return set(_IDENT.findall(text))
 
 
-def _chunks(temps: list, size: int) -> list[list]:
+#: The blocks whose entries each section's parts store, after its temporaries.
+BLOCKS = {"temps": "pre", "post_temps": "post"}
+
+
+def _chunks(statements: list, size: int) -> list[list]:
     out, cur, n = [], [], 0
-    for t in temps:
+    for t in statements:
         cur.append(t)
         n += len(t[1]) + 24
         if n >= size:
@@ -63,11 +82,16 @@ def _chunks(temps: list, size: int) -> list[list]:
     return out
 
 
-def _main_statements(view: dict, section: str) -> list[str]:
-    """What the public function itself prints after ``section``'s parts ran (every
-    non-empty section is split, so these are block entries only)."""
-    blocks = view["pre"] + view["post"] if section == "temps" else view["post"]
-    return [e for b in blocks for _, e in b["assignments"]]
+def _stores(view: dict, section: str) -> list[tuple]:
+    """``(target, expr, None)`` for each block entry of ``section``, in the order the one
+    function prints them (``("M[3]", "v12", None)``; None tells a store from a temporary)."""
+    return [(f"{b['name']}[{i}]", e, None) for b in view[BLOCKS[section]]
+            for i, e in b["assignments"]]
+
+
+def _size(view: dict) -> int:
+    """Characters of the printed temporaries and block entries of ``view``."""
+    return sum(len(e) for s in SECTIONS for _, e, _ in view[s] + _stores(view, s))
 
 
 def split_view(view: dict, time_name: str, arrays: tuple[str, ...],
@@ -82,74 +106,71 @@ def split_view(view: dict, time_name: str, arrays: tuple[str, ...],
     part_chars = PART_CHARS if part_chars is None else part_chars
     view.update(parts=[], split=(), work=0, main_imports={s: [] for s in SECTIONS},
                 main_loads=view["loads"], main_uses_time=view["uses_time"])
-    size = sum(len(e) for s in SECTIONS for _, e, _ in view[s])
-    if size <= split_chars or view["velocity"]:
+    if _size(view) <= split_chars or view["velocity"]:
         return view
-    view["split"] = tuple(s for s in SECTIONS if view[s])
+    view["split"] = tuple(s for s in SECTIONS if view[s] or _stores(view, s))
     loads = {ident: (ident, arr, idx) for ident, arr, idx in view["loads"]}
     parts, owner = _cut(view, part_chars)
+    for section in view["split"]:      # the parts store every entry: none is left to print
+        for b in view[BLOCKS[section]]:
+            b["assignments"] = []
+    view.update(main_loads=[], main_uses_time=False)
     work: dict[str, int] = {}
-
-    def export(sym):
-        return work.setdefault(sym, len(work))
-
     for k, part in enumerate(parts):
         read = set()
-        for _, e, _ in part["temps"]:
+        for e in [e for _, e, _ in part["temps"]] + [e for _, e in part["stores"]]:
             read |= _names(e)
         part["reads"] = read
         for sym in sorted(read, key=_order):
             if sym in owner and owner[sym] < k:
-                export(sym)
-    main_read = set()
-    for section in view["split"]:
-        names = set()
-        for e in _main_statements(view, section):
-            names |= _names(e)
-        imports = [s for s in names if s in owner and parts[owner[s]]["section"] == section]
-        view["main_imports"][section] = [(s, export(s)) for s in sorted(imports, key=_order)]
-        main_read |= names
-    view["main_loads"] = [loads[s] for s in loads if s in main_read]
-    view["main_uses_time"] = time_name in main_read
+                work.setdefault(sym, len(work))
+    written = {b["name"] for b in view["pre"] + view["post"]}
     for k, part in enumerate(parts):
-        _fill_part(part, f"{view['name']}_part{k}", view["args"], time_name, arrays, loads,
-                   owner, work)
+        _fill_part(part, f"{view['name']}_part{k}", view["args"], time_name, arrays, written,
+                   loads, owner, work)
     view["parts"] = parts
     view["work"] = len(work)
     return view
 
 
 def _cut(view: dict, part_chars: int) -> tuple[list[dict], dict[str, int]]:
-    """``(parts, owner)``: the parts (``section``, ``temps``) the split sections of ``view``
-    are cut into, in order, and the index of the part that computes each temporary."""
+    """``(parts, owner)``: the parts (``section``, ``temps``, ``stores``) the split sections
+    of ``view`` are cut into, in order, and the index of the part that computes each
+    temporary.  A section's statements are its temporaries, then its blocks' entries
+    (:func:`_stores`), in the one function's order."""
     parts, owner = [], {}
     for section in view["split"]:
-        for chunk in _chunks(view[section], part_chars):
+        temps = view[section]
+        for chunk in _chunks(temps + _stores(view, section), part_chars):
             k = len(parts)
-            parts.append(dict(section=section, temps=chunk))
-            for sym, _, _ in chunk:
-                owner[sym] = k
+            parts.append(dict(section=section, temps=[t for t in chunk if t[2] is not None],
+                              stores=[(s, e) for s, e, c in chunk if c is None]))
+            for sym, _, c in chunk:
+                if c is not None:
+                    owner[sym] = k
     return parts, owner
 
 
-def _fill_part(part: dict, name: str, args, time_name: str, arrays, loads: dict, owner: dict,
-               work: dict) -> None:
+def _fill_part(part: dict, name: str, args, time_name: str, arrays, written: set,
+               loads: dict, owner: dict, work: dict) -> None:
     """Name, prototype, call and the loads, imports and stores of one part."""
     read = part.pop("reads")
     own = {s for s, _, _ in part["temps"]}
-    passed = [a for a in arrays if a in read]
+    out = sorted({target.split("[")[0] for target, _ in part["stores"]} & written)
+    passed = [a for a in arrays if a in read and a not in out]
     needed = {loads[s][1] for s in read if s in loads}
     if time_name in read:
         needed.add("t")
     imports = [(s, work[s]) for s in sorted(read, key=_order) if s in owner and s not in own]
     status = any(c for _, _, c in part["temps"])
     params = ["double t" if a == "t" else f"const double *{a}" for a in args]
-    params += [f"const double *{a}" for a in passed] + ["double *W"]
+    params += [f"const double *{a}" for a in passed] + [f"double *{a}" for a in out]
+    params.append("double *W")
     part.update(
         name=name,
         status=status,
         prototype=f"static {'int' if status else 'void'} {name}({', '.join(params)})",
-        call=f"{name}({', '.join(list(args) + passed + ['W'])})",
+        call=f"{name}({', '.join(list(args) + passed + out + ['W'])})",
         unused=[a for a in args if a not in needed]
         + ([] if imports or any(s in work for s in own) else ["W"]),
         uses_time=time_name in read,
@@ -164,4 +185,4 @@ def _order(ident: str) -> tuple:
     return (len(ident), ident)
 
 
-__all__ = ["split_view", "SPLIT_CHARS", "PART_CHARS", "SECTIONS"]
+__all__ = ["split_view", "SPLIT_CHARS", "PART_CHARS", "SECTIONS", "BLOCKS"]

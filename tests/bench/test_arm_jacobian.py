@@ -34,7 +34,7 @@ def test_jacobian_columns_filled_and_agree_with_compute_aba_derivatives(jacobian
     for r in rows:
         assert r.jac_status == "ok"
         for value in (r.jac_derive_s, r.jac_bake_s, r.jac_cse_s, r.jac_render_s,
-                      r.jac_compile_s, r.jac_c_ns):
+                      r.jac_compile_s, r.jac_c_ns, r.jac_own_ns):
             assert value is not None and value > 0
         assert r.jac_ops > r.ops_after > 0
         assert r.pin_daba_ns is None                      # cxx=False: no C++ loop
@@ -42,6 +42,7 @@ def test_jacobian_columns_filled_and_agree_with_compute_aba_derivatives(jacobian
     text = armbench.format_arm(rows)
     assert "Jacobian: mbgen vs Pinocchio's computeABADerivatives" in text
     assert "n=3: jacobian ok" in text
+    assert "module ns" in text and "mod/pin" in text
 
 
 def test_mbgen_jacobian_block_is_pinocchios():

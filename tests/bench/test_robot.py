@@ -8,6 +8,7 @@ import pytest
 
 from mbgen.bench import robot
 from mbgen.cli import main
+from urdf_models import ARM_PARTS, FLOATING_PARTS, urdf
 
 URDF = """<robot name="tiny">
   <link name="base"/>
@@ -63,3 +64,35 @@ def test_an_mjcf_robot_with_actuators_agrees_with_mujoco(tmp_path):
     path.write_text(ACTUATED, encoding="utf-8")
     rep = robot.robot_bench(str(path), repeats=1, cxx=False, pinocchio=False)
     assert rep.diff_mj < 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("parts, floating", [(FLOATING_PARTS, True), (ARM_PARTS, False)])
+def test_the_jacobian_is_timed_and_agrees_with_compute_aba_derivatives(tmp_path, parts,
+                                                                       floating):
+    """``jacobian=True``: mbgen's Jacobian timed in C (the driver's and the module's flags) and
+    from Python; in the speeds' tangent space it is Pinocchio's ``[ddq_dq, ddq_dv]`` (a
+    floating base's quaternion columns mapped, a continuous joint's cosine and sine too)."""
+    pytest.importorskip("pinocchio")
+    path = tmp_path / "robot.urdf"
+    path.write_text(urdf(parts), encoding="utf-8")
+    rep = robot.robot_bench(str(path), floating=floating, jacobian=True, repeats=1, cxx=False,
+                            mujoco=False)
+    assert rep.status == "ok", rep.notes
+    assert rep.jac_c_ns > 0 and rep.jac_own_ns > 0 and rep.jac_py_ns > 0
+    assert rep.pin_daba_py_ns > 0 and rep.pin_daba_cxx_ns is None      # cxx=False
+    assert rep.diff_pin_jac < 1e-9
+    text = robot.format_robot(rep)
+    assert "Pinocchio dABA" in text and "module's flags" in text and "tangent space" in text
+
+
+def test_the_derivatives_table_divides_by_the_modules_jacobian():
+    rep = robot.RobotReport(robot="r", floating=True, jac_c_ns=400.0, jac_own_ns=500.0,
+                            jac_py_ns=2000.0, pin_daba_cxx_ns=1000.0, pin_daba_py_ns=3000.0,
+                            diff_pin_jac=3e-13)
+    lines = robot.format_robot(rep).splitlines()
+    row = next(x for x in lines if x.startswith("Pinocchio dABA")).split()
+    assert row == ["Pinocchio", "dABA", "1000", "3000", "2.00"]
+    assert next(x for x in lines if x.startswith("mbgen jacobian")).split()[-1] == "0.80"
+    assert any("3.0e-13" in x for x in lines)
+    assert "derivatives" not in robot.format_robot(robot.RobotReport(robot="r", floating=False))

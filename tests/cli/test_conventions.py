@@ -83,7 +83,8 @@ def test_a_mistake_in_an_argument_exits_2(argv, message, tmp_path, capsys):
 
 
 def test_a_missing_scene_stays_a_scene_error(tmp_path, capsys):
-    """The exit-code table of docs/reference/cli.md: an unknown scene or a missing scene file is 3, in every command."""
+    """The exit-code table of docs/reference/cli.md: an unknown scene or a missing scene
+    file is 3, in every command."""
     for argv in (["generate", "no_such_scene"], ["simulate", str(tmp_path / "missing.py")],
                  ["fmu", "no_such_scene"]):
         assert main(argv) == 3

@@ -123,3 +123,48 @@ def test_a_pivot_checked_in_a_part_stops_the_function():
     for model in (a, b):
         with pytest.raises(mbgen.SingularMassMatrixError):
             model.rhs(0.0, x, p)
+
+
+def _view(temps, pre, post_temps=(), post=()):
+    """A plain C function view of :func:`mbgen.codegen.targets.model.function_views`' shape."""
+    def blocks(rows):
+        return [dict(name=name, local=name != "J", size=len(es), mirror=[],
+                     assignments=list(enumerate(es))) for name, es in rows]
+    return dict(name="m_jacobian", args=["t", "x"], loads=[("q1", "x", 0), ("u1", "x", 1)],
+                uses_time=False, velocity=[], temps=list(temps), post_temps=list(post_temps),
+                pre=blocks(pre), post=blocks(post))
+
+
+def test_block_entries_are_stored_by_the_parts():
+    """The 32-link arm's Jacobian kept its block entries (``DT``: 2 n^2 sums of products,
+    225 KB of C) in the public function, which fell to -O1: now the parts store them, through
+    the array as an argument, reading what earlier parts computed from ``W``."""
+    temps = [("v0", "q1*q1", False), ("v1", "v0*u1", False)]
+    view = _view(temps, [("M", ["v0"]), ("F", ["v1"]), ("J", ["0.0", "1.0"])],
+                 post=[("DT", ["-v0*v1", "-v1*F[0]", "v0 + v1"])])
+    split.split_view(view, "t", ("F",), split_chars=5, part_chars=12)
+    stores = [s for p in view["parts"] for s in p["stores"]]
+    assert stores == [("M[0]", "v0"), ("F[0]", "v1"), ("J[0]", "0.0"), ("J[1]", "1.0"),
+                      ("DT[0]", "-v0*v1"), ("DT[1]", "-v1*F[0]"), ("DT[2]", "v0 + v1")]
+    assert all(b["assignments"] == [] for b in view["pre"] + view["post"])
+    assert view["split"] == ("temps", "post_temps")
+    assert view["main_loads"] == [] and view["main_imports"] == {"temps": [], "post_temps": []}
+    post = [p for p in view["parts"] if p["section"] == "post_temps"]
+    assert post and all("double *DT" in p["prototype"] for p in post)
+    reads_f = [p for p in post if "F[0]" in str(p["stores"])]
+    assert reads_f and "const double *F" in reads_f[0]["prototype"]
+    assert {s for p in post for s, _ in p["imports"]} == {"v0", "v1"}   # through W
+    first = view["parts"][0]
+    assert first["temps"][0][:2] == ("v0", "q1*q1") and "double *M" not in first["prototype"]
+
+
+def test_long_blocks_alone_split_a_function():
+    """Short temporaries but long block entries: the function is split all the same (the size
+    that decides counts both), and small functions are left whole."""
+    many = [f"v0*v0*{k}.0" for k in range(50)]
+    view = _view([("v0", "q1*u1", False)], [("J", many)])
+    split.split_view(view, "t", (), split_chars=400, part_chars=200)
+    assert len(view["parts"]) > 2 and view["pre"][0]["assignments"] == []
+    small = _view([("v0", "q1*u1", False)], [("J", many[:3])])
+    split.split_view(small, "t", (), split_chars=400, part_chars=200)
+    assert small["parts"] == [] and len(small["pre"][0]["assignments"]) == 3
