@@ -33,7 +33,7 @@ import mbgen
 import mbgen.codegen.targets.model
 from mbgen.abi import INTEGRATOR_STATUS_CODES
 from mbgen.codegen.solver import PIVOT_ULPS
-from mbgen.errors import IntegrationError, SingularConstraintError, SingularMassMatrixError
+from mbgen.errors import SingularConstraintError, SingularMassMatrixError
 from mbgen.runtime import lambdified
 from mbgen.scenes import four_bar
 
