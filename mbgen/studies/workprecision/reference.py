@@ -14,13 +14,14 @@ True solution (``TrueSolution``)
     Otherwise the first two of :data:`REFERENCE_SOLVES` that succeed (DOP853
     at rtol 1e-13; the generated C Rodas4 ``rosenbrock`` at rtol 1e-12 where it was
     compiled -- an implicit method of another order, with no Python per step: 0.1 s
-    where solve_ivp's Radau took 6.2 s on ``disc_pendulum`` --; Radau at rtol 1e-12 with
-    the compiled Jacobian; LSODA as a fallback), all on the C back end with ``atol = rtol * atol_scale``; on a
-    *stiff* scene the implicit candidates :data:`STIFF_REFERENCE_SOLVES` are
-    used instead (the generated C Rodas4 ``rosenbrock`` first when it was
-    compiled: on ``stiff_chain -O stiffness=1e6`` it takes 2.2 s at rtol
-    1e-12 where solve_ivp's Radau ran past 60 s).  The first is the reference; the
-    largest difference between the two over the output grid is reported and
+    where solve_ivp's Radau took 6.2 s on ``disc_pendulum`` --; Radau at rtol 1e-12
+    with the compiled Jacobian; LSODA as a fallback), all on the C back end with
+    ``atol = rtol * atol_scale``; on a *stiff* scene the implicit candidates
+    :data:`STIFF_REFERENCE_SOLVES` are used instead (the generated C Rodas4
+    ``rosenbrock`` first when it was compiled: on ``stiff_chain -O stiffness=1e6`` it
+    takes 2.2 s at rtol 1e-12 where solve_ivp's Radau ran past 60 s).  The first is
+    the reference; the largest difference between the two over the output grid is
+    reported and
     is the *floor* below which an error is not meaningful.
 Stiffness
     :func:`stiffness_steps`: an explicit method is stable only while
