@@ -23,7 +23,9 @@ an ancestor of the other's; eliminating the leaves first (the layout reversed, f
 layout that lists parents first, as ``from_urdf`` and ``from_mjcf`` do) fills nothing in,
 so ``L`` has the pattern of ``M``, and a contact row of ``J`` -- nonzero on the speeds
 between the foot and the root -- keeps that support in ``W``.  :func:`elimination_order`
-takes the layout's order or its reverse, whichever fills in less.  Every statement below
+takes the layout's order or its reverse, whichever fills in less; the factor of ``M`` and
+its substitutions are :class:`~mbgen.codegen.tree_solve.TreeFactor`'s, shared with the
+Jacobian's column solve of a branched model.  Every statement below
 touches a structural nonzero only: for Solo-12 with four feet (``n = 18, m = 12``) the
 factorisation is a few hundred multiplications, where dense loops take about 8000.
 
@@ -42,11 +44,11 @@ by the same functions as the ``L D L^T``'s (:func:`~mbgen.codegen.solver.c_lines
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from functools import cached_property, partial
 
 from .solver import Statement, pivot_factor
+from .tree_solve import TreeFactor, elimination_order, vector_lines
 
 #: Columns solved at once are padded to a multiple of this: a double's lanes in AVX-512, so
 #: that ``-O2``'s vectoriser (gcc's "very cheap" model: no remainder loop) takes every loop.
@@ -56,31 +58,6 @@ LANES = 8
 def padded(columns: int) -> int:
     """``columns`` rounded up to a multiple of :data:`LANES`."""
     return -(-columns // LANES) * LANES
-
-
-def _fill(n: int, pattern: frozenset, order: tuple) -> dict[int, tuple[int, ...]]:
-    """``{p: later neighbours of p}`` after eliminating in ``order``: ``L``'s pattern (``r`` in
-    ``later[p]``: ``L_rp`` is a structural nonzero)."""
-    adjacent = {i: set() for i in range(n)}
-    for i, j in pattern:
-        adjacent[i].add(j)
-        adjacent[j].add(i)
-    done: set = set()
-    later = {}
-    for p in order:
-        rest = adjacent[p] - done
-        later[p] = tuple(sorted(rest, key=order.index))
-        for a in rest:
-            adjacent[a] |= rest - {a}
-        done.add(p)
-    return later
-
-
-def elimination_order(n: int, pattern: frozenset) -> tuple[int, ...]:
-    """The layout's order or its reverse, whichever gives ``L`` fewer structural nonzeros (a
-    tie: the reverse, leaves first for a layout that lists parents first)."""
-    orders = (tuple(reversed(range(n))), tuple(range(n)))
-    return min(orders, key=lambda o: sum(len(v) for v in _fill(n, pattern, o).values()))
 
 
 @dataclass(frozen=True)
@@ -97,21 +74,22 @@ class ContactSolver:
     rows: tuple
 
     @cached_property
+    def tree(self) -> TreeFactor:
+        """``M``'s factor over the tree's structural nonzeros (:mod:`mbgen.codegen.tree_solve`)."""
+        return TreeFactor(self.n, self.pattern)
+
+    @property
     def order(self) -> tuple[int, ...]:
-        return elimination_order(self.n, self.pattern)
+        return self.tree.order
 
-    @cached_property
+    @property
     def later(self) -> dict[int, tuple[int, ...]]:
-        return _fill(self.n, self.pattern, self.order)
+        return self.tree.later
 
-    @cached_property
+    @property
     def earlier(self) -> dict[int, tuple[int, ...]]:
         """``{p: q eliminated before p with L_pq nonzero}``, in elimination order."""
-        out: dict = {p: [] for p in range(self.n)}
-        for q in self.order:
-            for p in self.later[q]:
-                out[p].append(q)
-        return {p: tuple(v) for p, v in out.items()}
+        return self.tree.earlier
 
     @cached_property
     def support(self) -> tuple[tuple[int, ...], ...]:
@@ -126,7 +104,7 @@ class ContactSolver:
         return tuple(out)
 
     def _m(self, p: int, q: int) -> str:
-        return f"M[{max(p, q) * self.n + min(p, q)}]"
+        return self.tree.m(p, q)
 
     def _w(self, name: str, r: int, p: int) -> str:
         return f"{name}[{r * self.n + p}]"
@@ -137,23 +115,7 @@ class ContactSolver:
     # ------------------------------------------------------------------ factor
     def factor_mass(self) -> list[Statement]:
         """``M = P^T L D L^T P`` in place, ``ID = 1/d``; a check per pivot."""
-        out: list[Statement] = []
-        for p in self.order:
-            ks = self.earlier[p]
-            out.append(Statement("let", f"tol{p}", f"{pivot_factor(self.n)} * {self._m(p, p)}"))
-            for q in ks:
-                out.append(Statement("let", f"w{p}_{q}", f"{self._m(p, q)}*{self._m(q, q)}"))
-            if ks:
-                out.append(Statement("set", self._m(p, p), " - ".join(
-                    [self._m(p, p)] + [f"{self._m(p, q)}*w{p}_{q}" for q in ks])))
-            out.append(Statement("check", self._m(p, p), f"tol{p}"))
-            out.append(Statement("set", f"ID[{p}]", f"1.0/{self._m(p, p)}"))
-            for r in self.later[p]:
-                terms = [f"{self._m(r, q)}*w{p}_{q}" for q in ks if r in self.later[q]]
-                first = [self._m(r, p)] if (max(r, p), min(r, p)) in self.pattern else []
-                num = " - ".join(first + terms) if first else "-" + " - ".join(terms)
-                out.append(Statement("set", self._m(r, p), f"({num})*ID[{p}]"))
-        return out
+        return self.tree.factor()
 
     def factor_rows(self) -> list[Statement]:
         """``W = L^{-1} P J^T``, ``V = D^{-1} W`` and ``G = W^T V`` (lower triangle)."""
@@ -208,21 +170,12 @@ class ContactSolver:
         return (self._forward(b, name) + self._multipliers(b, c, lam, name)
                 + self._backward(b, lam, name))
 
-    def _m_as(self, name, p, q):
-        return self._m(p, q).replace("M[", f"{name['M']}[", 1)
-
     def _g_as(self, name, r, s):
         return self._g(r, s).replace("G[", f"{name['G']}[", 1)
 
     def _forward(self, b, name) -> list[Statement]:
         """``b <- D^{-1} L^{-1} P b``."""
-        out: list[Statement] = []
-        for p in self.order:
-            ks = self.earlier[p]
-            if ks:
-                out.append(Statement("set", b(p), " - ".join(
-                    [b(p)] + [f"{self._m_as(name, p, q)}*{b(q)}" for q in ks])))
-        return out + [Statement("set", b(p), f"{b(p)}*{name['ID']}[{p}]") for p in self.order]
+        return self.tree.forward(b, name)
 
     def _multipliers(self, b, c, lam, name) -> list[Statement]:
         """``lam = -G^{-1}(c + W^T b)`` with ``G``'s factors."""
@@ -248,34 +201,17 @@ class ContactSolver:
                      if p in set(self.support[r])]
             if terms:
                 out.append(Statement("set", b(p), " + ".join([b(p)] + terms)))
-        for p in reversed(self.order):
-            rs = self.later[p]
-            if rs:
-                out.append(Statement("set", b(p), " - ".join(
-                    [b(p)] + [f"{self._m_as(name, r, p)}*{b(r)}" for r in rs])))
-        return out
+        return out + self.tree.backward(b, name)
 
     def columns_c(self, stride: int, arrays: dict) -> list[str]:
         """C lines that solve ``stride`` columns at once (row-major ``DT``: ``n x stride``,
-        ``DC`` and ``DL``: ``m x stride``): each statement of :meth:`solve` as a loop over
-        the columns, its factors' entries read into constants first, so that the compiler
-        vectorises it (``stride`` a multiple of :data:`LANES`); per column the operations
-        of :meth:`solve` in its order."""
+        ``DC`` and ``DL``: ``m x stride``): :meth:`solve` as vector loops
+        (:func:`~mbgen.codegen.tree_solve.vector_lines`; ``stride`` a multiple of
+        :data:`LANES`); per column the operations of :meth:`solve` in its order."""
         program = self.solve(b=lambda p: f"DT[{p * stride} + j]",
                              c=lambda r: f"DC[{r * stride} + j]",
                              lam=lambda r: f"DL[{r * stride} + j]", arrays=arrays)
-        factors = "|".join(re.escape(a) for a in arrays.values())
-        pattern = re.compile(rf"\b(?:{factors})\[\d+\]")
-        out = []
-        for st in program:
-            refs = list(dict.fromkeys(pattern.findall(st.value)))
-            value = st.value
-            for k, ref in enumerate(refs):   # _k: no user's name (names start with a letter)
-                value = re.sub(rf"\b{re.escape(ref)}(?![\d\]])", f"_k{k}", value)
-            head = f"const double {', '.join(f'_k{k} = {r}' for k, r in enumerate(refs))}; " \
-                if refs else ""
-            out.append(f"{{ {head}for (j = 0; j < {stride}; ++j) {st.target} = {value}; }}")
-        return out
+        return vector_lines(program, stride, arrays.values())
 
     def locals(self) -> int:
         """Doubles the factor declares (``let``): its stack beyond the arrays."""

@@ -19,6 +19,7 @@ a constrained model's velocity and KKT solves over the LU.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from ..._version import __version__
@@ -31,8 +32,9 @@ from ..outputs import Form
 from ..printing import SORT_TERMS_MAX_OPS, CPrinter, PyPrinter, math_functions
 from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines, solve_program
 from ..split import split_view
+from ..tree_solve import vector_lines
 from .base import Job, Target
-from .runtime import routine_bounds, routine_context
+from .runtime import model_tree, routine_bounds, routine_context
 
 
 def signature_args(kernel: Kernel) -> tuple[str, ...]:
@@ -140,6 +142,7 @@ def function_views(kernel: Kernel, prefix: str) -> Views:
         v["contact_columns"] = solver.columns_c(v["stride"], CONTACT_ARRAYS) \
             if v["contact"] and v["columns"] else []
     py_views = [_view(kernel, fn, prefix, PyPrinter(py_names, sort)) for fn in kernel.functions]
+    _tree_views(kernel, c_views, py_views)
     for v in c_views:
         v["prototype"] = _c_prototype(v, args)
         if constrained:     # its temporaries may read ACC, LAM, UR: kept in one function
@@ -150,13 +153,41 @@ def function_views(kernel: Kernel, prefix: str) -> Views:
     return Views(c_views, py_views)
 
 
+def _tree_views(kernel: Kernel, c_views: list, py_views: list) -> None:
+    """Keys ``tree`` (the function factors ``M`` with the ``tree`` routine: a function that
+    solves columns, of a model with a :func:`~mbgen.codegen.targets.runtime.model_tree`; the
+    RHS keeps the ``ldl``) of every view and ``tree_columns`` (its column solve's C lines)
+    of the C views."""
+    tree = model_tree(kernel)
+    for v in c_views + py_views:
+        v["tree"] = tree is not None and bool(v["solve"] and v["columns"]) and not v["contact"]
+    for v in c_views:
+        v["tree_columns"] = _tree_columns(tree, v) if v["tree"] and v["columns"] else []
+
+
+def _tree_columns(tree, view: dict) -> list[str]:
+    """C lines of ``M^{-1}`` applied to a function's columns in the rows of ``B`` (``n_u x
+    columns``, row-major: the output's rows from ``n_q`` on), one vector loop per statement
+    of the tree solve: the body of ``<function>_tree_columns`` (``templates/model/model.c.j2``;
+    a function of its own, so that the long public function compiles no slower)."""
+    width = view["columns"]
+    program = tree.solve(b=lambda p: f"B[{p * width} + j]")
+    return vector_lines(program, width, ("M", "ID"))
+
+
+def tree_columns_bytes(view: dict) -> int:
+    """Stack bound of ``<function>_tree_columns``: every constant its loops read (``_k``),
+    as if none shared a slot, and ``j``."""
+    return frame(sum(len(re.findall(r"\b_k\d+ = ", line)) for line in view["tree_columns"]), 1)
+
+
 def function_bytes(view: dict) -> int:
     """Automatic storage one model function declares (its parts' own: :func:`part_bytes`)."""
     temps = sum(len(view[s]) for s in ("temps", "post_temps") if s not in view["split"])
     imports = sum(len(v) for v in view["main_imports"].values())
     doubles = int(view["main_uses_time"]) + len(view["main_loads"]) + temps + imports \
         + view["work"] + sum(b["size"] for b in view["pre"] + view["post"] if b["local"]) \
-        + contact_doubles(view)
+        + contact_doubles(view) + (view["n_u"] if view["tree"] else 0)
     ints = int(bool(view["solve"])) + int(bool(view["columns"])) + 1 \
         + int(any(p["status"] for p in view["parts"]))
     return frame(doubles, ints) - frame()
@@ -201,7 +232,7 @@ class ModelC(Target):
     name = "c"
     folder = "model"
     files = (("model.h.j2", "{prefix}.h"), ("model.c.j2", "{prefix}.c"))
-    requires = ("ldl", "ldl_columns", "lu", "lu_solve_t", "contact")
+    requires = ("ldl", "ldl_columns", "lu", "lu_solve_t", "contact", "tree")
     bundled = True
 
     def context(self, kernel: Kernel, views: Views, prefix: str) -> dict:
@@ -230,6 +261,7 @@ class ModelC(Target):
         unrolled = any_solve and L.n_u <= UNROLL_MAX
         factor = factor_program(L.n_u, kernel.mass_pattern) if unrolled else []
         constrained = eq.constraints is not None
+        tree = model_tree(kernel)
         return dict(
             version=__version__,
             prefix=prefix,
@@ -275,12 +307,16 @@ class ModelC(Target):
             n_all=L.n_u + L.n_d,
             any_kkt=constrained and any_solve,
             any_contact=any(fn.spec.contact for fn in kernel.functions),
-            any_ldl=any(fn.spec.solve and not fn.spec.contact for fn in kernel.functions),
+            any_ldl=any(v["solve"] and not v["contact"] and not v["tree"] for v in views.c),
+            any_tree=tree is not None,
+            tree_factor_py=py_lines(tree.factor(), "NotPositiveDefinite('mass matrix is not "
+                                                   "positive definite')") if tree else [],
+            tree_solve_py=py_lines(tree.solve(b=lambda p: f"b[o + {p}]"), "") if tree else [],
             **_contact_python(kernel),
             declarations=prototypes,
             sections=[],
             **routine_context(kernel, 0 if unrolled else max(
-                (fn.spec.columns for fn in kernel.functions if not fn.spec.contact),
+                (v["columns"] for v in views.c if not v["contact"] and not v["tree"]),
                 default=0)),
         )
 
@@ -294,9 +330,11 @@ class ModelC(Target):
         bounds = {}
         for v in ctx["functions"]:
             callees = [SMALL, solves, frame() + part_bytes(v) if v["parts"] else 0]
-            if v["solve"] or v["columns"]:
+            if v["tree"]:
+                callees += [routines["tree"], tree_columns_bytes(v)]
+            elif v["solve"] or v["columns"]:
                 callees.append(routines["ldl"])
-            if v["columns"] and not ctx["unrolled"] and not v["contact"]:
+            if v["columns"] and not ctx["unrolled"] and not v["contact"] and not v["tree"]:
                 callees.append(routines["ldl_columns"])
             if v["contact"]:
                 callees.append(routines["contact"])
@@ -329,4 +367,4 @@ C = ModelC()
 PYTHON = ModelPython()
 
 __all__ = ["C", "PYTHON", "ModelC", "ModelPython", "Views", "function_views", "signature_args",
-           "function_bytes", "part_bytes", "contact_doubles"]
+           "function_bytes", "part_bytes", "contact_doubles", "tree_columns_bytes"]

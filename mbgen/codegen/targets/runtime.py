@@ -27,6 +27,9 @@ routine                 functions (``<prefix>_...``)
                         (:mod:`mbgen.codegen.solver`: its pivot rule, its unrolled form)
 ``ldl_columns``         ``ldl_solve_columns``: ``M^-1`` applied to ``C`` columns at once, row
                         by row (the sensitivities past ``UNROLL_MAX`` speeds)
+``tree``                ``tree_factor``, ``tree_solve``: ``M`` factored and solved over a
+                        kinematic tree's structural nonzeros, leaves first (the column solves
+                        of a branched model past ``UNROLL_MAX`` speeds: :func:`model_tree`)
 ``lu``                  ``lu_factor``, ``lu_solve``: partial pivoting, one pivot rule
                         (:data:`mbgen.codegen.solver.LU_PIVOT`)
 ``lu_solve_t``          ``lu_solve_t``: the transposed solve with ``lu``'s factors
@@ -61,6 +64,7 @@ from ..contacts import contact_solver
 from ..header import SMALL, frame
 from ..solver import LU_PIVOT, c_lines, factor_program, pivot_factor
 from ..templating import environment
+from ..tree_solve import TreeFactor, tree_factor
 
 
 def _ldl_bound(kernel, ctx: dict, known: dict) -> int:
@@ -75,6 +79,23 @@ def _contact_bound(kernel, ctx: dict, known: dict) -> int:
     """``contact_factor``: one double per ``let`` of its straight-line code."""
     c = kernel.equations.contacts
     return frame(contact_solver(kernel.equations).locals()) if c is not None else SMALL
+
+
+def model_tree(kernel) -> TreeFactor | None:
+    """The tree factor a model's column solves use (:func:`~mbgen.codegen.tree_solve.tree_factor`),
+    or ``None``: the dense ``ldl`` and ``ldl_columns``.  Only an unconstrained model without
+    contacts (those solve with their own factors) with a function that solves columns."""
+    eq = kernel.equations
+    if eq.constraints is not None or eq.contacts is not None or not any(
+            fn.spec.columns and fn.spec.solve for fn in kernel.functions):
+        return None
+    return tree_factor(kernel.layout.n_u, kernel.mass_pattern)
+
+
+def _tree_bound(kernel, ctx: dict, known: dict) -> int:
+    """``tree_factor``: one double per ``let`` of its straight-line code."""
+    tree = model_tree(kernel)
+    return frame(tree.locals()) if tree is not None else SMALL
 
 
 def _initial_step_bound(kernel, ctx: dict, known: dict) -> int:
@@ -119,6 +140,7 @@ ROUTINES: dict[str, Routine] = {r.name: r for r in (
     Routine("lu", ("lu_factor", "lu_solve"), bound=lambda kernel, ctx, known: frame(6, 6)),
     Routine("lu_solve_t", ("lu_solve_t",), ("lu",)),
     Routine("contact", ("contact_factor", "contact_solve"), bound=_contact_bound),
+    Routine("tree", ("tree_factor", "tree_solve"), bound=_tree_bound),
     Routine("rms", ("rms",)),
     Routine("initial_step", ("initial_step",), ("rms",), bound=_initial_step_bound),
 )}
@@ -134,7 +156,9 @@ def routine_context(kernel, columns: int) -> dict:
     ``G_rr`` below which a pivot of the Delassus matrix is singular (the mass matrix's rule,
     :func:`~mbgen.codegen.solver.pivot_factor`, for ``n_u + m``), ``contact_order`` the
     elimination order and ``contact_factor_c``, ``contact_solve_c`` the routine's lines
-    (:class:`~mbgen.codegen.contacts.ContactSolver`).
+    (:class:`~mbgen.codegen.contacts.ContactSolver`); ``tree_order``, ``tree_factor_c``,
+    ``tree_solve_c``: the ``tree`` routine's order and lines (:func:`model_tree`; empty
+    without one).
     """
     L = kernel.layout
     tail = [a for a, n in (("p", L.n_p), ("r", L.n_r)) if n]
@@ -150,6 +174,12 @@ def routine_context(kernel, columns: int) -> dict:
             + c_lines(solver.factor_rows(), "")
             + c_lines(solver.factor_delassus(), f"{upper}_CONTACT_SINGULAR"),
             contact_solve_c=c_lines(solver.solve(), ""))
+    tree = model_tree(kernel)
+    if tree is not None:
+        upper = model_prefix(kernel.equations.name).upper()
+        contact.update(tree_order=" ".join(map(str, tree.order)),
+                       tree_factor_c=c_lines(tree.factor(), f"{upper}_NOT_POSITIVE_DEFINITE"),
+                       tree_solve_c=c_lines(tree.solve(), ""))
     return dict(routine=dict(
         n=max(L.n_x, 1),
         params="".join(f", const double *{a}" for a in tail),
@@ -196,4 +226,4 @@ def routine_bounds(kernel, ctx: dict, known: dict) -> dict[str, int]:
     return {name: r.bound(kernel, ctx, known) for name, r in ROUTINES.items()}
 
 
-__all__ = ["ROUTINES", "Routine", "Runtime", "routine_context", "routine_bounds"]
+__all__ = ["ROUTINES", "Routine", "Runtime", "model_tree", "routine_context", "routine_bounds"]

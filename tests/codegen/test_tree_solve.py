@@ -1,0 +1,162 @@
+"""The mass matrix factored and solved over a kinematic tree's structural nonzeros
+(mbgen.codegen.tree_solve), and the Jacobian's column solve that uses it.
+
+* the factor of a tree pattern, leaves first, fills nothing in, and its statements run as
+  Python solve ``M x = b`` to 1e-12 for a random positive definite ``M`` of that pattern;
+* which models take it: past ``UNROLL_MAX`` speeds and sparse (a branched tree); a chain
+  (dense ``M``) and a small model keep the dense loops;
+* a branched model (a hub with three pendulums; the unrolling threshold lowered so that four
+  speeds take the path) compiles to ``<prefix>_tree_factor`` and the tree's column solve: C
+  and generated Python agree bit for bit, with the dense path (its generated Python) to
+  1e-12, and with the lambdified reference; it compiles without a warning as strict C and
+  C++ and within its stack bounds; the 3-link cart (a chain) keeps ``ldl_solve_columns``.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import mbgen
+import mbgen.codegen.targets.model
+from cstack import call_graph, deepest, stack_usage
+from mbgen.codegen import tree_solve
+from mbgen.codegen.solver import UNROLL_MAX, py_lines
+from mbgen.codegen.tree_solve import TreeFactor, tree_factor
+from mbgen.model.scene import load_scene
+from mbgen.pipeline import run
+from mbgen.verify.check import check
+
+CC = shutil.which("gcc") or shutil.which("cc")
+CXX = shutil.which("g++") or shutil.which("c++")
+
+#: Parents of the speeds of a tree listed parents first: a root and two chains of three.
+PARENTS = (-1, 0, 1, 2, 0, 4, 5)
+
+
+def _ancestors(parents, i):
+    out = []
+    while i >= 0:
+        out.append(i)
+        i = parents[i]
+    return out
+
+
+def tree_pattern(parents) -> frozenset:
+    """``(i, j)``, ``i > j``: ``j`` an ancestor of ``i``."""
+    return frozenset((i, j) for i in range(len(parents)) for j in _ancestors(parents, i)[1:])
+
+
+def tree_matrix(parents, rng) -> np.ndarray:
+    """A positive definite ``M`` with exactly the tree's pattern: a body's ``G G^T`` on the
+    speeds from it to the root, summed."""
+    n = len(parents)
+    M = np.zeros((n, n))
+    for b in range(n):
+        path = _ancestors(parents, b)
+        G = rng.uniform(-1, 1, (len(path), 6))
+        M[np.ix_(path, path)] += G @ G.T
+    return M + np.diag(rng.uniform(0.5, 1.0, n))
+
+
+def test_a_tree_factor_fills_nothing_in_and_solves():
+    n, pattern = len(PARENTS), tree_pattern(PARENTS)
+    tree = TreeFactor(n, pattern)
+    assert tree.order == tuple(reversed(range(n)))
+    assert tree.nonzeros == len(pattern) == 12 < n * (n - 1) // 2
+    rng = np.random.default_rng(4)
+    M = tree_matrix(PARENTS, rng)
+    b = rng.uniform(-1, 1, n)
+    scope = {"M": list(M.ravel()), "ID": [0.0] * n, "b": list(b), "DBL_EPSILON": 2.0 ** -52}
+    exec("\n".join(py_lines(tree.factor(), "ArithmeticError()")
+                   + py_lines(tree.solve(), "")), scope)
+    x = np.linalg.solve(M, b)
+    assert np.abs(np.array(scope["b"]) - x).max() <= 1e-12 * np.abs(x).max()
+
+
+def test_only_a_sparse_factor_past_the_unrolled_size_takes_the_tree():
+    star = (-1, 0, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8)   # a hub and four chains of three
+    assert len(star) == 13 > UNROLL_MAX
+    assert tree_factor(13, tree_pattern(star)) is not None
+    chain = tuple(range(-1, 12))
+    assert tree_factor(13, tree_pattern(chain)) is None           # dense M: the loops
+    small = star[:9]
+    assert tree_factor(9, tree_pattern(small)) is None            # unrolled already
+
+
+def hub(name="hub") -> mbgen.Model:
+    """A hub turning about z carrying three pendulums (pitch, roll, pitch): four speeds, ``M``
+    nonzero between the hub and each pendulum only."""
+    m = mbgen.Model(name)
+    q = m.coordinates("q0:4")
+    m.speeds("u0:4")
+    g, = m.constants("g", defaults=[9.81])
+    T = m.inputs("T0:4")
+    N = m.newtonian()
+    H = m.rotate(N, "H", 3, q[0])
+    m.body("hub", H, 2.0, (0.1, 0.12, 0.2, 0.01, 0.0, 0.002), m.origin)
+    m.torque(H, T[0] * H.z, reaction=N)
+    for k, (axis, at) in enumerate(((2, H.x), (1, H.y), (2, -H.x - H.y)), start=1):
+        F = m.rotate(H, f"B{k}", axis, q[k])
+        P = m.point(f"P{k}", m.origin, 0.3 * at)
+        m.body(f"b{k}", F, 0.5 + 0.1 * k, (0.01, 0.02, 0.015, 0.001, 0.0, 0.0005),
+               m.point(f"C{k}", P, 0.2 * F.x + 0.03 * F.z))
+        m.torque(F, T[k] * (F.y if axis == 2 else F.x), reaction=H)
+    m.gravity(-g * N.z)
+    return m
+
+
+@pytest.fixture
+def small_trees(monkeypatch):
+    """The unrolling threshold at 1: four speeds take the loops, and a sparse tree the tree."""
+    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
+    monkeypatch.setattr(tree_solve, "UNROLL_MAX", 1)
+    return monkeypatch
+
+
+def test_a_branched_model_solves_its_columns_over_the_tree(small_trees, tmp_path):
+    outputs = ("rhs", "jacobian")
+    result = run(hub(), outputs)
+    source = result.rendered.files[f"{result.rendered.prefix}.c"]
+    assert "hub_tree_factor(M, CD)" in source and "ldl_solve_columns" not in source
+    assert "_tree_solve(M, CD, DT, j * 4)" in result.rendered.python
+    small_trees.setattr(tree_solve, "TREE_FILL", 0.0)
+    dense = run(hub("hub_dense"), outputs, build=False)
+    assert "ldl_solve_columns" in dense.rendered.files["hub_dense.c"]
+    py, py_dense = mbgen.python_model(result.rendered), mbgen.python_model(dense.rendered)
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        x, r = rng.uniform(-1, 1, 8), rng.uniform(-1, 1, 4)
+        p = result.compiled.default_parameters
+        J = result.compiled.jacobian(0.0, x, p, r)
+        assert np.array_equal(J, py.jacobian(0.0, x, p, r))
+        J_dense = py_dense.jacobian(0.0, x, p, r)
+        assert np.abs(J - J_dense).max() <= 1e-12 * np.abs(J_dense).max()
+    report = check(None, result=result, samples=4)
+    assert report.ok, report.format()
+    _strict_and_within_its_stack_bound(result.rendered, tmp_path)
+
+
+def _strict_and_within_its_stack_bound(rendered, folder):
+    """No warning as strict C99 and C++11; gcc's stack use under the bounds of the header."""
+    for name, text in rendered.files.items():
+        (folder / name).write_text(text)
+    src = f"{rendered.prefix}.c"
+    for tool, flags in ((CC, ["-std=c99"]), (CXX, ["-x", "c++", "-std=c++11"])):
+        done = subprocess.run([tool, *flags, "-pedantic", "-Wall", "-Wextra", "-Werror",
+                               "-Wshadow", "-O2", "-c", src, "-o", "m.o"], cwd=folder,
+                              capture_output=True, text=True)
+        assert done.returncode == 0 and not done.stderr, done.stderr
+    usage = stack_usage(CC, folder, rendered.files, "-O0")
+    graph = {f: {c for c in cs if c in usage} for f, cs in call_graph(rendered.source).items()}
+    for fn, bound in dict(rendered.stack_bounds).items():
+        assert deepest(fn, usage, graph) <= bound, (fn, deepest(fn, usage, graph), bound)
+
+
+def test_a_chain_keeps_the_dense_column_solve(small_trees):
+    result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian"), build=False)
+    source = result.rendered.files[f"{result.rendered.prefix}.c"]
+    assert "ldl_solve_columns" in source and "_tree_factor" not in source
