@@ -66,7 +66,7 @@ extern "C" {
 #define BEAD_WIRE_FORCE_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of bead_wire_force.h, .c and .py with this value blanked. */
-#define BEAD_WIRE_FORCE_CONTENT_HASH "2a2b50b8c3bd2bfe"
+#define BEAD_WIRE_FORCE_CONTENT_HASH "bd2f822eae2ae532"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

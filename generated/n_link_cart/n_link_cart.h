@@ -84,7 +84,7 @@ extern "C" {
 #define N_LINK_CART_R_F 0 /* F */
 
 /* SHA-256 (16 hex digits) of n_link_cart.h, .c and .py with this value blanked. */
-#define N_LINK_CART_CONTENT_HASH "f393c737995c20b0"
+#define N_LINK_CART_CONTENT_HASH "8d277c79f49b2ac2"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -33,13 +33,14 @@ static void paraboloid_ldl_solve(const double *M, double *b)
 /* 1 when every v[0..n-1] is finite: NaN and infinities are the values with v - v != 0. */
 static int paraboloid_all_finite(const double *v, int n)
 {
-    int i;
+    /* v - v is 0 for a finite v and NaN otherwise; the comparisons are AND-ed without an
+     * early exit, an integer reduction that vectorises (10 % of G1's Jacobian as a loop
+     * that stopped at the first bad value) */
+    int i, ok = 1;
     for (i = 0; i < n; ++i) {
-        if (!(v[i] - v[i] == 0.0)) {
-            return 0;
-        }
+        ok &= (v[i] - v[i] == 0.0);
     }
-    return 1;
+    return ok;
 }
 
 void paraboloid_default_parameters(double *p)

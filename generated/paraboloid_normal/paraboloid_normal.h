@@ -77,7 +77,7 @@ extern "C" {
 #define PARABOLOID_NORMAL_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of paraboloid_normal.h, .c and .py with this value blanked. */
-#define PARABOLOID_NORMAL_CONTENT_HASH "fba435970d2ad6ce"
+#define PARABOLOID_NORMAL_CONTENT_HASH "3fa40ab2cf691786"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */

@@ -57,7 +57,7 @@ extern "C" {
 #define SPHERICAL_ROD_P_m 1 /* m */
 
 /* SHA-256 (16 hex digits) of spherical_rod.h, .c and .py with this value blanked. */
-#define SPHERICAL_ROD_CONTENT_HASH "753ef4b0b60fbef1"
+#define SPHERICAL_ROD_CONTENT_HASH "eb0ee23f1a95c097"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
