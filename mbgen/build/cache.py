@@ -166,6 +166,16 @@ def writable(root: Path) -> bool:
     return os.access(root, os.W_OK | os.X_OK)
 
 
+def require_writable(target: Path) -> None:
+    """Raise :class:`~mbgen.errors.CacheError` unless ``target``'s folder can take a new
+    build (a read-only cache may serve what it holds, never build what it lacks)."""
+    root = target.parent
+    if not writable(root):
+        raise CacheError(f"the cache folder {root} is read-only and holds no usable "
+                         f"{target.name}; make it writable or point MBGEN_CACHE_DIR at a "
+                         f"writable folder")
+
+
 def cache_dir() -> Path:
     """Folder of compiled modules: ``$MBGEN_CACHE_DIR`` or ``~/.cache/mbgen``, checked private.
 

@@ -46,7 +46,7 @@ import threading
 from pathlib import Path
 
 from ..abi import Rendered
-from ..errors import BuildError, CacheError
+from ..errors import BuildError
 from ..fileio import write_files
 from .cache import (
     cache_dir,
@@ -57,8 +57,8 @@ from .cache import (
     owner_line,
     record_path,
     remove_stale_builds,
+    require_writable,
     verified,
-    writable,
     write_record,
 )
 
@@ -341,11 +341,8 @@ def build(rendered: Rendered, *, force: bool = False, native: bool | None = None
     with building:
         if not force and verified(target):  # another thread built it meanwhile
             return target
+        require_writable(target)
         root = target.parent
-        if not writable(root):
-            raise CacheError(f"the cache folder {root} is read-only and holds no usable "
-                             f"{target.name}; make it writable or point MBGEN_CACHE_DIR at "
-                             f"a writable folder")
         compiler()
         try:
             remove_stale_builds(root)

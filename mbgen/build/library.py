@@ -19,7 +19,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from ..errors import BuildError, CacheError
+from ..errors import BuildError
 from ..fileio import write_files
 from .cache import (
     cache_dir,
@@ -27,8 +27,8 @@ from .cache import (
     owner_line,
     record_path,
     remove_stale_builds,
+    require_writable,
     verified,
-    writable,
     write_record,
 )
 from .extension import compiler
@@ -65,11 +65,8 @@ def shared_library(stem: str, files: dict[str, str], sources: tuple[str, ...],
     target = library_path(stem, files, flags)
     if verified(target):
         return target
+    require_writable(target)
     root = target.parent
-    if not writable(root):
-        raise CacheError(f"the cache folder {root} is read-only and holds no usable "
-                         f"{target.name}; make it writable or point MBGEN_CACHE_DIR at a "
-                         f"writable folder")
     cc = compiler()
     with _lock:
         if verified(target):
