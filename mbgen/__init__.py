@@ -42,7 +42,7 @@ its ``__init__`` says how to add one more of what it holds.
 
 from importlib import import_module as _import_module
 
-from . import _moved
+from ._moved import install as _install_moved
 from ._version import __version__
 
 #: Where each public name lives: module -> names, imported on first use.
@@ -98,4 +98,4 @@ def __dir__():
 
 __all__ = ["__version__", *_HOME]
 
-_moved.install()
+_install_moved()

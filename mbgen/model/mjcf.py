@@ -86,12 +86,11 @@ from .mjcf_physics import FLAG, read_physics, warn_dropped
 from .mjcf_xml import MAX_MAGNITUDE, scan_mjcf
 from .urdf import (
     Group,
-    axis_rotation,
     contact_names,
     frame_vector,
     identifier,
     quaternion_matrix,
-    simple,
+    turned_frame,
 )
 
 HINGE, SLIDE, BALL, FREE = 3, 2, 1, 0   # mjtJoint
@@ -453,12 +452,8 @@ class _Builder:
         point = parent.point if not anchor.any() else \
             m.point(self.internal(f"{label}_J"), parent.point, frame_vector(parent.frame, anchor))
         if kind == HINGE:
-            steps, k_axis, sign = axis_rotation(axis)
-            frame, C = parent.frame, np.eye(3)
-            for n, (ax, ang) in enumerate(steps):
-                frame = m.rotate(frame, self.internal(f"{label}_axis{n}"), ax, ang)
-                C = C @ simple(ax, ang)
-            frame = m.rotate(frame, self.internal(f"{label}_frame"), k_axis, sign * angle)
+            frame, C, k_axis, sign = turned_frame(m, parent.frame, self.internal, label, axis,
+                                                  angle)
             m.torque(frame, sign * load * (frame.x, frame.y, frame.z)[k_axis - 1],
                      reaction=parent.frame)
             A_new = C.T @ A

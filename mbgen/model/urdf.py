@@ -202,6 +202,20 @@ def axis_rotation(a: np.ndarray) -> tuple[list, int, int]:
     return [(3, math.atan2(a[1], a[0])), (2, math.atan2(math.hypot(a[0], a[1]), a[2]))], 3, 1
 
 
+def turned_frame(m, parent, internal, label: str, a: np.ndarray, q):
+    """``(frame, C, k, s)``: a frame turned from ``parent`` about the unit axis ``a`` (in
+    ``parent``) by ``q``, as ``m.rotate`` steps: the constant rotations ``C`` of
+    :func:`axis_rotation` (frames ``<label>_axis<n>``), then ``s q`` about axis ``k``
+    (frame ``<label>_frame``); ``internal`` makes a frame's name.  The joint's torque
+    acts about ``(frame.x, frame.y, frame.z)[k - 1]`` times ``s``."""
+    steps, k, s = axis_rotation(a)
+    frame, C = parent, np.eye(3)
+    for n, (axis, angle) in enumerate(steps):
+        frame = m.rotate(frame, internal(f"{label}_axis{n}"), axis, angle)
+        C = C @ simple(axis, angle)
+    return m.rotate(frame, internal(f"{label}_frame"), k, s * q), C, k, s
+
+
 def quaternion_matrix(x, y, z, w):
     """Rotation of the unit quaternion ``w + x i + y j + z k``, normalised where read."""
     n = x * x + y * y + z * z + w * w
@@ -454,12 +468,7 @@ def _turn(m: Model, names: _Names, link: str, parent: Group, J, offset, a, q, lo
     point = parent.point if not offset.any() else \
         m.point(names.internal(f"{link}_J"), parent.point,
                 frame_vector(parent.frame, offset))
-    steps, k, s = axis_rotation(a)
-    frame, C = parent.frame, np.eye(3)
-    for n, (axis, angle) in enumerate(steps):
-        frame = m.rotate(frame, names.internal(f"{link}_axis{n}"), axis, angle)
-        C = C @ simple(axis, angle)
-    frame = m.rotate(frame, names.internal(f"{link}_frame"), k, s * q)
+    frame, C, k, s = turned_frame(m, parent.frame, names.internal, link, a, q)
     child = Group(link, frame, point)
     if load != 0:
         m.torque(frame, s * load * (frame.x, frame.y, frame.z)[k - 1],
