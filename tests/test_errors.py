@@ -140,7 +140,8 @@ def test_compiler_failure_carries_compiler_output(tmp_path, monkeypatch):
         load(broken)
     text = str(info.value)
     assert "broken.c" in text and "error" in text
-    assert not list(tmp_path.glob("*.so")), "no half-built module may stay in the cache"
+    leftovers = list(tmp_path.glob("_mbgen_broken_*.so"))
+    assert not leftovers, "no half-built module may stay in the cache"
 
 
 def test_missing_compiler(tmp_path, monkeypatch):

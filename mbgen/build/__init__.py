@@ -1,8 +1,10 @@
 """Build: rendered texts to binaries, with the C compiler.
 
-:mod:`~mbgen.build.extension` compiles a :class:`~mbgen.abi.Rendered` into a cffi
-extension module, cached by content hash (``load``): cffi writes the wrapper, the
-compiler runs in child processes read through pipes, so that threads may build at once;
+:mod:`~mbgen.build.extension` compiles a :class:`~mbgen.abi.Rendered` into a plain shared
+library, cached by content hash, and opens it with cffi's ABI mode (``load``); the one
+Python extension, the crossing that calls a library's functions from Python, is compiled
+once per cache; the compiler runs in child processes read through pipes, so that threads
+may build at once;
 :mod:`~mbgen.build.cache` keeps the folder of compiled modules private and decides
 which file may be loaded (owner, mode, SHA-256 record, checked on the open file that is
 then loaded); :mod:`~mbgen.build.warm` is the cache's second index, the rendered code of

@@ -1,11 +1,12 @@
-/* The Python crossing of a compiled model: one callable per generated function.
+/* The Python crossing of compiled models: one callable per generated function.
  *
- * Compiled into every model's cffi extension (after the model's header and batch loops;
- * never into the exported C).  mbgen_crossing() makes an "entry": a Python callable
- * with the generated function's call signature, call(t, x, p=None, r=None), that takes
- * the common case -- a float t, C-contiguous float64 1-D arrays of the right length
- * (exactly np.ndarray, not a subclass), p and r None or such arrays -- straight to
- * <prefix>_<output> and returns a new float64 array of the output's shape.  For
+ * A CPython extension of its own, compiled once per cache, Python and NumPy
+ * (mbgen.build.extension.crossing_module); a model is a plain shared library without
+ * Python in it.  entry(request) makes an "entry": a Python callable with the generated
+ * function's call signature, call(t, x, p=None, r=None), that takes the common case --
+ * a float t, C-contiguous float64 1-D arrays of the right length (exactly np.ndarray,
+ * not a subclass), p and r None or such arrays -- straight to <prefix>_<output> (whose
+ * address the request gives) and returns a new float64 array of the output's shape.  For
  * anything else (another type or dtype, a wrong length, a stride, keywords, a missing
  * default) and whenever the C function returns a non-zero status, it returns what its
  * fallback (the Python path) returns for the same arguments, so every conversion and
@@ -18,12 +19,16 @@
  *
  * Memory: an array's data pointer is read at every call, never kept (an array may be
  * reallocated in place between calls); only the default p and r, owned by the entry,
- * are the same arrays from call to call.  The GIL is held while the entry reads the
- * arrays and, unless the entry was made with release set, while the C function runs.
+ * are the same arrays from call to call; the model's library stays loaded as long as the
+ * entry's fallback (which holds the library) lives.  The GIL is held while the entry
+ * reads the arrays and, unless the entry was made with release set, while the C function
+ * runs.
  *
- * Needs the full (not the limited) C API and NumPy's: the build defines
- * _CFFI_NO_LIMITED_API and adds numpy.get_include(). */
+ * The build defines MBGEN_CROSSING_INIT (PyInit_<module name>) and MBGEN_CROSSING_NAME
+ * (the module's name, a hash of what it is built from) and adds NumPy's headers. */
 
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
 #include <numpy/arrayobject.h>
 #include <structmember.h>
@@ -221,7 +226,7 @@ static int mbgen_make(PyObject *request)
 
     if (mbgen_setup() < 0)
         return -1;
-    if (!PyArg_ParseTuple(request, "OOOKinnnO!pUO!:mbgen_crossing", &fallback, &p_default,
+    if (!PyArg_ParseTuple(request, "OOOKinnnO!pUO!:entry", &fallback, &p_default,
                           &r_default, &address, &takes, &n_x, &n_p, &n_r, &PyTuple_Type, &shape,
                           &release, &name, &PyList_Type, &sink))
         return -1;
@@ -229,7 +234,7 @@ static int mbgen_make(PyObject *request)
         return -1;
     if (address == 0 || takes < 0 || takes > 3 || !PyCallable_Check(fallback) || n_x < 0
         || n_p < 0 || n_r < 0 || rows < 0 || cols < 0) {
-        PyErr_SetString(PyExc_ValueError, "mbgen_crossing: bad request");
+        PyErr_SetString(PyExc_ValueError, "entry: bad request");
         return -1;
     }
     e = PyObject_GC_New(mbgen_entry, &mbgen_entry_type);
@@ -262,33 +267,42 @@ static int mbgen_make(PyObject *request)
     return 0;
 }
 
-/* Called through cffi (which released the GIL): ``request`` is the address of a tuple
- * (fallback, p_default, r_default, function address, takes, n_x, n_p, n_r, output shape,
- * release, name, sink); the entry is appended to the list ``sink``.  Returns 0, or -1
- * with the exception appended to ``sink`` instead. */
-int mbgen_crossing(uintptr_t request)
+/* entry(request): ``request`` is the tuple (fallback, p_default, r_default, function
+ * address, takes, n_x, n_p, n_r, output shape, release, name, sink); the entry is
+ * appended to the list ``sink`` and returned. */
+static PyObject *mbgen_entry_new(PyObject *module, PyObject *request)
 {
-    PyGILState_STATE gil = PyGILState_Ensure();
-    PyObject *req = (PyObject *)request;
-    int status = mbgen_make(req);
-    if (status < 0) {
-        /* the caller cannot receive the exception (cffi returns the int): hand it over
-         * in the sink, the request's last item */
-#if PY_VERSION_HEX >= 0x030C0000
-        PyObject *value = PyErr_GetRaisedException();
-#else
-        PyObject *type, *value, *trace;
-        PyErr_Fetch(&type, &value, &trace);
-        PyErr_NormalizeException(&type, &value, &trace);
-        Py_XDECREF(type);
-        Py_XDECREF(trace);
-#endif
-        if (value != NULL && PyTuple_Check(req) && PyTuple_GET_SIZE(req) == 12
-            && PyList_Check(PyTuple_GET_ITEM(req, 11)))
-            PyList_Append(PyTuple_GET_ITEM(req, 11), value);
-        Py_XDECREF(value);
-        PyErr_Clear();
+    PyObject *sink, *made;
+    (void)module;
+    if (!PyTuple_Check(request) || PyTuple_GET_SIZE(request) != 12) {
+        PyErr_SetString(PyExc_TypeError, "entry: the request is a tuple of 12 items");
+        return NULL;
     }
-    PyGILState_Release(gil);
-    return status;
+    if (mbgen_make(request) < 0)
+        return NULL;
+    sink = PyTuple_GET_ITEM(request, 11);
+    made = PyList_GET_ITEM(sink, PyList_GET_SIZE(sink) - 1);
+    Py_INCREF(made);
+    return made;
+}
+
+static PyMethodDef mbgen_crossing_methods[] = {
+    {"entry", mbgen_entry_new, METH_O,
+     "entry(request) -> the C entry of one generated function (mbgen.runtime.crossing)"},
+    {NULL, NULL, 0, NULL}
+};
+
+static struct PyModuleDef mbgen_crossing_module = {
+    PyModuleDef_HEAD_INIT, MBGEN_CROSSING_NAME,
+    "mbgen's Python crossing: C entries of generated functions", -1, mbgen_crossing_methods,
+    NULL, NULL, NULL, NULL
+};
+
+PyMODINIT_FUNC MBGEN_CROSSING_INIT(void);
+
+PyMODINIT_FUNC MBGEN_CROSSING_INIT(void)
+{
+    if (mbgen_setup() < 0)
+        return NULL;
+    return PyModule_Create(&mbgen_crossing_module);
 }

@@ -1,32 +1,35 @@
-"""Build: ``Rendered -> compiled extension module`` with cffi (API mode, out of line).
+"""Build: ``Rendered -> compiled library``, opened with cffi (ABI mode).
 
-The module is named after a hash of its source (``_mbgen_<prefix>_<hash>``) and
-cached in :func:`~mbgen.build.cache.cache_dir`, so loading an unchanged model again
-does not call the compiler.  What the cache trusts, and whose folder it uses, is
-:mod:`mbgen.build.cache`'s to say: a module is loaded only when it is the user's own
-build, whole and unchanged; anything else is rebuilt.
+A model compiles into a plain shared library -- its C and its batch loops, one translation
+unit, one compiler process, no Python headers -- named after a hash of its source and
+every flag (``_mbgen_<prefix>_<hash>.so``) and cached in
+:func:`~mbgen.build.cache.cache_dir`, so loading an unchanged model again does not call the
+compiler.  cffi opens it (``ffi.dlopen`` over the model's declarations, parsed once per
+process).  What the cache trusts, and whose folder it uses, is :mod:`mbgen.build.cache`'s
+to say: a library is opened only when it is the user's own build, whole and unchanged;
+anything else is rebuilt.
 
-A build happens in a private folder inside the cache: cffi writes its wrapper's C
-there (``emit_c_code``; cffi's own ``compile`` goes through distutils, which changes the
-working directory), and the compiler runs as child processes whose output comes back
-through pipes (:func:`_compile`).  So any number of threads may compile at once (threads
-that need the same module build it once), and the process's working directory,
-``sys.stdout`` and fds 1 and 2 are never touched.  The finished module and then its
-record are moved into the cache with atomic renames, so concurrent builds -- threads or
-processes -- and interrupted ones never leave a half-written module behind: a reader
-sees the old file or the new one, and a module whose record does not match is rebuilt.
+Calls from Python take the Python crossing (``crossing.c`` beside this file,
+:mod:`mbgen.runtime.crossing`): one CPython extension for every model, compiled once per
+cache, Python and NumPy (:func:`crossing_module`), that calls a library's functions
+through their addresses.  Compiling Python's headers into every model was most of a
+small model's build: the 2-link arm's RHS took 0.31 s as a cffi extension with the
+crossing linked in, and takes 0.07 s as a library (gcc, this machine).
 
-No ``os.chdir``, no ``sys.path`` edits: the module is loaded from the very file that
+A build happens in a private folder inside the cache, and the compiler runs as child
+processes whose output comes back through pipes (:func:`_run_all`).  So any number of
+threads may compile at once (threads that need the same library build it once), and the
+process's working directory, ``sys.stdout`` and fds 1 and 2 are never touched.  The
+finished library and then its record are moved into the cache with atomic renames, so
+concurrent builds -- threads or processes -- and interrupted ones never leave a
+half-written library behind: a reader sees the old file or the new one, and a library
+whose record does not match is rebuilt.
+
+No ``os.chdir``, no ``sys.path`` edits: the library is opened from the very file that
 passed the cache's checks (:func:`~mbgen.build.cache.loadable`), never from its name opened
-again.  Every argument of the compiler and the linker is in the module's name (the cache
+again.  Every argument of the compiler and the linker is in the library's name (the cache
 key: :func:`module_name`), ``$CFLAGS`` and ``$LDFLAGS`` included; flags that break IEEE
 arithmetic (:data:`IEEE_BREAKERS`) are refused.
-
-Besides the model (and its batch loops), every module holds the Python crossing
-(``crossing.c`` beside this file, :mod:`mbgen.runtime.crossing`): a CPython entry per
-generated function that takes the common call from Python to C without cffi's per-call
-work.  It is compiled once per cache (:func:`crossing_object`) and linked into each
-extension, never into the exported C.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ import hashlib
 import importlib.machinery
 import importlib.util
 import os
+import platform
 import shlex
 import shutil
 import subprocess
@@ -196,10 +200,10 @@ def accepts(cc: str, flags: tuple[str, ...]) -> bool:
 
 
 def model_flags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
-    """The flags a module build compiles the model's own source with (:func:`_compile`):
-    Python's and ``$CFLAGS`` (:func:`_python_flags`), then :func:`cflags`.  Benchmarks that
-    time the C as the user's module runs it compile with these."""
-    return (*_python_flags()[0], *cflags(rendered, native))
+    """The flags a library build compiles the model's source with (:func:`library_command`):
+    ``$CFLAGS`` (:func:`_user_flags`), then :func:`cflags`.  Benchmarks that time the C as
+    the user's library runs it compile with these."""
+    return (*_user_flags()[0], *cflags(rendered, native))
 
 
 def longest_function(source: str) -> int:
@@ -208,17 +212,23 @@ def longest_function(source: str) -> int:
 
 
 _loaded: dict[str, object] = {}
-_lock = threading.RLock()  # re-entered by load's rebuild of a module that does not import
-#: Threads that find no crossing object build it once (:func:`crossing_object`).
+_lock = threading.RLock()  # re-entered by load's rebuild of a library that does not load
+#: Threads that find no crossing module build it once (:func:`crossing_module`).
 _crossing_lock = threading.Lock()
-#: One lock per module name: threads that need the same module build it once.
+#: One lock per library name: threads that need the same library build it once.
 _building: dict[str, threading.Lock] = {}
 
-
-#: The Python crossing compiled into every model's extension (:mod:`mbgen.runtime.crossing`).
+#: A model's library is plain C: position-independent, shared, linked with nothing but libm.
+SHARED_FLAGS = ("-fPIC", "-shared")
+#: The Python crossing, a CPython extension of its own (:mod:`mbgen.runtime.crossing`).
 CROSSING_SOURCE = Path(__file__).with_name("crossing.c")
-#: Its cffi declaration: the one function that makes an entry (called with the GIL released).
-CROSSING_CDEF = "int mbgen_crossing(uintptr_t request);\n"
+#: Flags of the crossing beyond Python's own (:func:`_python_flags`).
+CROSSING_FLAGS = ("-O2", "-g0")
+
+
+def library_suffix() -> str:
+    """File suffix of a shared library on this platform."""
+    return {"Darwin": ".dylib", "Windows": ".dll"}.get(platform.system(), ".so")
 
 
 @functools.cache
@@ -227,86 +237,85 @@ def crossing_source() -> str:
     return CROSSING_SOURCE.read_text(encoding="utf-8")
 
 
-#: Flags of the crossing's object file: it is the same for every model, so it is compiled once
-#: per cache, Python and NumPy (:func:`crossing_object`) and linked into each extension.
-CROSSING_FLAGS = ("-O2", "-fPIC", "-D_CFFI_NO_LIMITED_API")
-
-
-def _crossing_key() -> str:
+def _crossing_name() -> str:
+    """``_mbgen_crossing_<hash>``: the hash of its C, NumPy, Python, the compiler and every
+    flag it is built with (the key of the one crossing module of a cache)."""
     import numpy
 
     h = hashlib.sha256(crossing_source().encode())
-    for part in (numpy.__version__, numpy.get_include(), sys.version, _cc(),
-                 " ".join(CROSSING_FLAGS)):
+    compile_flags, link = _python_flags()
+    for part in (numpy.__version__, numpy.get_include(), sys.version, _cc(), *compile_flags,
+                 "|", *link, "|", *CROSSING_FLAGS):
         h.update(part.encode() + b"\0")
-    return h.hexdigest()[:16]
+    return f"_mbgen_crossing_{h.hexdigest()[:16]}"
 
 
-def crossing_object(root: Path) -> Path:
-    """The crossing compiled once into ``root`` (the cache): ``_mbgen_crossing_<key>.o``.
+_crossing: list = []
 
-    Linking it costs a model's build nothing, where compiling it (CPython's and NumPy's
-    headers included) was 0.09 s of every build (0.59 -> 0.48 s for a small model).  Kept
-    like a module: written under a temporary name, recorded, renamed; reused only when
-    :func:`~mbgen.build.cache.verified`.
+
+def crossing_path() -> Path:
+    """The Python crossing (:data:`CROSSING_SOURCE`) compiled into the cache as an extension
+    module, ``_mbgen_crossing_<hash>`` (Python's flags, NumPy's headers), unless there
+    already; its path.
+
+    It is the one part of a compiled model that needs Python's headers: compiling them was
+    most of a small model's build (the 2-link arm's RHS: 0.31 s with a cffi wrapper and the
+    crossing in every module, 0.07 s as a plain library).  Kept like a library: built in a
+    private folder, recorded, renamed; imported only from the verified bytes.
     """
     import numpy
 
-    target = root / f"_mbgen_crossing_{_crossing_key()}.o"
+    name = _crossing_name()
+    target = cache_dir() / f"{name}{importlib.machinery.EXTENSION_SUFFIXES[0]}"
     if verified(target):
         return target
     with _crossing_lock:
-        if verified(target):
-            return target
-        with tempfile.TemporaryDirectory(prefix="_mbgen_crossing-", dir=root) as tmp:
-            folder = Path(tmp)
-            src = folder / "crossing.c"
-            src.write_text("#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n" + crossing_source(),
-                           encoding="utf-8")
-            obj, record = folder / "crossing.o", folder / "crossing.o.sha256"
-            cmd = [_cc(), *CROSSING_FLAGS, *(f"-I{d}" for d in _python_includes()),
-                   "-I", numpy.get_include(), "-c", str(src), "-o", str(obj)]
-            done = subprocess.run(cmd, capture_output=True, text=True, errors="replace")
-            full = mentions_full_disk(done.stdout + done.stderr)
-            if full:
-                raise disk_full(root, "mbgen's Python crossing", full)
-            if done.returncode != 0:
-                raise BuildError(f"compiling mbgen's Python crossing failed (a C compiler with "
-                                 f"Python's and NumPy's headers is needed):\n"
-                                 f"{(done.stdout + done.stderr)[-3000:]}")
-            write_record(obj, record)
-            os.replace(obj, target)
-            os.replace(record, record_path(target))
+        if not verified(target):
+            compile_flags, link = _python_flags()
+            src = ("#define MBGEN_CROSSING_INIT PyInit_" + name + "\n"
+                   f'#define MBGEN_CROSSING_NAME "{name}"\n' + crossing_source())
+            flags = [*compile_flags, *CROSSING_FLAGS, *(f"-I{d}" for d in _python_includes()),
+                     "-I", numpy.get_include()]
+            what = "mbgen's Python crossing"
+
+            def make(folder: Path) -> Path:
+                (folder / "crossing.c").write_text(src, encoding="utf-8")
+                out = folder / target.name
+                _run_all([[_cc(), *flags, "-c", "crossing.c", "-o", "crossing.o"]], folder,
+                         name, what)
+                _run_all([[*link, "crossing.o", "-o", out.name]], folder, name, what)
+                return out
+            _build_into(target, make)
     return target
 
 
+def crossing_module():
+    """The Python crossing (:func:`crossing_path`), imported once per process."""
+    with _lock:
+        if not _crossing:
+            _crossing.append(_import_extension(crossing_path(), _crossing_name()))
+        return _crossing[0]
+
+
 def module_name(rendered: Rendered, native: bool | None = None) -> str:
-    """Content-hash module name of ``rendered`` (flags, target CPU and toolchain included).
+    """Content-hash name of ``rendered``'s library (flags, target CPU and toolchain included).
 
     Every argument that reaches the compiler and the linker is part of it -- the compiler's
-    name, Python's flags, ``$CFLAGS`` and ``$LDFLAGS`` (:func:`_python_flags`), the include
-    folders, :func:`cflags` -- so a module built with other flags is never taken for this
-    one.  The crossing's C and the NumPy it is compiled against are part of it too: the
-    module uses NumPy's C API, so a NumPy update rebuilds it."""
-    import cffi
-    import numpy
-
+    name, ``$CFLAGS`` and ``$LDFLAGS`` (:func:`_user_flags`), :func:`cflags` -- so a library
+    built with other flags is never taken for this one."""
     h = hashlib.sha256(rendered.digest().encode())
-    h.update(crossing_source().encode())
-    h.update(numpy.__version__.encode())
     flags = cflags(rendered, native)
-    compile_flags, link = _python_flags()
-    for part in (_cc(), *compile_flags, "|", *link, "|", *_python_includes(), "|", *flags):
+    compile_flags, link = _user_flags()
+    for part in ("library 1", _cc(), *compile_flags, "|", *link, "|", *SHARED_FLAGS, "|",
+                 *flags):
         h.update(part.encode() + b"\0")
     if NATIVE[0] in flags:
         h.update(native_target(_cc()).encode())
-    h.update(cffi.__version__.encode())
-    h.update(sys.version.encode())
     return f"_mbgen_{rendered.prefix}_{h.hexdigest()[:16]}"
 
 
 def _suffix() -> str:
-    return importlib.machinery.EXTENSION_SUFFIXES[0]
+    return library_suffix()
 
 
 def compiled_path(rendered: Rendered, native: bool | None = None) -> Path:
@@ -323,14 +332,18 @@ def compiler() -> str:
 
 
 def build(rendered: Rendered, *, force: bool = False, native: bool | None = None) -> Path:
-    """Compile ``rendered`` into the cache (unless already there) and return the module path.
+    """Compile ``rendered`` into the cache (unless already there) and return the library path.
+
+    The library is one translation unit: the model's source and its batch loops
+    (``rendered.extension``), compiled and linked by one compiler process
+    (:func:`library_command`).
 
     Raises
     ------
     BuildError
         With the compiler's own output when compilation fails.
     CacheError
-        The cache folder is not private, read-only (and lacks the module), or full.
+        The cache folder is not private, read-only (and lacks the library), or full.
     """
     target = compiled_path(rendered, native)
     if not force and verified(target):
@@ -341,73 +354,70 @@ def build(rendered: Rendered, *, force: bool = False, native: bool | None = None
     with building:
         if not force and verified(target):  # another thread built it meanwhile
             return target
-        require_writable(target)
-        root = target.parent
-        compiler()
-        try:
-            remove_stale_builds(root)
-            with tempfile.TemporaryDirectory(prefix=f"{name}-", dir=root) as tmp:
-                folder = Path(tmp)
-                (folder / "owner").write_text(owner_line())
-                write_files(folder, rendered.files)
-                built = _compile(rendered, name, folder, native)
-                record = folder / "record"
-                write_record(built, record)
-                os.replace(built, target)
-                os.replace(record, record_path(target))  # after the module: it proves it whole
-        except OSError as exc:
-            raise disk_error(exc, root, name) from exc
+        crossing_path()  # a cache that holds a library holds what opens it from Python
+        _build_into(target, lambda folder: _compile(rendered, name, folder, native))
     return target
 
 
 def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -> Path:
-    """Build ``rendered`` in ``folder``: cffi's wrapper, the compiler, the module's path.
+    """Build ``rendered``'s library in ``folder`` (:func:`library_command`); its path.
 
-    cffi writes the wrapper's C (``emit_c_code``: no distutils, no change of directory);
-    the model's source and the wrapper are compiled by two compiler processes at once,
-    with the flags distutils would use (:func:`_python_flags`, then :func:`cflags`), and
-    linked with the Python crossing (:data:`CROSSING_SOURCE`, which uses CPython's full C
-    API and NumPy's) as the object :func:`crossing_object` compiled once.  The compiler's
-    output is read from pipes: the process's working directory and file descriptors are
-    never touched, so threads may build at once.  ``_CFFI_NO_LIMITED_API``: cffi would
-    otherwise restrict the module to the limited API (it is built for this one Python,
-    see :func:`module_name`).  Measured on the 2-link arm's RHS: 0.19 s against 0.35-0.44 s
-    through ``ffi.compile`` in a child process.
-    """
-    import cffi
+    One translation unit, the model's source then its batch loops, compiled and linked by
+    one compiler process whose output is read from a pipe: the process's working
+    directory and file descriptors are never touched, so threads may build at once."""
+    write_files(folder, {**rendered.files, f"{name}.c": f'#include "{rendered.prefix}.c"\n\n'
+                         + rendered.extension})
+    out = folder / f"{name}{_suffix()}"
+    _run_all([library_command(rendered, f"{name}.c", out.name, native)], folder, name,
+             rendered.prefix)
+    return out
 
-    ffi = cffi.FFI()
+
+def library_command(rendered: Rendered, source: str, output: str,
+                    native: bool | None = None) -> list[str]:
+    """The one compiler call that builds a model's library: ``cc $CFLAGS`` :func:`cflags`
+    ``-fPIC -shared source -lm $LDFLAGS -o output``."""
+    compile_flags, link = _user_flags()
+    return [_cc(), *compile_flags, *cflags(rendered, native), *SHARED_FLAGS, source, "-lm",
+            *link, "-o", output]
+
+
+def _build_into(target: Path, make) -> None:
+    """Run ``make(folder)`` in a private folder of the cache and move the file it returns
+    to ``target`` with its record.
+
+    The file and then its record are moved in with atomic renames, so concurrent builds
+    -- threads or processes -- and interrupted ones never leave a half-written library: a
+    reader sees the old file or the new one, and a file whose record does not match is
+    rebuilt."""
+    require_writable(target)
+    root = target.parent
+    compiler()
     try:
-        ffi.cdef(rendered.cdef + rendered.extension_cdef + CROSSING_CDEF)
-    except Exception as exc:  # cffi.CDefError and friends
-        raise BuildError(f"cffi could not parse the declarations of {rendered.prefix}: "
-                         f"{exc}") from None
-    ffi.set_source(name, f'#include <stdint.h>\n#include "{rendered.prefix}.h"\n'
-                   + rendered.extension + "\n" + CROSSING_CDEF, compiler_verbose=False)
-    wrapper = folder / f"{name}.c"
-    ffi.emit_c_code(str(wrapper))
-    cc, (compile_flags, link) = _cc(), _python_flags()
-    flags = [*compile_flags, "-D_CFFI_NO_LIMITED_API", "-I", str(folder),
-             *(f"-I{d}" for d in _python_includes()), *cflags(rendered, native)]
-    sources = (folder / f"{rendered.prefix}.c", wrapper)
-    objects = [src.with_suffix(".o") for src in sources]
-    output = _run_all([[cc, *flags, "-c", str(src), "-o", str(obj)]
-                       for src, obj in zip(sources, objects)], folder, name, rendered.prefix)
-    module = folder / f"{name}{_suffix()}"
-    output += _run_all([[*link, *map(str, objects), str(crossing_object(folder.parent)),
-                         "-lm", "-o", str(module)]], folder, name, rendered.prefix)
-    return module
+        remove_stale_builds(root)
+        with tempfile.TemporaryDirectory(prefix=f"{target.stem}-", dir=root) as tmp:
+            folder = Path(tmp)
+            (folder / "owner").write_text(owner_line())
+            built = make(folder)
+            record = folder / "record"
+            write_record(built, record)
+            os.replace(built, target)
+            os.replace(record, record_path(target))  # after the library: it proves it whole
+    except OSError as exc:
+        raise disk_error(exc, root, target.stem) from exc
 
 
-def _run_all(commands: list[list[str]], folder: Path, name: str, prefix: str) -> str:
+def _run_all(commands: list[list[str]], folder: Path, name: str, what: str) -> str:
     """Run ``commands`` at once in ``folder``; their joined output, or a :class:`BuildError`
-    (a :func:`~mbgen.build.cache.disk_full` one when the output says the disk is full)."""
+    naming ``what`` is built (a :func:`~mbgen.build.cache.disk_full` one when the output
+    says the disk is full)."""
+    label = what if " " in what else f"model {what!r}"
     try:
         procs = [subprocess.Popen(cmd, cwd=folder, stdout=subprocess.PIPE,
                                   stderr=subprocess.STDOUT, text=True, errors="replace")
                  for cmd in commands]
     except OSError as exc:
-        raise BuildError(f"compiling model {prefix!r} failed: cannot run {commands[0][0]!r} "
+        raise BuildError(f"compiling {label} failed: cannot run {commands[0][0]!r} "
                          f"({exc}); install a C compiler or set CC") from None
     outputs = [p.communicate()[0] for p in procs]
     output = "\n".join(o.strip() for o in outputs if o.strip())
@@ -416,7 +426,7 @@ def _run_all(commands: list[list[str]], folder: Path, name: str, prefix: str) ->
         raise disk_full(folder.parent, name, full)
     failed = [p.returncode for p in procs if p.returncode != 0]
     if failed:
-        raise BuildError(f"compiling model {prefix!r} failed: the compiler exited with "
+        raise BuildError(f"compiling {label} failed: the compiler exited with "
                          f"status {failed[0]}\n--- compiler output ---\n{output}")
     return output
 
@@ -439,6 +449,23 @@ def _python_flags() -> tuple[tuple[str, ...], tuple[str, ...]]:
     if os.environ.get("CC"):
         link[0] = ("$CC", _cc())
     link += _split("$LDFLAGS", os.environ.get("LDFLAGS"))
+    for line in (compile_flags, link):
+        _refuse_ieee_breakers(line)
+    return tuple(f for _, f in compile_flags), tuple(f for _, f in link)
+
+
+def _user_flags() -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """``($CFLAGS, $LDFLAGS)`` split as the shell would: what the user adds to a model's
+    library build (:func:`library_command`).
+
+    Raises
+    ------
+    BuildError
+        A variable that does not split into arguments, or a flag of :data:`IEEE_BREAKERS`,
+        each named with the variable it came from.
+    """
+    compile_flags = _split("$CFLAGS", os.environ.get("CFLAGS"))
+    link = _split("$LDFLAGS", os.environ.get("LDFLAGS"))
     for line in (compile_flags, link):
         _refuse_ieee_breakers(line)
     return tuple(f for _, f in compile_flags), tuple(f for _, f in link)
@@ -477,14 +504,14 @@ def _python_includes() -> tuple[str, ...]:
     return tuple(dict.fromkeys((paths["include"], paths["platinclude"])))
 
 
-def _import(path: Path):
-    """Import the module at ``path`` from the bytes that passed
+def _import_extension(path: Path, name: str):
+    """Import the extension module at ``path`` from the bytes that passed
     :func:`~mbgen.build.cache.open_verified` (:func:`~mbgen.build.cache.loadable`: the
-    checked file itself, never the name opened again); an ImportError when they do not."""
-    name = path.name[: -len(_suffix())]
+    checked file itself, never the name opened again)."""
     with loadable(path) as origin:
         if origin is None:
-            raise ImportError(f"{path} is not the user's own build, whole and unchanged")
+            raise BuildError(f"{path} is not the user's own build, whole and unchanged; "
+                             f"delete it and run again")
         loader = importlib.machinery.ExtensionFileLoader(name, origin)
         spec = importlib.util.spec_from_file_location(name, origin, loader=loader)
         if spec is None:  # pragma: no cover
@@ -494,15 +521,56 @@ def _import(path: Path):
     return mod
 
 
-def load(rendered: Rendered, *, force: bool = False, native: bool | None = None):
-    """Build if needed and import the extension; returns the cffi module (``.ffi``, ``.lib``).
+class Library:
+    """A model's compiled library, loaded: ``ffi`` and ``lib`` (cffi's ABI mode over the
+    model's declarations, ``rendered.cdef`` and ``rendered.extension_cdef``), ``crossing``
+    (:func:`crossing_module`) and ``path`` (the library in the cache)."""
 
-    A module is imported only from the bytes that were found trusted
+    __slots__ = ("ffi", "lib", "crossing", "path")
+
+    def __init__(self, ffi, lib, crossing, path: Path):
+        self.ffi, self.lib, self.crossing, self.path = ffi, lib, crossing, path
+
+    def __repr__(self) -> str:
+        return f"<mbgen library {self.path.name}>"
+
+
+@functools.lru_cache(maxsize=64)
+def _declared(cdef: str):
+    """A cffi ``FFI`` with ``cdef`` declared (parsed once per process and text)."""
+    import cffi
+
+    ffi = cffi.FFI()
+    try:
+        ffi.cdef(cdef)
+    except Exception as exc:  # cffi.CDefError and friends
+        raise BuildError(f"cffi could not parse the declarations: {exc}") from None
+    return ffi
+
+
+def _open(path: Path, rendered: Rendered) -> Library:
+    """Open the library at ``path`` from the bytes that passed the cache's checks
+    (:func:`~mbgen.build.cache.loadable`); an ImportError when they do not."""
+    ffi = _declared(rendered.cdef + rendered.extension_cdef)
+    with loadable(path) as origin:
+        if origin is None:
+            raise ImportError(f"{path} is not the user's own build, whole and unchanged")
+        try:
+            lib = ffi.dlopen(origin)
+        except OSError as exc:
+            raise ImportError(str(exc)) from None
+    return Library(ffi, lib, crossing_module(), path)
+
+
+def load(rendered: Rendered, *, force: bool = False, native: bool | None = None) -> Library:
+    """Build if needed and open the model's library: a :class:`Library` (``.ffi``, ``.lib``).
+
+    A library is opened only from the bytes that were found trusted
     (:func:`mbgen.build.cache.open_verified`: the user's own, whole and unchanged, checked
     on the open file that is then loaded), else it is rebuilt first; one that still fails
-    to import is rebuilt once more.  A module
-    already imported by this process is returned without reading the disk.  ``native``:
-    build for this machine's CPU (default :func:`wants_native`; see :func:`cflags`).
+    to open is rebuilt once more.  A library already opened by this process is returned
+    without reading the disk.  ``native``: build for this machine's CPU (default
+    :func:`wants_native`; see :func:`cflags`).
     """
     key = str(compiled_path(rendered, native))
     with _lock:
@@ -514,13 +582,14 @@ def load(rendered: Rendered, *, force: bool = False, native: bool | None = None)
         mod = _loaded.get(key)
         if mod is None or force:
             try:
-                mod = _import(path)
+                mod = _open(path, rendered)
             except ImportError as first:
                 path = build(rendered, force=True, native=native)
                 try:
-                    mod = _import(path)
+                    mod = _open(path, rendered)
                 except ImportError as exc:
-                    raise BuildError(f"the compiled module {path} of {rendered.prefix!r} does "
-                                     f"not import ({exc}; before a rebuild: {first})") from exc
+                    raise BuildError(f"the compiled library {path} of {rendered.prefix!r} "
+                                     f"does not load ({exc}; before a rebuild: {first})"
+                                     ) from exc
             _loaded[key] = mod
     return mod

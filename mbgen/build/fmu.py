@@ -21,7 +21,7 @@ from pathlib import Path
 
 from ..errors import BuildError
 from ..fileio import atomic_path
-from .extension import compiler
+from .extension import compiler, library_suffix
 
 #: Flags of the FMU's shared library.
 FMU_CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-fPIC", "-shared")
@@ -35,11 +35,6 @@ def platform_folder() -> str:
     if name is None:
         raise BuildError(f"FMI 2.0 defines no binary folder for {system}; use the sources/")
     return f"{name}{bits}"
-
-
-def library_suffix() -> str:
-    """File suffix of a shared library on this platform."""
-    return {"Darwin": ".dylib", "Windows": ".dll"}.get(platform.system(), ".so")
 
 
 def build_binary(files: dict[str, str], prefix: str) -> bytes:

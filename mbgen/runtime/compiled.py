@@ -1,4 +1,4 @@
-"""The compiled back end: the generated C, built and loaded with cffi.
+"""The compiled back end: the generated C, built into a plain library and opened with cffi.
 
 :class:`CompiledModel` has the :class:`~mbgen.runtime.base.ModelBase` interface.  Each
 generated function gets one entry (``_make_call``) whose common case (a float ``t``,
@@ -162,8 +162,8 @@ class CompiledModel(GeneratedModel):
             return out.reshape(shape) if reshape else out
 
         self._python_calls[Output(what)] = call
-        if crossing.available(self.lib) and len(shape) in (1, 2):
-            return crossing.c_entry(ffi, self.lib, info, call, (self.n_x, self.n_p, self.n_r),
+        if crossing.available(self.module) and len(shape) in (1, 2):
+            return crossing.c_entry(self.module, info, call, (self.n_x, self.n_p, self.n_r),
                                     p_array, r_array, release=crossing.releases_gil(
                                         self.rendered.header, info.c_name))
         return call

@@ -1,9 +1,10 @@
 """The Python crossing in C: a generated function's common case without Python in between.
 
-A compiled model's extension holds, besides the model, a small CPython entry point
-(``mbgen/build/crossing.c``, compiled in by :mod:`mbgen.build.extension`).
-:func:`c_entry` makes from it, for one generated function, a callable with the Python
-path's signature ``call(t, x, p=None, r=None)``:
+A compiled model is a plain library; beside it, one small CPython extension for every
+model (``mbgen/build/crossing.c``, compiled once per cache by
+:func:`mbgen.build.extension.crossing_module`).  :func:`c_entry` makes from it, for one
+generated function of the library, a callable with the Python path's signature
+``call(t, x, p=None, r=None)``:
 
 * the common case -- ``t`` a float, ``x`` (and ``p``, ``r`` when given) exactly
   ``numpy.ndarray``, float64, 1-D of the right length with stride 8 -- is checked in C
@@ -57,20 +58,21 @@ def releases_gil(header: str, c_name: str) -> bool:
     return ops is None or ops >= RELEASE_GIL_OPS
 
 
-def available(lib) -> bool:
-    """Whether the extension ``lib`` holds the crossing (modules built by this mbgen do)."""
-    return hasattr(lib, "mbgen_crossing")
+def available(module) -> bool:
+    """Whether the loaded ``module`` comes with the crossing (libraries opened by
+    :func:`mbgen.build.extension.load` do)."""
+    return getattr(module, "crossing", None) is not None
 
 
-def c_entry(ffi, lib, info, fallback: Callable, sizes: tuple[int, int, int],
+def c_entry(module, info, fallback: Callable, sizes: tuple[int, int, int],
             p_default: np.ndarray | None, r_default: np.ndarray | None, *,
             release: bool = False):
     """The C entry of the generated function ``info`` (a :class:`~mbgen.abi.FunctionInfo`).
 
     Parameters
     ----------
-    ffi, lib
-        The model's cffi module (``lib`` must be :func:`available`).
+    module
+        The model's loaded library (:func:`available`: ``.ffi``, ``.lib``, ``.crossing``).
     fallback : callable
         ``fallback(t, x, p=None, r=None)``: called with the same arguments for every
         call that is not the common case, and for every non-zero status.
@@ -88,6 +90,7 @@ def c_entry(ffi, lib, info, fallback: Callable, sizes: tuple[int, int, int],
         The function's C type is not ``int(double, double *, [double *, [double *,]]
         double *)`` as ``info.args`` says, or the extension refused the request.
     """
+    ffi, lib = module.ffi, module.lib
     takes = ("p" in info.args) * TAKES_P | ("r" in info.args) * TAKES_R
     pointer = ffi.addressof(lib, info.c_name)
     arity = 3 + bin(takes).count("1")
@@ -100,13 +103,14 @@ def c_entry(ffi, lib, info, fallback: Callable, sizes: tuple[int, int, int],
     sink: list = []
     request = (fallback, p_default, r_default, int(ffi.cast("uintptr_t", pointer)), takes,
                *map(int, sizes), shape, bool(release), info.c_name, sink)
-    # The extension reads the request through its address: id() is the object's address
-    # in CPython, and the tuple is alive (referenced here) for the whole call.
-    status = lib.mbgen_crossing(id(request))
-    if status != 0 or len(sink) != 1 or isinstance(sink[0], BaseException):
-        why = sink[0] if sink else f"status {status}"
-        raise MbgenError(f"cannot make the C entry of {info.c_name}: {why}")
-    return sink[0]
+    try:
+        made = module.crossing.entry(request)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise MbgenError(f"cannot make the C entry of {info.c_name}: {exc}") from None
+    if len(sink) != 1 or sink[0] is not made:
+        raise MbgenError(f"cannot make the C entry of {info.c_name}: the crossing returned "
+                         f"{made!r}")
+    return made
 
 
 __all__ = ["available", "c_entry", "operations", "releases_gil", "RELEASE_GIL_OPS", "TAKES_P",

@@ -51,7 +51,7 @@ def spied(model, output="rhs", defaults=True):
     p = model.default_parameters.copy() if defaults and model.default_parameters is not None \
         else None
     r = np.zeros(model.n_r) if model.n_r else None
-    entry = crossing.c_entry(model.ffi, model.lib, info, spy, (model.n_x, model.n_p, model.n_r),
+    entry = crossing.c_entry(model.module, info, spy, (model.n_x, model.n_p, model.n_r),
                              p, r)
     return entry, spy
 
@@ -186,12 +186,12 @@ def test_a_model_with_entries_is_collected():
 def test_bad_requests_are_refused(cart):
     info = cart.rendered.functions[0]
     with pytest.raises(MbgenError, match="default p"):
-        crossing.c_entry(cart.ffi, cart.lib, info, Spy(), (cart.n_x, cart.n_p, cart.n_r),
+        crossing.c_entry(cart.module, info, Spy(), (cart.n_x, cart.n_p, cart.n_r),
                          np.zeros(cart.n_p + 1), None)
     with pytest.raises(MbgenError, match="C type"):
         other = type(info)(info.output, info.c_name, ("t", "x"), info.out_size, info.out_shape,
                            info.out_labels)
-        crossing.c_entry(cart.ffi, cart.lib, other, Spy(), (cart.n_x, cart.n_p, cart.n_r),
+        crossing.c_entry(cart.module, other, Spy(), (cart.n_x, cart.n_p, cart.n_r),
                          None, None)
 
 
@@ -205,7 +205,7 @@ def test_gil_is_released_for_large_functions_only():
 @pytest.mark.parametrize("release", [False, True])
 def test_threads_get_the_answers_of_one_thread(cart, release):
     info = cart.rendered.functions[0]
-    entry = crossing.c_entry(cart.ffi, cart.lib, info, cart._python_calls["rhs"],
+    entry = crossing.c_entry(cart.module, info, cart._python_calls["rhs"],
                              (cart.n_x, cart.n_p, cart.n_r), cart.default_parameters.copy(),
                              np.zeros(1), release=release)
     assert entry.release_gil == release
