@@ -53,6 +53,7 @@ class Output(str, Enum):
     HOLONOMIC = "holonomic"
     HOLONOMIC_JACOBIAN = "holonomic_jacobian"
     CONTACT_JACOBIAN = "contact_jacobian"
+    TANGENT_JACOBIAN = "tangent_jacobian"
     DOPRI5 = "dopri5"
     RK4 = "rk4"
     ROSENBROCK = "rosenbrock"
@@ -97,6 +98,7 @@ class Need(str, Enum):
     CONFIGURATION = "configuration"             # configuration (holonomic) constraints
     MULTIPLIERS = "multipliers"                 # constraints or contacts: forces to report
     CONTACTS = "contacts"                       # rigid point contacts
+    UNCONSTRAINED = "unconstrained"             # neither constraints nor contacts
 
 
 @dataclass(frozen=True)
@@ -215,6 +217,13 @@ OUTPUT_INFO: dict[Output, OutputInfo] = {row.output: row for row in (
                note="The derivatives of the contact dynamics in one call (Pinocchio's "
                     "computeConstraintDynamicsDerivatives: du'/dq, du'/du, dlambda/dq, dlambda/du; "
                     "mbgen.tangent_jacobian maps a floating base's quaternion columns)"),
+    OutputInfo(Output.TANGENT_JACOBIAN, "Jt", ("n_u", "2*n_u"),
+               "Jacobian [du'/d delta, du'/du] of the accelerations in the speeds' tangent "
+               "space: delta moves the configuration along the speeds, q + G(q) delta with "
+               "G = dq'/du", (Need.UNCONSTRAINED,),
+               note="Pinocchio's computeABADerivatives [ddq_dq, ddq_dv], a floating base's "
+                    "quaternion included; where q' = u, the u' rows of the jacobian output. "
+                    "For kinematics q' = G(q) u (every joint of from_urdf and from_mjcf)"),
 )}
 
 

@@ -134,6 +134,7 @@ class Spec:
     contact: int = 0   # contact rows m: the solve adds the contacts' (u', lambda) to the L D L^T
     forces: bool = False   # contact columns: write dlambda (else du') for each column
     stride: int = 0    # contact columns: DT, DC row-major with this many (padded) columns
+    first_row: int | None = None   # columns: the solved rows' first row (None: n_q, below q')
 
     @property
     def out_size(self) -> int:
@@ -368,21 +369,7 @@ def _sensitivity(eq: Equations, info: OutputInfo, form: Form) -> Spec:
         return _implicit_sensitivity(eq, info, variables, shape, labels, tag)
     if eq.contacts is not None:
         return _contact_sensitivity(eq, info, variables, shape, labels, tag)
-    acc = acceleration_symbols(nu)
-    M, F = eq.mass_matrix, eq.forcing
-    rows = (list(eq.residual) if eq.residual is not None else
-            [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)])
-    if info.output is Output.JACOBIAN and eq.residual_jacobian is not None:
-        # analytic dR/dx (mbgen.derivation.rnea_partials): only q' = G goes through the program
-        extra, dG = derivatives(eq.program, list(eq.kinematics), variables, tag)
-        dR = [list(eq.residual_jacobian.row(i)) for i in range(nu)]
-    elif eq.program:
-        extra, d = derivatives(eq.program, list(eq.kinematics) + rows, variables, tag)
-        dG, dR = d[:nq], d[nq:]
-    else:
-        extra = Program()
-        dG = differentiate(list(eq.kinematics), variables)
-        dR = differentiate(rows, variables)
+    extra, dG, dR = _partials(eq, variables, tag, info.output is Output.JACOBIAN)
     g_entries = tuple((i * nv + j, dG[i][j]) for i in range(nq) for j in range(nv))
     d_entries = tuple((j * nu + i, dR[i][j]) for j in range(nv) for i in range(nu))
     if all(e == 0 for _, e in d_entries):  # u' does not depend on v: no solve needed
@@ -395,6 +382,76 @@ def _sensitivity(eq: Equations, info: OutputInfo, form: Form) -> Spec:
                 (Block("out", L.n_x * nv, g_entries), *_mass_blocks(eq)),
                 solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv,
                 variables=variables, extra=extra)
+
+
+def _partials(eq: Equations, variables, tag: str, by_state: bool):
+    """``(extra, dG, dR)``: the program's added assignments and the partial derivatives of
+    ``q' = G`` (``n_q`` rows) and of the residual :math:`R = F - M a` (``n_u`` rows) by
+    ``variables``; ``by_state`` (the variables are the states): the derivation's analytic
+    ``residual_jacobian`` where it wrote one (:mod:`mbgen.derivation.rnea_partials`), so only
+    ``q' = G`` goes through the program."""
+    nq, nu = eq.layout.n_q, eq.layout.n_u
+    if by_state and eq.residual_jacobian is not None:
+        extra, dG = derivatives(eq.program, list(eq.kinematics), variables, tag)
+        return extra, dG, [list(eq.residual_jacobian.row(i)) for i in range(nu)]
+    acc = acceleration_symbols(nu)
+    M, F = eq.mass_matrix, eq.forcing
+    rows = (list(eq.residual) if eq.residual is not None else
+            [F[i] - sm.Add(*(M[i, k] * acc[k] for k in range(nu))) for i in range(nu)])
+    if eq.program:
+        extra, d = derivatives(eq.program, list(eq.kinematics) + rows, variables, tag)
+        return extra, d[:nq], d[nq:]
+    return Program(), differentiate(list(eq.kinematics), variables), differentiate(rows,
+                                                                                   variables)
+
+
+def _tangent(eq: Equations, info: OutputInfo, form: Form) -> Spec:
+    r"""``[du'/d delta, du'/du]`` (``n_u x 2 n_u``): the accelerations' Jacobian in the
+    speeds' tangent space.
+
+    A configuration moved along the speeds, :math:`q \oplus \delta = q + G(q)\,\delta`
+    with :math:`G = \partial q'/\partial u` (``q' = G(q) u``), gives the columns
+
+    .. math::
+
+        \frac{\partial u'}{\partial \delta_k} = \sum_j \frac{\partial u'}{\partial q_j}
+        G_{jk} = M^{-1} \sum_j \frac{\partial R}{\partial q_j} G_{jk}
+
+    summed over ``G``'s structural nonzeros before the solve, so the ``2 n_u`` columns are
+    solved as the ``jacobian``'s ``n_q + n_u`` are (one factor, the tree's column solve
+    where it applies) and the product :math:`J_q G` is never formed at run time.  For a
+    floating base this is Pinocchio's ``ddq_dq`` of ``computeABADerivatives``; a recursion
+    without a residual sums the accelerations' own derivatives.
+    """
+    L = eq.layout
+    nq, nu = L.n_q, L.n_u
+    variables = tuple(L.states)
+    speeds = L.state_names[nq:]
+    labels = tuple(f"d({a}')/d({v})" for a in speeds
+                   for v in (*(f"delta_{b}" for b in speeds), *speeds))
+    tag = f"{info.array.lower()}_"
+    recursive = form is Form.RECURSIVE and eq.residual is None
+    if recursive:
+        extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
+                               variables, tag)
+        dG, dR = d[:nq], d[nq:]
+    else:
+        extra, dG, dR = _partials(eq, variables, tag, True)
+    G = [[(j, dG[j][nq + k]) for j in range(nq) if dG[j][nq + k] != 0] for k in range(nu)]
+    T = [[sm.Add(*(row[j] * g for j, g in G[k] if row[j] != 0)) for k in range(nu)]
+         + list(row[nq:]) for row in dR]
+    size, columns = nu * 2 * nu, 2 * nu
+    if recursive or all(e == 0 for row in T for e in row):
+        entries = tuple((i * columns + k, T[i][k] if recursive else sm.S.Zero)
+                        for i in range(nu) for k in range(columns))
+        return Spec(info.output, info.array, (nu, columns), labels,
+                    (Block("out", size, entries),), variables=variables, extra=extra,
+                    pivots=eq.accelerations is not None)
+    post = Block("DT", size, tuple((k * nu + i, T[i][k]) for k in range(columns)
+                                   for i in range(nu)))
+    return Spec(info.output, info.array, (nu, columns), labels,
+                (Block("out", size, ()), *_mass_blocks(eq)), solve=True, post=(post,),
+                columns=columns, variables=variables, extra=extra, first_row=0)
 
 
 def _implicit_sensitivity(eq: Equations, info: OutputInfo, variables, shape, labels,
@@ -520,4 +577,5 @@ BUILDERS: dict[Output, Callable[[Equations, OutputInfo, Form], Spec]] = {
     Output.HOLONOMIC: _holonomic,
     Output.HOLONOMIC_JACOBIAN: _holonomic_jacobian,
     Output.CONTACT_JACOBIAN: _contact_jacobian,
+    Output.TANGENT_JACOBIAN: _tangent,
 }

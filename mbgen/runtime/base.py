@@ -197,6 +197,7 @@ class ModelBase:
     holonomic = _accessor(Output.HOLONOMIC)
     holonomic_jacobian = _accessor(Output.HOLONOMIC_JACOBIAN)
     contact_jacobian = _accessor(Output.CONTACT_JACOBIAN)
+    tangent_jacobian = _accessor(Output.TANGENT_JACOBIAN)
 
     def _evaluate(self, output: Output, t, x, p, r) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError

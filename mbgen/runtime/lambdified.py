@@ -348,6 +348,11 @@ class LambdifiedModel(ModelBase):
             out = np.vstack([G_v, self._solve_mass(M, R_v)])
         return out.reshape(-1) if sensitivity.vector else out
 
+    def _tangent_jacobian(self, output, at: _At):
+        """``[du'/dq G, du'/du]`` from the reference's own ``df/dx`` (``G = dq'/du``)."""
+        J, nq = self._sensitivity(Output.JACOBIAN, at), self.layout.n_q
+        return np.hstack([J[nq:, :nq] @ J[:nq, nq:], J[nq:, nq:]])
+
     def _implicit_sensitivity(self, output, at: _At, variables):
         """Sensitivities of a constrained model: implicit differentiation, with numpy, of
         ``C = A u + b``, ``E = M a - F - A^T lambda`` and ``B = A a + beta``."""
@@ -390,6 +395,7 @@ REFERENCES: dict[Output, Callable] = {
     Output.HOLONOMIC: LambdifiedModel._holonomic,
     Output.HOLONOMIC_JACOBIAN: LambdifiedModel._holonomic_jacobian,
     Output.CONTACT_JACOBIAN: LambdifiedModel._contact_jacobian,
+    Output.TANGENT_JACOBIAN: LambdifiedModel._tangent_jacobian,
 }
 
 

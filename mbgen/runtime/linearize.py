@@ -110,15 +110,22 @@ def tangent_jacobian(model, x, p=None, r=None, t: float = 0.0) -> tuple[np.ndarr
         \frac{\partial u'}{\partial \delta} = \frac{\partial u'}{\partial q}\,G,
         \qquad G = \frac{\partial q'}{\partial u}
 
-    (``n_u x n_u``), both blocks read from the compiled ``jacobian``.  For a
-    floating base (a quaternion in ``q``) this is Pinocchio's ``ddq_dq`` of
-    ``computeABADerivatives`` (its ``integrate`` is :math:`q \oplus \delta` to
-    first order), and ``du'/du`` its ``ddq_dv``; for joints whose ``q' = u``
-    the first block is the ``du'/dq`` block itself.
+    (``n_u x n_u``).  For a floating base (a quaternion in ``q``) this is Pinocchio's
+    ``ddq_dq`` of ``computeABADerivatives`` (its ``integrate`` is :math:`q \oplus \delta`
+    to first order), and ``du'/du`` its ``ddq_dv``; for joints whose ``q' = u`` the first
+    block is the ``du'/dq`` block itself.
+
+    A model compiled with the ``tangent_jacobian`` output computes both blocks in one
+    generated function (the sum over ``G`` before the solve, no product at run time);
+    otherwise they are read from the ``jacobian`` output and multiplied here.
     """
+    n_u = model.layout.n_u
+    if Output.TANGENT_JACOBIAN in model.outputs:
+        T = model.tangent_jacobian(t, model._x(x), p, r)
+        return T[:, :n_u], T[:, n_u:]
     if Output.JACOBIAN not in model.outputs:
-        raise MbgenError(f"tangent_jacobian needs the 'jacobian' output of {model.name!r}; "
-                         f"compile with outputs including 'jacobian'")
+        raise MbgenError(f"tangent_jacobian needs the 'tangent_jacobian' or 'jacobian' output "
+                         f"of {model.name!r}; compile with outputs including 'jacobian'")
     n_q = model.layout.n_q
     if getattr(model, "dependent_coordinates", ()):
         raise MbgenError(f"{model.name}: tangent_jacobian takes models without configuration "

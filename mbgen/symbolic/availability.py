@@ -115,6 +115,10 @@ CONDITIONS: dict[Need, Requirement] = {
         lambda eq: eq.constraints is not None or eq.contacts is not None,
         lambda eq, o: f"the model {eq.name!r} has no constraints or contacts, so no "
                       f"{o.value}"),
+    Need.UNCONSTRAINED: Requirement(
+        lambda eq: eq.constraints is None and eq.contacts is None,
+        lambda eq, o: f"the model {eq.name!r} has constraints or contacts; {o.value} is for "
+                      f"models without (use the jacobian or contact_jacobian output)"),
     Need.CONTACTS: Requirement(
         lambda eq: eq.contacts is not None,
         lambda eq, o: f"the model {eq.name!r} has no contacts, so no {o.value} (state them "

@@ -133,8 +133,15 @@ def _sizes(eq) -> dict[str, int]:
                 n_joints=len(eq.reactions.names) if eq.reactions else 0)
 
 
+def _term(text: str, sizes) -> int:
+    """``3``, ``n_u`` or ``2*n_u``: a number, a size, or a number times a size."""
+    factor, _, name = text.rpartition("*")
+    value = int(name) if name.isdigit() else sizes[name]
+    return value * (int(factor) if factor else 1)
+
+
 def _shape(row, sizes) -> tuple[int, ...]:
-    return tuple(sum(int(t) if t.isdigit() else sizes[t] for t in re.split(r"\s*\+\s*", entry))
+    return tuple(sum(_term(t, sizes) for t in re.split(r"\s*\+\s*", entry))
                  for entry in row.shape)
 
 

@@ -31,6 +31,7 @@ from mbgen.errors import (
 )
 from mbgen.model import limits, urdf_xml
 from mbgen.model.scene import load_scene, urdf_scene
+from mbgen.pipeline import run
 from models import count_joint_parent_reads, read_in_thread
 from urdf_models import (
     ARM_PARTS,
@@ -111,18 +112,29 @@ def test_floating_base_jacobian_in_the_tangent_space_matches_aba_derivatives(tmp
     alone, in the quaternion's four components, is not it."""
     path = write(tmp_path, urdf(FLOATING_PARTS, "hopper"))
     scn = urdf_scene(path, floating=True)
+    out = mbgen.Output
     compiled = mbgen.compile(scn.__class__(**{**scn.__dict__, "outputs": (
-        mbgen.Output.RHS, mbgen.Output.JACOBIAN)}))
+        out.RHS, out.JACOBIAN)}))
+    # the same in C: the generated tangent_jacobian (the sum over G before the solve)
+    result = run(scn.__class__(**{**scn.__dict__, "outputs": (out.RHS, out.TANGENT_JACOBIAN)}))
+    direct = result.compiled
+    reference = mbgen.LambdifiedModel(result.baked, direct.outputs, layout=result.layout)
     model = pinocchio_model(path, True)
     data = model.createData()
     rng = np.random.default_rng(4)
     for _ in range(3):
         q, v, tau = random_state(rng, model, True)
         pin.computeABADerivatives(model, data, q, v, np.concatenate([np.zeros(6), tau]))
-        dq, dv = mbgen.tangent_jacobian(compiled, np.concatenate([q, v]), None, tau)
-        for ours, theirs in ((dq, data.ddq_dq), (dv, data.ddq_dv)):
-            assert np.abs(ours - theirs).max() <= RTOL * np.abs(theirs).max()
-        J = compiled.jacobian(0.0, np.concatenate([q, v]), None, tau)
+        x = np.concatenate([q, v])
+        T = direct.tangent_jacobian(0.0, x, None, tau)
+        assert T.shape == (model.nv, 2 * model.nv)
+        for source in (compiled, direct):
+            dq, dv = mbgen.tangent_jacobian(source, x, None, tau)
+            for ours, theirs in ((dq, data.ddq_dq), (dv, data.ddq_dv)):
+                assert np.abs(ours - theirs).max() <= RTOL * np.abs(theirs).max()
+        np.testing.assert_allclose(reference.tangent_jacobian(0.0, x, None, tau), T,
+                                   rtol=1e-9, atol=1e-9 * np.abs(T).max())
+        J = compiled.jacobian(0.0, x, None, tau)
         assert J[model.nq:, :model.nq].shape != data.ddq_dq.shape
 
 
