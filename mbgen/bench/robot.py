@@ -67,7 +67,9 @@ from .timing import (
 
 STAGES = ("derive_s", "bake_s", "cse_s", "render_s", "compile_s")
 #: What the child measures of the Jacobian (``jacobian=True``).
-JAC_KEYS = ("jac_c_ns", "jac_own_ns", "jac_py_ns", "jac_tangent")
+JAC_KEYS = ("jac_c_ns", "jac_own_ns", "jac_py_ns", "tan_own_ns", "tan_py_ns", "jac_tangent")
+#: The derivative outputs a ``jacobian=True`` run compiles: ``df/dx`` and the tangent-space block.
+JAC_OUTPUTS = (Output.RHS, Output.JACOBIAN, Output.TANGENT_JACOBIAN)
 
 
 @dataclass
@@ -92,6 +94,8 @@ class RobotReport:
     jac_c_ns: float | None = None
     jac_own_ns: float | None = None
     jac_py_ns: float | None = None
+    tan_own_ns: float | None = None
+    tan_py_ns: float | None = None
     pin_daba_cxx_ns: float | None = None
     pin_daba_py_ns: float | None = None
     diff_pin_jac: float | None = None
@@ -100,7 +104,7 @@ class RobotReport:
 
 
 def _scene(file: Path, floating: bool, jacobian: bool) -> Scene:
-    outputs = (Output.RHS, Output.JACOBIAN) if jacobian else (Output.RHS,)
+    outputs = JAC_OUTPUTS if jacobian else (Output.RHS,)
     if file.suffix.lower() == ".urdf":
         scene = urdf_scene(file, floating=floating)
     else:
@@ -155,14 +159,19 @@ def _mbgen_child(file: str, floating: bool, jacobian: bool, repeats: int, emit) 
 
 
 def _jacobian_child(rendered, model, x, p, r, repeats: int, emit) -> None:
-    """The Jacobian's C loops (driver flags, the module's flags), its Python call and its
-    tangent-space block ``[du'/d delta, du'/du]``."""
-    n_out = rendered.layout.n_x ** 2
-    for key, flags in (("jac_c_ns", None), ("jac_own_ns", model_flags(rendered))):
+    """The Jacobian's C loops (driver flags, the module's flags), its Python call, and the
+    generated tangent-space block ``[du'/d delta, du'/du]`` (``tangent_jacobian``: its C loop
+    with the module's flags, its Python call, its value)."""
+    L = rendered.layout
+    own = model_flags(rendered)
+    for key, name, size, flags in (("jac_c_ns", "jacobian", L.n_x ** 2, None),
+                                   ("jac_own_ns", "jacobian", L.n_x ** 2, own),
+                                   ("tan_own_ns", "tangent_jacobian", 2 * L.n_u ** 2, own)):
         with tempfile.TemporaryDirectory(prefix="mbgen-robot-jac-") as tmp:
-            emit(key, c_function_ns(rendered, "jacobian", n_out, x, p, r, repeats, Path(tmp),
+            emit(key, c_function_ns(rendered, name, size, x, p, r, repeats, Path(tmp),
                                     model_flags=flags))
     emit("jac_py_ns", per_call_ns(lambda: model.jacobian(0.0, x, p, r), repeats))
+    emit("tan_py_ns", per_call_ns(lambda: model.tangent_jacobian(0.0, x, p, r), repeats))
     emit("jac_tangent", np.hstack(tangent_jacobian(model, x, p, r)).tolist())
 
 
@@ -358,6 +367,7 @@ def robot_bench(what: str, *, floating: bool | None = None, jacobian: bool = Fal
         report.rhs_c_ns, report.rhs_py_ns = res.get("rhs_c_ns"), res.get("rhs_py_ns")
         report.jac_c_ns, report.jac_own_ns = res.get("jac_c_ns"), res.get("jac_own_ns")
         report.jac_py_ns = res.get("jac_py_ns")
+        report.tan_own_ns, report.tan_py_ns = res.get("tan_own_ns"), res.get("tan_py_ns")
         tangent = np.array(res["jac_tangent"]) if "jac_tangent" in res else None
         if "dxdt" not in res:
             return report
@@ -419,19 +429,23 @@ def _jacobian_lines(rep: RobotReport) -> list[str]:
 
     rows = [("mbgen jacobian", rep.jac_c_ns, rep.jac_py_ns),
             ("  module's flags", rep.jac_own_ns, None),
+            ("mbgen tangent", rep.tan_own_ns, rep.tan_py_ns),
             ("Pinocchio dABA", rep.pin_daba_cxx_ns, rep.pin_daba_py_ns)]
     lines = ["", f"{'derivatives, ns':20s} {'in C/C++':>10s} {'from Python':>12s} "
-                 f"{'C: /module':>10s}"]
+                 f"{'C: /module':>10s} {'C: /dABA':>9s}"]
     for name, c, py in rows:
         lines.append(f"{name:20s} {_f(c, '.0f'):>10s} {_f(py, '.0f'):>12s} "
-                     f"{ratio(c, rep.jac_own_ns):>10s}")
+                     f"{ratio(c, rep.jac_own_ns):>10s} {ratio(c, rep.pin_daba_cxx_ns):>9s}")
     return lines + [
-        f"Jacobian [du'/d delta, du'/du] in the speeds' tangent space (mbgen.tangent_jacobian),"
+        f"Jacobian [du'/d delta, du'/du] in the speeds' tangent space (the tangent_jacobian "
+        f"output),"
         f" largest relative difference from Pinocchio's computeABADerivatives: "
         f"{_f(rep.diff_pin_jac, '.1e')}",
         "mbgen jacobian: df/dx (n_x x n_x, quaternion columns included) timed in a C loop, "
         "its source compiled with the driver flags; module's flags: as the user's module "
-        "is built (mbgen.build.extension.model_flags); dABA: computeABADerivatives."]
+        "is built (mbgen.build.extension.model_flags); mbgen tangent: the tangent_jacobian "
+        "output (n_u x 2 n_u, Pinocchio's [ddq_dq, ddq_dv]) with the module's flags; dABA: "
+        "computeABADerivatives."]
 
 
 MIN_REPEATS_TEXT = "loops of at least 20 ms each"

@@ -89,10 +89,13 @@ def test_the_jacobian_is_timed_and_agrees_with_compute_aba_derivatives(tmp_path,
 def test_the_derivatives_table_divides_by_the_modules_jacobian():
     rep = robot.RobotReport(robot="r", floating=True, jac_c_ns=400.0, jac_own_ns=500.0,
                             jac_py_ns=2000.0, pin_daba_cxx_ns=1000.0, pin_daba_py_ns=3000.0,
-                            diff_pin_jac=3e-13)
+                            diff_pin_jac=3e-13, tan_own_ns=450.0, tan_py_ns=900.0)
     lines = robot.format_robot(rep).splitlines()
     row = next(x for x in lines if x.startswith("Pinocchio dABA")).split()
-    assert row == ["Pinocchio", "dABA", "1000", "3000", "2.00"]
-    assert next(x for x in lines if x.startswith("mbgen jacobian")).split()[-1] == "0.80"
+    assert row == ["Pinocchio", "dABA", "1000", "3000", "2.00", "1.00"]
+    assert next(x for x in lines if x.startswith("mbgen jacobian")).split()[-2:] == [
+        "0.80", "0.40"]
+    assert next(x for x in lines if x.startswith("mbgen tangent")).split()[2:] == [
+        "450", "900", "0.90", "0.45"]
     assert any("3.0e-13" in x for x in lines)
     assert "derivatives" not in robot.format_robot(robot.RobotReport(robot="r", floating=False))
