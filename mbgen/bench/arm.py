@@ -7,8 +7,10 @@ run through three tools, side by side in one run:
 mbgen (a child process per ``n``, under a time budget and a memory cap)
     the stages of :func:`mbgen.pipeline.run` with the method asked for, each timed
     once (:func:`mbgen.bench.timing.pipeline_timer`): *derive*, *bake* (the scene's
-    fixed parameters), *CSE* (``optimize``, RHS output), *render*, *compile* (cffi,
-    into an empty cache); the operations after CSE; the RHS time **inside C** -- a small C
+    fixed parameters), *CSE* (``optimize``, RHS output), *render*, *compile* (a plain
+    library, into a cache that holds only what it holds once per install: the crossing and
+    the compiled templates, :func:`mbgen.bench.children.run_json_child`'s ``seeded``); the
+    operations after CSE; the RHS time **inside C** -- a small C
     driver (``templates/bench/rhs.c.j2``) calls ``<prefix>_rhs`` in a loop timed
     with ``clock_gettime``, compiled with ``cc`` and the same flags as Pinocchio's
     driver and run as a subprocess; and the time of one ``model.rhs`` call from
@@ -234,7 +236,7 @@ def _run_child(side: str, n: int, repeats: int, method: str, budget_s: float,
               ["sympy_derive_s", "sympy_cse_s", "sympy_lambdify_s", "sympy_rhs_py_ns"])
     results, rc, error = children.run_json_child(
         ["-m", "mbgen.bench.arm", side, str(n), str(repeats), method], budget_s=budget_s,
-        memory_gb=memory_gb, prefix="mbgen-arm-")
+        memory_gb=memory_gb, prefix="mbgen-arm-", seeded=side == "mbgen")
     return results, children.status(results, stages, rc, error, budget_s, width=120)
 
 

@@ -101,7 +101,7 @@ def run_jacobian(row, x: np.ndarray, repeats: int, method: str, budget_s: float,
     results, rc, error = children.run_json_child(
         ["-m", "mbgen.bench.arm_jacobian", str(row.n), str(repeats), method],
         budget_s=budget_s, memory_gb=memory_gb, stdin=json.dumps(x.tolist()),
-        prefix="mbgen-arm-jac-")
+        prefix="mbgen-arm-jac-", seeded=True)
     _set(row, results)
     row.jac_status = children.status(results, JAC_STAGES, rc, error, budget_s, width=120)
     block = results.get("jac_block")
@@ -207,9 +207,11 @@ mod/pin: the ratios of the two to it; rel diff: max |mbgen - Pinocchio| / max |P
 [ddq_dq, ddq_dv] and mbgen's lower n rows, at the timed state.
 CasADi: the arm's ABA traced on casadi.SX (Function option cse), Function.generate, cc -c with
 the driver flags (cc -O3; cc -O1 apart), timed in a C loop; cas gen s = trace + generate +
-cc -O3; mb gen s = mbgen's derive..compile (cffi, -O2; long functions in parts).  ops: mbgen's
-after CSE; CasADi's instructions less inputs, outputs and constants.  |cas-pin|: largest
-difference of the accelerations from Pinocchio's aba (mbgen's where Pinocchio is out)."""
+cc -O3; mb gen s = mbgen's derive..compile (a plain library, -O2; long functions in parts;
+a new process, its cache holding what it holds once per install: the crossing, compiled
+templates).  ops: mbgen's after CSE; CasADi's instructions less inputs, outputs and
+constants.  |cas-pin|: largest difference of the accelerations from Pinocchio's aba (mbgen's
+where Pinocchio is out)."""
 
 
 def _table(title: str, columns, rows) -> list[str]:

@@ -5,7 +5,7 @@ FILE is a ``.urdf`` file, an MJCF ``.xml`` file, or a robot of ``example-robot-d
 name (:data:`mbgen.bench.robot_peers.ROBOTS`: ``panda``, ``ur5``, ``solo12`` and ``g1``
 on a floating base).  In one run, side by side:
 
-mbgen (a child process, cold: an empty compile cache)
+mbgen (a child process, cold: a compile cache that holds only what it holds once per install)
     the generation stages of :func:`mbgen.pipeline.run` as ``mbgen.compile`` runs them
     (derive, bake, CSE, render, compile; the Jacobian too with ``jacobian=True``), the
     RHS in a C loop (:func:`mbgen.bench.timing.c_rhs_ns`) and ``model.rhs`` from Python.
@@ -358,7 +358,7 @@ def robot_bench(what: str, *, floating: bool | None = None, jacobian: bool = Fal
         res, rc, error = children.run_json_child(
             ["-m", "mbgen.bench.robot", str(clean), "1" if floating else "0",
              "1" if jacobian else "0", str(repeats)], budget_s=budget_s, memory_gb=memory_gb,
-            prefix="mbgen-robot-child-")
+            prefix="mbgen-robot-child-", seeded=True)
         report.status = children.status(
             res, ["read_s", *STAGES, "rhs_c_ns", "rhs_py_ns", *(JAC_KEYS if jacobian else ())],
             rc, error, budget_s)
