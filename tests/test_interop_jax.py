@@ -27,8 +27,9 @@ jax.config.update("jax_enable_x64", True)
 jnp = jax.numpy
 
 ROOT = Path(__file__).resolve().parents[1]
-OUTPUTS = ("rhs", "jacobian", "parameter_jacobian", "input_jacobian", "mass_matrix")
-QUICK = ("rhs", "jacobian")
+OUTPUTS = ("rhs", "jacobian", "parameter_jacobian", "input_jacobian", "mass_matrix",
+           "tangent_jacobian")
+QUICK = ("rhs", "jacobian", "tangent_jacobian")
 
 
 @pytest.fixture(scope="module")
