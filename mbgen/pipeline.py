@@ -45,9 +45,10 @@ from .codegen.outputs import needs_jacobian
 from .codegen.render import render
 from .codegen.slicing import bake
 from .codegen.solver import solve_ops
+from .codegen.targets import Targets
 from .derivation import NAMED, Method, choose_method, derive, method_of
 from .derivation.prepare import Prepared
-from .errors import ModelError
+from .errors import ModelError, UsageError
 from .model.builder import Model
 from .model.scene import Scene, source_label
 from .runtime.compiled import CompiledModel
@@ -499,6 +500,10 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
                         fixed, inputs, sliced, cse_backend, form)
     if targets is None and isinstance(source, Scene):
         targets = source.targets
+    if targets is not None and not isinstance(targets, Targets):
+        raise UsageError(f"run(targets={targets!r}): give an mbgen.codegen.targets.Targets, "
+                         f"e.g. Targets(step=True) for the step API; to write named targets' "
+                         f"files use mbgen.generate(scene, targets=('c', 'step', ...))")
     if warm is None and timer is not None:
         warm = False
     key = _warm_key(stages, sliced, targets, method) if build and warm_cache.enabled(warm) \

@@ -15,6 +15,7 @@ from mbgen.errors import (
     NonFiniteResultError,
     SceneError,
     SingularMassMatrixError,
+    UsageError,
 )
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
@@ -196,3 +197,9 @@ def test_the_cli_exits_with_the_error_s_code(name, monkeypatch, capsys):
     code, heading = EXIT_CODES[name]
     assert main(["scenes"]) == code
     assert capsys.readouterr().err == f"mbgen: {heading}: what went wrong\n"
+
+
+def test_targets_that_are_not_a_targets_value_are_a_usage_error():
+    """``run(scene, targets=("c", "step"))`` raised an AttributeError from the renderer."""
+    with pytest.raises(UsageError, match=r"Targets\(step=True\).*mbgen\.generate"):
+        run(pendulum("targets"), targets=("c", "step"), build=False)
