@@ -350,7 +350,7 @@ def robot_bench(what: str, *, floating: bool | None = None, jacobian: bool = Fal
     file, default = peers.robot_file(what)
     floating = bool(default) if floating is None else floating
     report = RobotReport(robot=what, floating=floating,
-                         outputs="rhs, jacobian" if jacobian else "rhs")
+                         outputs=", ".join(o.value for o in JAC_OUTPUTS) if jacobian else "rhs")
     with tempfile.TemporaryDirectory(prefix="mbgen-robot-") as tmp:
         urdf = file.suffix.lower() == ".urdf"
         clean = peers.clean_urdf(file, Path(tmp)) if urdf else file
