@@ -59,7 +59,9 @@ class Stepper:
 
     @property
     def x(self):
-        return np.array(list(self.memory.x)[: self.model.n_x])
+        """The state, a new float64 array (a copy of the C memory's ``x``)."""
+        return np.frombuffer(self.model.ffi.buffer(self.memory.x), np.float64,
+                             self.model.n_x).copy()
 
     @property
     def max_residual(self) -> float:
