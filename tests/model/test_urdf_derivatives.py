@@ -19,6 +19,7 @@ import pytest
 import mbgen
 from mbgen.abi import Output
 from mbgen.model.scene import urdf_scene
+from urdf_models import coupled_reference, coupling
 
 pin = pytest.importorskip("pinocchio")
 
@@ -81,8 +82,6 @@ def test_panda_as_shipped_jacobian_matches_the_hand_coupled_model():
     ``q`` has 8 entries, Pinocchio's ``mimic=True`` ``nq``; its ``computeABADerivatives``
     refuses mimic joints, so the reference is the independent model's RNEA derivatives
     projected through the coupling (``q_full = G q``)."""
-    from test_urdf_robots import coupled_reference, coupling
-
     from mbgen.bench.robot_peers import robot_file
     path = robot_file("panda")[0]
     compiled = mbgen.compile(mbgen.from_urdf(path), (Output.RHS, Output.JACOBIAN))

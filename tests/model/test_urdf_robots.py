@@ -32,9 +32,12 @@ from urdf_models import (
     ARM_PARTS,
     LIMIT,
     compare,
+    coupled_reference,
+    coupling,
     inertial,
     joint,
     link,
+    lower_symmetric,
     pinocchio_accelerations,
     pinocchio_model,
     robot_file,
@@ -60,10 +63,6 @@ def compiled(model, jacobian=True):
     return mbgen.compile(model, outputs, method=mbgen.Method.KANE)
 
 
-def lower_symmetric(M):
-    return np.triu(M) + np.triu(M, 1).T
-
-
 # ----------------------------------------------------------------------------- mimic
 #: a wrist, a finger and its mirror (finger2 = -finger1 + 0.01), a thumb at half the wrist's
 #: angle plus 0.2 and a tip that mimics the thumb (a chain: tip = 2 thumb - 0.1 = wrist +
@@ -87,31 +86,6 @@ GRIPPER = [
 FOLLOWS = {"finger2": ("finger1", -1.0, 0.01), "thumb_j": ("wrist", 0.5, 0.2),
            "tip_j": ("wrist", 1.0, 0.3)}
 DAMPING = {"wrist": 0.1, "finger1": 0.2, "finger2": 0.5, "thumb_j": 0.3, "tip_j": 0.4}
-
-
-def coupling(model, follows):
-    """``G``, ``o`` with ``q_full = G q + o`` for the independent ``model``'s joints."""
-    names = list(model.names)[1:]
-    own = [n for n in names if n not in follows]
-    G, o = np.zeros((len(names), len(own))), np.zeros(len(names))
-    for i, n in enumerate(names):
-        leader, a, b = follows.get(n, (n, 1.0, 0.0))
-        G[i, own.index(leader)], o[i] = a, b
-    return G, o
-
-
-def coupled_reference(model, data, G, o, damping, q, v, tau):
-    """``u'``, ``du'/dq``, ``du'/du`` of the reduced model by hand: ``G^T (M a_f + h + D v_f)
-    = tau`` with ``a_f = G a``; derivatives by the implicit function theorem on Pinocchio's
-    RNEA derivatives."""
-    qf, vf = G @ q + o, G @ v
-    M = lower_symmetric(pin.crba(model, data, qf))
-    Mr = G.T @ M @ G
-    D = np.diag(damping)
-    a = np.linalg.solve(Mr, tau - G.T @ (pin.nonLinearEffects(model, data, qf, vf) + D @ vf))
-    dq, dv, _ = pin.computeRNEADerivatives(model, data, qf, vf, G @ a)
-    return (a, -np.linalg.solve(Mr, G.T @ dq @ G),
-            -np.linalg.solve(Mr, G.T @ (dv + D) @ G))
 
 
 def test_a_mimic_joint_follows_its_leader(tmp_path):

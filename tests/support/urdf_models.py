@@ -156,3 +156,33 @@ def robot_file(relative: str) -> str:
         if hits:
             return hits[0]
     pytest.skip(f"example-robot-data is not installed ({relative})")
+
+
+def lower_symmetric(M):
+    """The symmetric matrix whose upper triangle is ``M``'s (Pinocchio fills only that)."""
+    return np.triu(M) + np.triu(M, 1).T
+
+
+def coupling(model, follows):
+    """``G``, ``o`` with ``q_full = G q + o`` for the independent ``model``'s joints."""
+    names = list(model.names)[1:]
+    own = [n for n in names if n not in follows]
+    G, o = np.zeros((len(names), len(own))), np.zeros(len(names))
+    for i, n in enumerate(names):
+        leader, a, b = follows.get(n, (n, 1.0, 0.0))
+        G[i, own.index(leader)], o[i] = a, b
+    return G, o
+
+
+def coupled_reference(model, data, G, o, damping, q, v, tau):
+    """``u'``, ``du'/dq``, ``du'/du`` of the reduced model by hand: ``G^T (M a_f + h + D v_f)
+    = tau`` with ``a_f = G a``; derivatives by the implicit function theorem on Pinocchio's
+    RNEA derivatives."""
+    qf, vf = G @ q + o, G @ v
+    M = lower_symmetric(pin.crba(model, data, qf))
+    Mr = G.T @ M @ G
+    D = np.diag(damping)
+    a = np.linalg.solve(Mr, tau - G.T @ (pin.nonLinearEffects(model, data, qf, vf) + D @ vf))
+    dq, dv, _ = pin.computeRNEADerivatives(model, data, qf, vf, G @ a)
+    return (a, -np.linalg.solve(Mr, G.T @ dq @ G),
+            -np.linalg.solve(Mr, G.T @ (dv + D) @ G))
