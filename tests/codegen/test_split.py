@@ -7,14 +7,13 @@ bit for bit those of the one-function code and of the generated Python.
 """
 
 import dataclasses
-import shutil
-import subprocess
 
 import numpy as np
 import pytest
 import sympy as sm
 
 import mbgen
+from checks import CC, assert_compiles_strictly
 from cstack import call_graph, deepest, stack_usage
 from mbgen.build.extension import load
 from mbgen.codegen import split
@@ -23,8 +22,6 @@ from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.runtime.compiled import CompiledModel
 
-CC = shutil.which("gcc") or shutil.which("cc")
-CXX = shutil.which("g++") or shutil.which("c++")
 OUTPUTS = ("rhs", "jacobian", "mass_matrix", "forcing")
 
 
@@ -92,14 +89,7 @@ def test_split_code_gives_the_same_numbers_bit_for_bit(pair):
 
 def test_split_code_compiles_strictly_as_c_and_cxx(pair, tmp_path):
     _, _, cut = pair
-    for fname, text in cut.files.items():
-        (tmp_path / fname).write_text(text)
-    src = f"{cut.prefix}.c"
-    for tool, flags in ((CC, ["-std=c99"]), (CXX, ["-x", "c++", "-std=c++11"])):
-        done = subprocess.run([tool, *flags, "-pedantic", "-Wall", "-Wextra", "-Werror",
-                               "-Wshadow", "-O2", "-c", src, "-o", "m.o"], cwd=tmp_path,
-                              capture_output=True, text=True)
-        assert done.returncode == 0 and not done.stderr, done.stderr
+    assert_compiles_strictly(cut.files, cut.prefix, tmp_path)
 
 
 @pytest.mark.parametrize("opt", ["-O0", "-O2"])

@@ -14,14 +14,12 @@
 
 from __future__ import annotations
 
-import shutil
-import subprocess
-
 import numpy as np
 import pytest
 
 import mbgen
 import mbgen.codegen.targets.model
+from checks import CC, assert_compiles_strictly
 from cstack import call_graph, deepest, stack_usage
 from mbgen.codegen import tree_solve
 from mbgen.codegen.solver import UNROLL_MAX, py_lines
@@ -29,9 +27,6 @@ from mbgen.codegen.tree_solve import TreeFactor, tree_factor
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.verify.check import check
-
-CC = shutil.which("gcc") or shutil.which("cc")
-CXX = shutil.which("g++") or shutil.which("c++")
 
 #: Parents of the speeds of a tree listed parents first: a root and two chains of three.
 PARENTS = (-1, 0, 1, 2, 0, 4, 5)
@@ -142,14 +137,7 @@ def test_a_branched_model_solves_its_columns_over_the_tree(small_trees, tmp_path
 
 def _strict_and_within_its_stack_bound(rendered, folder):
     """No warning as strict C99 and C++11; gcc's stack use under the bounds of the header."""
-    for name, text in rendered.files.items():
-        (folder / name).write_text(text)
-    src = f"{rendered.prefix}.c"
-    for tool, flags in ((CC, ["-std=c99"]), (CXX, ["-x", "c++", "-std=c++11"])):
-        done = subprocess.run([tool, *flags, "-pedantic", "-Wall", "-Wextra", "-Werror",
-                               "-Wshadow", "-O2", "-c", src, "-o", "m.o"], cwd=folder,
-                              capture_output=True, text=True)
-        assert done.returncode == 0 and not done.stderr, done.stderr
+    assert_compiles_strictly(rendered.files, rendered.prefix, folder)
     usage = stack_usage(CC, folder, rendered.files, "-O0")
     graph = {f: {c for c in cs if c in usage} for f, cs in call_graph(rendered.source).items()}
     for fn, bound in dict(rendered.stack_bounds).items():
