@@ -134,7 +134,7 @@ class Spec:
     contact: int = 0   # contact rows m: the solve adds the contacts' (u', lambda) to the L D L^T
     forces: bool = False   # contact columns: write dlambda (else du') for each column
     stride: int = 0    # contact columns: DT, DC row-major with this many (padded) columns
-    first_row: int | None = None   # columns: the solved rows' first row (None: n_q, below q')
+    first_row: int | None = None   # columns: the solved rows' first row (spec's default: n_q)
 
     @property
     def out_size(self) -> int:
@@ -178,6 +178,8 @@ def spec(eq: Equations, output: Output, form: Form = Form.SOLVE) -> Spec:
         exprs += [e for _, e in out.extra.assignments]
         if out.solve or set(eq.layout.dependent_speeds) & eq.uses(exprs):
             out = replace(out, velocity=_velocity_blocks(eq))
+    if out.first_row is None:   # the solved rows below the kinematic ones
+        out = replace(out, first_row=eq.layout.n_q)
     return out
 
 

@@ -110,7 +110,7 @@ def _view(kernel: Kernel, fn: KernelFunction, printer: JaxPrinter) -> dict:
                 pre=blocks(fn.pre), solve=s.solve, rhs=s.output is Output.RHS and s.solve,
                 post_temps=temps(fn.post_temporaries), post=blocks(fn.post),
                 columns=s.columns, checks=bool(fn.checks) or s.solve,
-                n_q=L.n_q if s.first_row is None else s.first_row, n_u=L.n_u,
+                n_q=s.first_row, n_u=L.n_u,
                 ops=fn.ops_after)
 
 

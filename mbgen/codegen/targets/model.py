@@ -87,7 +87,7 @@ def _view(kernel: Kernel, fn: KernelFunction, prefix: str, printer) -> dict:
         stride=s.stride,
         velocity=blocks(fn.velocity),
         velocity_temps=temps(fn.velocity_temporaries),
-        n_q=L.n_q if s.first_row is None else s.first_row,   # the solved rows start here
+        n_q=s.first_row,   # the solved rows start here (below q', or at 0)
         n_u=L.n_u,
         ops_before=fn.ops_before,
         ops_after=fn.ops_after,
