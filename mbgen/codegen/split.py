@@ -54,6 +54,8 @@ import re
 SPLIT_CHARS = 100_000
 #: About this many characters of printed statements per part.
 PART_CHARS = 40_000
+#: Characters of a statement beyond its expression (``    const double v123 = ...;``).
+STATEMENT_CHARS = 24
 
 _IDENT = re.compile(r"[A-Za-z_]\w*")
 
@@ -73,7 +75,7 @@ def _chunks(statements: list, size: int) -> list[list]:
     out, cur, n = [], [], 0
     for t in statements:
         cur.append(t)
-        n += len(t[1]) + 24
+        n += len(t[1]) + STATEMENT_CHARS
         if n >= size:
             out.append(cur)
             cur, n = [], 0
@@ -90,8 +92,10 @@ def _stores(view: dict, section: str) -> list[tuple]:
 
 
 def _size(view: dict) -> int:
-    """Characters of the printed temporaries and block entries of ``view``."""
-    return sum(len(e) for s in SECTIONS for _, e, _ in view[s] + _stores(view, s))
+    """Characters of the printed temporaries and block entries of ``view``, each with its
+    statement's own (:data:`STATEMENT_CHARS`): what the one function would print."""
+    return sum(len(e) + STATEMENT_CHARS for s in SECTIONS
+               for _, e, _ in view[s] + _stores(view, s))
 
 
 def split_view(view: dict, time_name: str, arrays: tuple[str, ...],
