@@ -1,7 +1,8 @@
 """Build: ``Rendered -> compiled library``, opened with cffi (ABI mode).
 
 A model compiles into a plain shared library -- its C and its batch loops, one translation
-unit, one compiler process, no Python headers -- named after a hash of its source and
+unit, one compiler process, no Python headers (a source cut into parts: a unit per core,
+:mod:`mbgen.build.units`) -- named after a hash of its source and
 every flag (``_mbgen_<prefix>_<hash>.so``) and cached in
 :func:`~mbgen.build.cache.cache_dir`, so loading an unchanged model again does not call the
 compiler.  cffi opens it (``ffi.dlopen`` over the model's declarations, parsed once per
@@ -17,8 +18,9 @@ small model's build: the 2-link arm's RHS took 0.31 s as a cffi extension with t
 crossing linked in, and takes 0.07 s as a library (gcc, this machine).
 
 A build happens in a private folder inside the cache, and the compiler runs as child
-processes whose output comes back through pipes (:func:`_run_all`).  So any number of
-threads may compile at once (threads that need the same library build it once), and the
+processes whose output comes back through pipes
+(:func:`~mbgen.build.units.run_compilers`).  So any number of threads may compile at once
+(threads that need the same library build it once), and the
 process's working directory, ``sys.stdout`` and fds 1 and 2 are never touched.  The
 finished library and then its record are moved into the cache with atomic renames, so
 concurrent builds -- threads or processes -- and interrupted ones never leave a
@@ -55,9 +57,7 @@ from ..fileio import write_files
 from .cache import (
     cache_dir,
     disk_error,
-    disk_full,
     loadable,
-    mentions_full_disk,
     owner_line,
     record_path,
     remove_stale_builds,
@@ -65,6 +65,7 @@ from .cache import (
     verified,
     write_record,
 )
+from .units import build_jobs, run_compilers, units
 
 #: Flags for the generated C.  -ffp-contract=off keeps results bitwise close to
 #: the Python module (no fused multiply-add contraction).  -g0 takes back the -g that
@@ -281,9 +282,9 @@ def crossing_path() -> Path:
             def make(folder: Path) -> Path:
                 (folder / "crossing.c").write_text(src, encoding="utf-8")
                 out = folder / target.name
-                _run_all([[_cc(), *flags, "-c", "crossing.c", "-o", "crossing.o"]], folder,
+                run_compilers([[_cc(), *flags, "-c", "crossing.c", "-o", "crossing.o"]], folder,
                          name, what)
-                _run_all([[*link, "crossing.o", "-o", out.name]], folder, name, what)
+                run_compilers([[*link, "crossing.o", "-o", out.name]], folder, name, what)
                 return out
             _build_into(target, make)
     return target
@@ -362,23 +363,37 @@ def build(rendered: Rendered, *, force: bool = False, native: bool | None = None
 def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -> Path:
     """Build ``rendered``'s library in ``folder`` (:func:`library_command`); its path.
 
-    One translation unit, the model's source then its batch loops, compiled and linked by
-    one compiler process whose output is read from a pipe: the process's working
-    directory and file descriptors are never touched, so threads may build at once."""
-    write_files(folder, {**rendered.files, f"{name}.c": f'#include "{rendered.prefix}.c"\n\n'
-                         + rendered.extension})
+    The model's source, then its batch loops: one translation unit, compiled and linked by
+    one compiler process, unless the source has parts (:mod:`mbgen.codegen.split`) and the
+    machine has cores (:func:`~mbgen.build.units.build_jobs`): then its units
+    (:func:`~mbgen.build.units.units`) are compiled at once, one per core, and linked."""
+    texts = units(rendered.files[f"{rendered.prefix}.c"], build_jobs())
+    first = f'#include "{rendered.prefix}.c"' if len(texts) == 1 else texts[0]
+    extra = {f"{name}_{k}.c": text for k, text in enumerate(texts[1:], 1)}
+    write_files(folder, {**rendered.files, f"{name}.c": f"{first}\n\n{rendered.extension}",
+                         **extra})
     out = folder / f"{name}{_suffix()}"
-    _run_all([library_command(rendered, f"{name}.c", out.name, native)], folder, name,
-             rendered.prefix)
+    if not extra:
+        run_compilers([library_command(rendered, [f"{name}.c"], out.name, native)], folder,
+                      name, rendered.prefix)
+        return out
+    sources = [f"{name}.c", *extra]
+    objects = [f"{source[:-2]}.o" for source in sources]
+    flags = (*_user_flags()[0], *cflags(rendered, native), SHARED_FLAGS[0], "-c")
+    run_compilers([[_cc(), *flags, s, "-o", o] for s, o in zip(sources, objects)], folder,
+                  name, rendered.prefix, jobs=build_jobs())
+    run_compilers([library_command(rendered, objects, out.name, native)], folder, name,
+                  rendered.prefix)
     return out
 
 
-def library_command(rendered: Rendered, source: str, output: str,
+def library_command(rendered: Rendered, inputs: list[str], output: str,
                     native: bool | None = None) -> list[str]:
-    """The one compiler call that builds a model's library: ``cc $CFLAGS`` :func:`cflags`
-    ``-fPIC -shared source -lm $LDFLAGS -o output``."""
+    """The compiler call that builds a model's library: ``cc $CFLAGS`` :func:`cflags`
+    ``-fPIC -shared inputs -lm $LDFLAGS -o output`` (``inputs``: the one source, or the
+    objects of its units)."""
     compile_flags, link = _user_flags()
-    return [_cc(), *compile_flags, *cflags(rendered, native), *SHARED_FLAGS, source, "-lm",
+    return [_cc(), *compile_flags, *cflags(rendered, native), *SHARED_FLAGS, *inputs, "-lm",
             *link, "-o", output]
 
 
@@ -405,30 +420,6 @@ def _build_into(target: Path, make) -> None:
             os.replace(record, record_path(target))  # after the library: it proves it whole
     except OSError as exc:
         raise disk_error(exc, root, target.stem) from exc
-
-
-def _run_all(commands: list[list[str]], folder: Path, name: str, what: str) -> str:
-    """Run ``commands`` at once in ``folder``; their joined output, or a :class:`BuildError`
-    naming ``what`` is built (a :func:`~mbgen.build.cache.disk_full` one when the output
-    says the disk is full)."""
-    label = what if " " in what else f"model {what!r}"
-    try:
-        procs = [subprocess.Popen(cmd, cwd=folder, stdout=subprocess.PIPE,
-                                  stderr=subprocess.STDOUT, text=True, errors="replace")
-                 for cmd in commands]
-    except OSError as exc:
-        raise BuildError(f"compiling {label} failed: cannot run {commands[0][0]!r} "
-                         f"({exc}); install a C compiler or set CC") from None
-    outputs = [p.communicate()[0] for p in procs]
-    output = "\n".join(o.strip() for o in outputs if o.strip())
-    full = mentions_full_disk(output)
-    if full:
-        raise disk_full(folder.parent, name, full)
-    failed = [p.returncode for p in procs if p.returncode != 0]
-    if failed:
-        raise BuildError(f"compiling {label} failed: the compiler exited with "
-                         f"status {failed[0]}\n--- compiler output ---\n{output}")
-    return output
 
 
 def _python_flags() -> tuple[tuple[str, ...], tuple[str, ...]]:
