@@ -65,6 +65,7 @@ from .cache import (
     verified,
     write_record,
 )
+from .probes import remembered
 from .units import build_jobs, run_compilers, units
 
 #: Flags for the generated C.  -ffp-contract=off keeps results bitwise close to
@@ -135,13 +136,18 @@ def wants_native(default: bool = True) -> bool:
 def native_target(cc: str) -> str:
     """What ``-march=native`` means to ``cc`` on this machine: a hash of the macros it then
     predefines (the instruction set), part of the cache key so that a cache shared between
-    machines never loads a module built for another CPU; "" where ``cc`` refuses the flag."""
-    try:
-        proc = subprocess.run([cc, *NATIVE, "-E", "-dM", "-x", "c", os.devnull],
-                              capture_output=True, text=True, timeout=60)
-    except (OSError, subprocess.SubprocessError):
-        return ""
-    return hashlib.sha256(proc.stdout.encode()).hexdigest()[:16] if proc.returncode == 0 else ""
+    machines never loads a module built for another CPU; "" where ``cc`` refuses the flag.
+    Asked once per compiler and CPU (:mod:`mbgen.build.probes`)."""
+    def ask() -> str:
+        try:
+            proc = subprocess.run([cc, *NATIVE, "-E", "-dM", "-x", "c", os.devnull],
+                                  capture_output=True, text=True, timeout=60)
+        except (OSError, subprocess.SubprocessError):
+            return ""
+        return hashlib.sha256(proc.stdout.encode()).hexdigest()[:16] \
+            if proc.returncode == 0 else ""
+
+    return remembered(f"native {' '.join(NATIVE)}", cc, ask)
 
 
 def _cc() -> str:
@@ -191,13 +197,17 @@ def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
 @functools.cache
 def accepts(cc: str, flags: tuple[str, ...]) -> bool:
     """Whether ``cc`` compiles an empty C file with ``flags`` without a word (a compiler that
-    ignores an option it does not know says so)."""
-    try:
-        proc = subprocess.run([cc, *flags, "-Werror", "-x", "c", "-c", os.devnull, "-o",
-                               os.devnull], capture_output=True, text=True, timeout=60)
-    except (OSError, subprocess.SubprocessError):
-        return False
-    return proc.returncode == 0 and not proc.stderr.strip()
+    ignores an option it does not know says so); asked once per compiler and CPU
+    (:mod:`mbgen.build.probes`)."""
+    def ask() -> str:
+        try:
+            proc = subprocess.run([cc, *flags, "-Werror", "-x", "c", "-c", os.devnull, "-o",
+                                   os.devnull], capture_output=True, text=True, timeout=60)
+        except (OSError, subprocess.SubprocessError):
+            return "0"
+        return "1" if proc.returncode == 0 and not proc.stderr.strip() else "0"
+
+    return remembered(f"accepts {' '.join(flags)}", cc, ask) == "1"
 
 
 def model_flags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
@@ -373,15 +383,19 @@ def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -
     write_files(folder, {**rendered.files, f"{name}.c": f"{first}\n\n{rendered.extension}",
                          **extra})
     out = folder / f"{name}{_suffix()}"
+
+    def meanwhile():   # cffi parses the declarations while the compiler runs (for load)
+        _declared(rendered.cdef + rendered.extension_cdef)
+
     if not extra:
         run_compilers([library_command(rendered, [f"{name}.c"], out.name, native)], folder,
-                      name, rendered.prefix)
+                      name, rendered.prefix, meanwhile=meanwhile)
         return out
     sources = [f"{name}.c", *extra]
     objects = [f"{source[:-2]}.o" for source in sources]
     flags = (*_user_flags()[0], *cflags(rendered, native), SHARED_FLAGS[0], "-c")
     run_compilers([[_cc(), *flags, s, "-o", o] for s, o in zip(sources, objects)], folder,
-                  name, rendered.prefix, jobs=build_jobs())
+                  name, rendered.prefix, jobs=build_jobs(), meanwhile=meanwhile)
     run_compilers([library_command(rendered, objects, out.name, native)], folder, name,
                   rendered.prefix)
     return out

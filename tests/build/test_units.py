@@ -96,3 +96,15 @@ def test_a_bad_job_count_is_named(given, monkeypatch):
         units.build_jobs()
     monkeypatch.delenv("MBGEN_BUILD_JOBS")
     assert units.build_jobs() >= 1
+
+
+def test_meanwhile_runs_while_the_compilers_do_and_a_failure_is_named(tmp_path):
+    """``meanwhile`` (cffi's parse in a build) runs once, in this thread, and a compiler that
+    fails still raises a BuildError with the model's name."""
+    seen = []
+    out = units.run_compilers([["sh", "-c", "sleep 0.2; echo done"]], tmp_path, "m", "arm",
+                              meanwhile=lambda: seen.append(1))
+    assert seen == [1] and out == "done"
+    with pytest.raises(BuildError, match="compiling model 'arm' failed.*status 3"):
+        units.run_compilers([["sh", "-c", "exit 3"], ["true"]], tmp_path, "m", "arm", jobs=1,
+                            meanwhile=lambda: None)
