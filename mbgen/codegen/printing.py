@@ -23,8 +23,9 @@ import math
 from collections.abc import Mapping
 
 import sympy as sm
+from sympy.core.mul import _keep_coeff
 from sympy.printing.c import C99CodePrinter
-from sympy.printing.precedence import precedence
+from sympy.printing.precedence import PRECEDENCE, precedence
 from sympy.printing.pycode import PythonCodePrinter
 
 from ..errors import NonFiniteConstantError
@@ -74,6 +75,24 @@ def _refuse_nonfinite(expr):
 class _PowerMixin:
     """Shared rewriting of powers and symbols for both printers."""
 
+    def doprint(self, expr, assign_to=None):
+        """sympy's ``doprint``, by :class:`_Fast` where ``expr`` is an expression alone."""
+        if assign_to is not None or not isinstance(expr, sm.Expr):
+            return super().doprint(expr, assign_to)
+        self._not_supported, self._number_symbols = set(), set()
+        text = _Fast(self).text(expr)
+        if self._not_supported or self._number_symbols or "\n" in text:
+            return super().doprint(expr, assign_to)
+        return text
+
+    def _handle_UnevaluatedExpr(self, expr):
+        """sympy's printers rebuild every expression with ``replace`` to strip ``re`` around an
+        ``UnevaluatedExpr`` (a quarter of the 32-link arm's render); only an expression that
+        holds an ``re`` is handed to it."""
+        if any(isinstance(node, sm.re) for node in walk_unique([expr])):
+            return super()._handle_UnevaluatedExpr(expr)
+        return expr
+
     _names: Mapping[sm.Symbol, str]
     _one: str
     _sqrt: str
@@ -112,6 +131,121 @@ class _PowerMixin:
         _refuse_nonfinite(expr)
 
     _print_NegativeInfinity = _print_ComplexInfinity = _print_NaN = _print_Infinity
+
+
+class _Fast:
+    """sympy's printing of sums, products and powers, without its detours: the same text.
+
+    ``printer.doprint`` of one temporary went through ``replace`` over the expression, a
+    ``precedence`` lookup along the class's MRO per node, ``could_extract_minus_sign``
+    (which builds ``-expr``) and ``_keep_coeff`` (a new product) per product: most of the
+    32-link arm's render.  This walks the expression once with the rules of sympy 1.14's
+    ``StrPrinter._print_Add``, ``CodePrinter._print_Mul``, :mod:`sympy.printing.precedence`
+    and :meth:`_PowerMixin._print_Pow`; anything else (a function, a general power, a
+    sorted order of factors) is printed by the printer itself.  Tested against the printer
+    on every built-in scene's expressions (``tests/codegen/test_printing.py``).
+    """
+
+    def __init__(self, printer):
+        self.p = printer
+        self.sorted = printer.order not in ("old", "none")
+        self.numbers: dict = {}
+
+    def prec(self, e) -> int:
+        if e.is_Symbol:
+            return PRECEDENCE["Atom"]
+        if e.is_Add:
+            return PRECEDENCE["Add"]
+        if e.is_Pow:
+            return PRECEDENCE["Pow"]
+        if e.is_Mul and not any(a.is_Function for a in e.args):
+            c = e.args[0]
+            return PRECEDENCE["Add"] if c.is_Number and _negative(c) else PRECEDENCE["Mul"]
+        return precedence(e)
+
+    def paren(self, e, level) -> str:
+        return f"({self.text(e)})" if self.prec(e) <= level else self.text(e)
+
+    def text(self, e) -> str:
+        if e.is_Symbol:
+            return self.p._print_Symbol(e)
+        if e.is_Number:
+            hit = self.numbers.get(e)
+            if hit is None:
+                hit = self.numbers[e] = self.p._print(e)
+            return hit
+        if e.is_Add:
+            return self.add(e)
+        if e.is_Mul and e.is_commutative:
+            return self.mul(e)
+        if e.is_Pow and power_form(e.exp) is not None:
+            return self.pow(e.base, e.exp)
+        return self.p._print(e)
+
+    def add(self, e) -> str:
+        words = []
+        for term in self.p._as_ordered_terms(e, order=None) if self.sorted else e.args:
+            t = self.text(term)
+            sign = "+"
+            if t.startswith("-") and not term.is_Add:
+                sign, t = "-", t[1:]
+            words += [sign, f"({t})" if self.prec(term) < PRECEDENCE["Add"] or term.is_Add
+                      else t]
+        sign = words.pop(0)
+        return ("" if sign == "+" else sign) + " ".join(words)
+
+    def mul(self, e) -> str:
+        prec = self.prec(e)
+        args = list(e.args)
+        sign = "-" if args[0].is_Number and _negative(args[0]) else ""
+        if self.sorted:     # sympy's own steps: the sign moved out, the factors sorted
+            c, rest = e.as_coeff_Mul()
+            args = (_keep_coeff(-c, rest) if sign else e).as_ordered_factors()
+        elif sign:          # what _keep_coeff(-c, rest) holds, without building it
+            c = -args[0]
+            args = args[1:] if c is sm.S.One else [c] + args[1:]
+        a, b, paren = [], [], []
+        for item in args:
+            if item.is_Pow and item.exp.is_Rational and item.exp.p < 0:
+                if item.exp != -1:
+                    b.append(sm.Pow(item.base, -item.exp, evaluate=False))
+                else:
+                    if len(item.args[0].args) != 1 and isinstance(item.base, sm.Mul):
+                        paren.append(item)
+                    b.append(item.base)
+            else:
+                a.append(item)
+        a = a or [sm.S.One]
+        if len(a) == 1 and sign == "-":
+            a_str = [self.paren(a[0], 0.5 * (PRECEDENCE["Pow"] + PRECEDENCE["Mul"]))]
+        else:
+            a_str = [self.paren(x, prec) for x in a]
+        b_str = [self.paren(x, prec) for x in b]
+        for item in paren:
+            if item.base in b:
+                b_str[b.index(item.base)] = f"({b_str[b.index(item.base)]})"
+        if not b:
+            return sign + "*".join(a_str)
+        if len(b) == 1:
+            return sign + "*".join(a_str) + "/" + b_str[0]
+        return sign + "*".join(a_str) + "/(" + "*".join(b_str) + ")"
+
+    def pow(self, base, exp) -> str:
+        kind, k = power_form(exp)
+        one = self.p._one
+        b = self.paren(base, PRECEDENCE["Pow"])
+        if kind == "product":
+            prod = b if k == 1 else "(" + "*".join([b] * k) + ")"
+        else:
+            prod = "*".join([f"{self.p._sqrt}({self.text(base)})"] + [b] * k)
+            prod = prod if k == 0 else f"({prod})"
+        return prod if exp > 0 else f"({one}/{prod})"
+
+
+def _negative(number) -> bool:
+    """``number < 0`` for a sympy number, without its assumptions (a new Float's first
+    ``is_negative`` deduces every fact about it)."""
+    return number.p < 0 if number.is_Rational else float(number) < 0
 
 
 #: Kernels with more operations after CSE than this print the terms of a sum in the order
