@@ -200,8 +200,7 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
         every = vel_temps + temps + post_temps
         used_syms, uses = _usage(equations, vel_roots + roots + [e for _, e in every])
         raw = [e for b in s.velocity + s.pre + s.post for _, e in b.entries]
-        before = count_ops_tree(raw) + sum(count_ops_tree([program_defs[d]]) for d in
-                                           reachable(raw, program_defs))
+        before = count_ops_tree(raw + [program_defs[d] for d in reachable(raw, program_defs)])
         after = (count_ops_dag([e for _, e in every])
                  + sum(count_ops_dag([e]) for e in vel_roots + roots))
         functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,

@@ -53,9 +53,15 @@ ZERO3: Vec3 = (S0, S0, S0)
 
 
 # ----------------------------------------------------------------- vector algebra
+def _equals(x, value: int) -> bool:
+    """``x == value`` for a sympy term; only a number can be (a comparison of any other
+    expression sympifies ``value`` first: a tenth of deriving the 32-link arm)."""
+    return (x.is_Number if isinstance(x, sm.Basic) else True) and x == value
+
+
 def add(*terms):
     """Sum of sympy terms, skipping exact zeros."""
-    nz = [x for x in terms if x is not S0 and x != 0]
+    nz = [x for x in terms if x is not S0 and not _equals(x, 0)]
     if not nz:
         return S0
     return nz[0] if len(nz) == 1 else sm.Add(*nz)
@@ -63,11 +69,11 @@ def add(*terms):
 
 def mul(a, b):
     """Product of two sympy terms, short-circuiting exact zeros and ones."""
-    if a is S0 or b is S0 or a == 0 or b == 0:
+    if a is S0 or b is S0 or _equals(a, 0) or _equals(b, 0):
         return S0
-    if a == 1:
+    if _equals(a, 1):
         return b
-    if b == 1:
+    if _equals(b, 1):
         return a
     return sm.Mul(a, b)
 
@@ -85,7 +91,7 @@ def vneg(v: Vec3) -> Vec3:
 
 
 def is_zero(v: Vec3) -> bool:
-    return all(x is S0 or x == 0 for x in v)
+    return all(x is S0 or _equals(x, 0) for x in v)
 
 
 def cross(a: Vec3, b: Vec3) -> Vec3:

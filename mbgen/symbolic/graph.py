@@ -30,8 +30,20 @@ def walk_unique(exprs: Iterable[sm.Basic]):
 
 
 def free_symbols(exprs: Iterable[sm.Basic]) -> set:
-    """Union of free symbols of ``exprs`` (DAG walk)."""
-    return {n for n in walk_unique(exprs) if isinstance(n, sm.Symbol)}
+    """Union of free symbols of ``exprs`` (DAG walk; in no order, so without a generator)."""
+    found: set = set()
+    seen: set = set()
+    stack = [e if hasattr(e, "args") else sm.sympify(e) for e in exprs]
+    while stack:
+        node = stack.pop()
+        if node in seen:
+            continue
+        seen.add(node)
+        if isinstance(node, sm.Symbol):
+            found.add(node)
+        else:
+            stack.extend(node.args)
+    return found
 
 
 def leaves(exprs: Iterable[sm.Basic]) -> tuple[set, set]:
@@ -77,26 +89,18 @@ def node_ops(node: sm.Basic) -> int:
 def count_ops_tree(exprs: Iterable[sm.Basic]) -> int:
     """Operations of ``exprs`` evaluated as trees (no sharing): what a printer emits without CSE.
 
-    Counted with :func:`node_ops`, memoised per distinct node, so it is fast on
-    shared DAGs even when the tree it describes is huge.
+    Counted with :func:`node_ops`, memoised per distinct node for every expression at
+    once (a node's tree count does not depend on who reads it), so it is fast on shared
+    DAGs even when the tree it describes is huge; the walk stops at counted nodes.
     """
     memo: dict = {}
-
-    def ops(node) -> int:
-        hit = memo.get(node)
-        if hit is not None:
-            return hit
-        n = node_ops(node) + sum(ops(a) for a in node.args)
-        memo[node] = n
-        return n
-
     total = 0
     for e in exprs:
-        e = sm.sympify(e)
-        # iterative warm-up of the memo (post-order) to avoid deep recursion
-        for node in reversed(list(walk_unique([e]))):
-            ops(node)
-        total += ops(e)
+        e = e if hasattr(e, "args") else sm.sympify(e)
+        if e not in memo:
+            for node in postorder_unique([e], known=memo):
+                memo[node] = node_ops(node) + sum(memo[a] for a in node.args)
+        total += memo[e]
     return total
 
 
@@ -106,16 +110,17 @@ def count_ops_dag(exprs: Iterable[sm.Basic]) -> int:
 
 
 # --------------------------------------------------------------------------- graph passes
-def postorder_unique(exprs: Iterable) -> list:
+def postorder_unique(exprs: Iterable, known=()) -> list:
     """Distinct nodes of ``exprs`` (sympy or symengine), children before parents, iteratively.
 
     Each distinct node appears once, so a pass that processes this list and
-    memoises by node costs what the expression *graph* costs.
+    memoises by node costs what the expression *graph* costs.  Nodes in ``known`` (a
+    pass's memo) and what lies below them are left out.
     """
     order: list = []
     seen: set = set()
     for root in exprs:
-        if root in seen:
+        if root in seen or root in known:
             continue
         stack = [(root, False)]
         while stack:
@@ -123,7 +128,7 @@ def postorder_unique(exprs: Iterable) -> list:
             if expanded:
                 order.append(node)
                 continue
-            if node in seen:
+            if node in seen or node in known:
                 continue
             seen.add(node)
             stack.append((node, True))
