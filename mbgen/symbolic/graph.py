@@ -36,13 +36,14 @@ def free_symbols(exprs: Iterable[sm.Basic]) -> set:
     stack = [e if hasattr(e, "args") else sm.sympify(e) for e in exprs]
     while stack:
         node = stack.pop()
+        if not node.args:   # a leaf: nothing below it (a Float's hash is not cached)
+            if isinstance(node, sm.Symbol):
+                found.add(node)
+            continue
         if node in seen:
             continue
         seen.add(node)
-        if isinstance(node, sm.Symbol):
-            found.add(node)
-        else:
-            stack.extend(node.args)
+        stack.extend(node.args)
     return found
 
 
