@@ -4,7 +4,9 @@
 library, cached by content hash, and opens it with cffi's ABI mode (``load``); the one
 Python extension, the crossing that calls a library's functions from Python, is compiled
 once per cache; the compiler runs in child processes read through pipes, so that threads
-may build at once;
+may build at once, and a source cut into parts compiles as one translation unit per core
+(:mod:`~mbgen.build.units`); the compiler's answers that the flags depend on are kept in the
+cache (:mod:`~mbgen.build.probes`);
 :mod:`~mbgen.build.cache` keeps the folder of compiled modules private and decides
 which file may be loaded (owner, mode, SHA-256 record, checked on the open file that is
 then loaded); :mod:`~mbgen.build.warm` is the cache's second index, the rendered code of
