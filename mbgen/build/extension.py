@@ -1,8 +1,8 @@
 """Build: ``Rendered -> compiled library``, opened with cffi (ABI mode).
 
 A model compiles into a plain shared library -- its C and its batch loops, one translation
-unit, one compiler process, no Python headers (a source cut into parts: a unit per core,
-:mod:`mbgen.build.units`) -- named after a hash of its source and
+unit, one compiler process, no Python headers (a source cut into parts: several units,
+compiled on every core, :mod:`mbgen.build.units`) -- named after a hash of its source and
 every flag (``_mbgen_<prefix>_<hash>.so``) and cached in
 :func:`~mbgen.build.cache.cache_dir`, so loading an unchanged model again does not call the
 compiler.  cffi opens it (``ffi.dlopen`` over the model's declarations, parsed once per
@@ -292,8 +292,8 @@ def crossing_path() -> Path:
             def make(folder: Path) -> Path:
                 (folder / "crossing.c").write_text(src, encoding="utf-8")
                 out = folder / target.name
-                run_compilers([[_cc(), *flags, "-c", "crossing.c", "-o", "crossing.o"]], folder,
-                         name, what)
+                run_compilers([[_cc(), *flags, "-c", "crossing.c", "-o", "crossing.o"]],
+                              folder, name, what)
                 run_compilers([[*link, "crossing.o", "-o", out.name]], folder, name, what)
                 return out
             _build_into(target, make)
@@ -376,7 +376,8 @@ def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -
     The model's source, then its batch loops: one translation unit, compiled and linked by
     one compiler process, unless the source has parts (:mod:`mbgen.codegen.split`) and the
     machine has cores (:func:`~mbgen.build.units.build_jobs`): then its units
-    (:func:`~mbgen.build.units.units`) are compiled at once, one per core, and linked."""
+    (:func:`~mbgen.build.units.units`) are compiled by a pool of one compiler per core and
+    linked.  cffi parses the declarations meanwhile (:func:`load` opens the library next)."""
     texts = units(rendered.files[f"{rendered.prefix}.c"], build_jobs())
     first = f'#include "{rendered.prefix}.c"' if len(texts) == 1 else texts[0]
     extra = {f"{name}_{k}.c": text for k, text in enumerate(texts[1:], 1)}

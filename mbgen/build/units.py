@@ -8,16 +8,19 @@ the same function with the same flags, called once from the same place, so the r
 those of the one unit bit for bit (no flag lets gcc reassociate or contract floating point,
 and a call across units only forgoes inlining a function of some 40,000 characters).
 
-:func:`units` cuts the rendered source ``<prefix>.c`` into ``jobs`` texts:
+:func:`units` cuts the rendered source ``<prefix>.c`` into up to :data:`UNITS_PER_JOB`
+``* jobs`` texts, which a pool of ``jobs`` compilers works through
+(:func:`run_compilers`):
 
-* the first is the source with each part's body replaced by its declaration;
+* the first is the source with each moved part's body replaced by its declaration;
 * the others hold the parts, in order, in contiguous groups of about equal size, after the
   source's ``#include`` lines (the parts read the header's status codes and ``math.h``).
 
 A part keeps its name (``<prefix>_<function>_part<k>``, prefixed like every symbol of the
 model) but loses ``static``: it is declared with hidden visibility where the compiler has
 it, so the library exports what it exported before.  Measured on the 32-link arm's RHS
-(five parts, ``-O2 -march=native``, 2 cores): gcc took 1.22 s as one unit.
+(four parts, ``-O2 -march=native``, 2 cores): the compile stage (build and load, a new
+process) took 1.35-1.38 s as one unit and 0.84-0.96 s with two jobs.
 
 Shapes: ``units(source, jobs) -> list[str]``; one text where the source has no parts or
 ``jobs`` is 1.
@@ -99,14 +102,14 @@ def units(source: str, jobs: int) -> list[str]:
         for group in groups[1:]]
 
 
-def _groups(sizes: list[int], jobs: int) -> list[list[int]]:
-    """Indices ``0..len(sizes)-1`` in at most ``jobs`` contiguous groups of about
-    ``sum(sizes) / jobs`` each (greedy, in order); index 0 is the first unit."""
-    target = sum(sizes) / jobs
+def _groups(sizes: list[int], count: int) -> list[list[int]]:
+    """Indices ``0..len(sizes)-1`` in at most ``count`` contiguous groups of about
+    ``sum(sizes) / count`` each (greedy, in order); index 0 is the first unit."""
+    target = sum(sizes) / count
     groups: list[list[int]] = [[]]
     load = 0
     for k, size in enumerate(sizes):
-        if groups[-1] and load + size / 2 > target and len(groups) < jobs:
+        if groups[-1] and load + size / 2 > target and len(groups) < count:
             groups.append([])
             load = 0
         groups[-1].append(k)
