@@ -98,7 +98,8 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
     """Body -> ``(coordinate index, speed index)`` of its joint, or None.
 
     None unless every body moves relative to its parent by exactly one coordinate
-    ``q_k`` with ``q_k' = u_k`` along one constant motion-subspace column: a
+    ``q_k`` with ``q_k' = u_k`` along one constant motion-subspace column (a coordinate may
+    move several bodies, as a mimic joint's does: their terms are summed): a
     revolute joint (a chain of simple rotations, one by ``a q_k + b``, the others by
     constant angles; a constant offset from the parent's joint point) or a
     prismatic one (constant rotations; the offset ``r0 + q_k d`` with ``d`` the
@@ -110,7 +111,6 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
     moving = frozenset(L.coordinates) | frozenset(L.speeds) | {L.time}
     look = _Look(dict(ne.P.assignments), moving)
     out: dict = {}
-    used: set = set()      # coordinates already a joint's
     for b in ne.bodies:
         k = ne.kin[b]
         if len(k.S) != 1 or k.through:
@@ -127,9 +127,8 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
             q = _sliding(ne, b, col, look) if is_zero(col[:3]) else None
         if q is None or q not in coords or ne.prep.qdot.get(q) not in speeds:
             return None
-        if speeds[ne.prep.qdot[q]] != s_index or q in used:
+        if speeds[ne.prep.qdot[q]] != s_index:
             return None
-        used.add(q)
         out[b] = (coords[q], s_index)
     return out
 
@@ -341,14 +340,14 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list]:
         Fq0 = P.vector(vadd6(coriolis_action(Bc[b], Vq), inertia_action(Yc[b], Aq)))
         Fq[b] = P.vector(vadd6(Fq0, fcross(J, fc[b])))
         Fv[b] = P.vector(vadd6(coriolis_action(Bc[b], J), inertia_action(Yc[b], Av)))
-        dq[kb][qb] = dot6(J, Fq0)
-        du[kb][kb] = dot6(J, Fv[b])
-        for d in below[b]:
+        dq[kb][qb] = add(dq[kb][qb], dot6(J, Fq0))
+        du[kb][kb] = add(du[kb][kb], dot6(J, Fv[b]))
+        for d in below[b]:     # summed: a coordinate may move several bodies (mimic joints)
             qd, kd = joints[d]
-            dq[kd][qb] = add(dot6(Fa[d], Aq), dot6(T[d], Vq))
-            du[kd][kb] = add(dot6(Fa[d], Av), dot6(T[d], J))
-            dq[kb][qd] = dot6(J, Fq[d])
-            du[kb][kd] = dot6(J, Fv[d])
+            dq[kd][qb] = add(dq[kd][qb], dot6(Fa[d], Aq), dot6(T[d], Vq))
+            du[kd][kb] = add(du[kd][kb], dot6(Fa[d], Av), dot6(T[d], J))
+            dq[kb][qd] = add(dq[kb][qd], dot6(J, Fq[d]))
+            du[kb][kd] = add(du[kb][kd], dot6(J, Fv[d]))
     return dq, du
 
 

@@ -74,6 +74,33 @@ def tree(kind: str) -> mbgen.Model:
     return m
 
 
+def mimic(kind: str) -> mbgen.Model:
+    """Two coordinates, three bodies: one coordinate moves two of them, as a URDF mimic joint
+    does.  ``chain``: c turns with ``-0.5 q2 + 0.3`` below b, which turns with ``q2``;
+    ``fingers``: two bodies slide on a apart, by ``q2`` and ``-q2`` (Panda's fingers)."""
+    m = mbgen.Model(f"mimic_{kind}")
+    q = m.coordinates("q1:3")
+    m.speeds("u1:3")
+    g, = m.constants("g")
+    N = m.newtonian("N")
+    A = m.rotate(N, "A", 3, q[0])
+    m.body("a", A, 1.0, INERTIA[0], m.point("P1", m.origin, 0.5 * A.x))
+    J2 = m.point("J2", m.origin, 1.0 * A.x)
+    if kind == "chain":
+        B = m.rotate(A, "B", 2, q[1])
+        m.body("b", B, 2.0, INERTIA[1], m.point("P2", J2, 0.4 * B.x))
+        C = m.rotate(B, "C", 1, -0.5 * q[1] + 0.3)
+        J3 = m.point("J3", J2, 0.8 * B.x)
+        m.body("c", C, 1.5, INERTIA[2], m.point("P3", J3, 0.3 * C.y))
+    else:
+        F1 = m.point("F1", J2, q[1] * A.y)
+        m.body("b", A, 2.0, INERTIA[1], m.point("P2", F1, 0.1 * A.x))
+        F2 = m.point("F2", J2, -q[1] * A.y)
+        m.body("c", A, 1.5, INERTIA[2], m.point("P3", F2, 0.1 * A.x))
+    m.gravity(-g * N.y)
+    return m
+
+
 def jacobians(source, rng, fixed=None, samples=3):
     """``(analytic, forward-mode)`` compiled Jacobians at ``samples`` random points."""
     analytic = equations_of(source, Method.NEWTON_EULER, jacobian=True)
@@ -105,6 +132,13 @@ def small(monkeypatch):
 @pytest.mark.parametrize("kind", ["chain", "neg", "branch", "slider", "cart", "loads"])
 def test_analytic_equals_forward_mode(kind, small):
     assert_pairs_close(jacobians(tree(kind), np.random.default_rng(3)))
+
+
+@pytest.mark.parametrize("kind", ["chain", "fingers"])
+def test_a_coordinate_that_moves_two_bodies(kind, small):
+    """A mimic joint: the coordinate's rows and columns sum its bodies' terms (Panda as
+    shipped, whose second finger mimics the first, fell back to forward mode)."""
+    assert_pairs_close(jacobians(mimic(kind), np.random.default_rng(4)))
 
 
 def test_spatial_arm_with_parameters_at_run_time():
