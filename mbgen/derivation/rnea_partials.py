@@ -111,7 +111,10 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
     moving = frozenset(L.coordinates) | frozenset(L.speeds) | {L.time}
     look = _Look(dict(ne.P.assignments), moving)
     out: dict = {}
+    root = free_root(ne)
     for b in ne.bodies:
+        if b is root:
+            continue
         k = ne.kin[b]
         if len(k.S) != 1 or k.through:
             return None
@@ -130,7 +133,24 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
         if speeds[ne.prep.qdot[q]] != s_index:
             return None
         out[b] = (coords[q], s_index)
-    return out
+    return out or None
+
+
+def free_root(ne) -> Body | None:
+    """The one root body of a tree moved by six speeds along constant columns (a floating
+    base: ``S`` the unit twists in the body), else None.  Its columns are left to forward
+    mode (:func:`residual_jacobian`); every other body reads it as its parent."""
+    roots = [b for b in ne.bodies if b.parent is None]
+    if len(roots) != 1:
+        return None
+    b = roots[0]
+    k = ne.kin[b]
+    L = ne.prep.layout
+    moving = frozenset(L.coordinates) | frozenset(L.speeds) | {L.time}
+    if len(k.S) != 6 or any(sm.sympify(x).free_symbols & moving for col in k.S.values()
+                            for x in col):
+        return None
+    return b
 
 
 def _turning(ne, b, moving):
@@ -227,9 +247,34 @@ class _World:
         self.R, self.c, self.J, self.v, self.a = {}, {}, {}, {}, {}
         self.Y, self.B, self.f = {}, {}, {}
         self.Vq, self.Aq, self.Av = {}, {}, {}
+        self.columns: dict = {}     # the free root's world columns, speed index -> J
         for b in ne.bodies:
-            _, k = joints[b]
-            self._forward(b, k, udot, ground_acc)
+            if b in joints:
+                self._forward(b, joints[b][1], udot, ground_acc)
+            else:
+                self._free(b, udot, ground_acc)
+
+    def _free(self, b, udot, ground_acc):
+        """The free root: ``v = sum_k J_k u_k``, ``a = a_ground + sum_k J_k u'_k`` (its
+        parent, the ground, does not move: the velocity product ``v_p x J u`` vanishes)."""
+        ne, P = self.ne, self.P
+        R = tuple(tuple(P.scalar(x) for x in row) for row in ne.rotation(b).matrix)
+        c = P.vector(ne.kin[b].r)
+        speeds = ne.prep.layout.speeds
+        v, a = ZERO6, ground_acc
+        for k, col in sorted(ne.kin[b].S.items()):
+            sw, sv = split(col)
+            w = P.vector(matvec(R, sw))
+            J = join(w, P.vector(vadd(matvec(R, sv), cross(c, w))))
+            self.columns[k] = J
+            v = vadd6(v, scale6(speeds[k], J))
+            a = vadd6(a, scale6(udot[k], J))
+        v, a = P.vector(v), P.vector(a)
+        Y = self._inertia(b, R, c)
+        h = P.vector(inertia_action(Y, v))
+        self.R[b], self.c[b], self.v[b], self.a[b], self.Y[b] = R, c, v, a, Y
+        self.B[b] = self._coriolis(split(v), Y, h)
+        self.f[b] = P.vector(vadd6(inertia_action(Y, a), fcross(v, h)))
 
     def _forward(self, b, k, udot, ground_acc):
         ne, P = self.ne, self.P
@@ -325,6 +370,13 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list]:
     Yc, Bc, fc, Fa, T, Fq, Fv, below = {}, {}, {}, {}, {}, {}, {}, {}
     for b in reversed(ne.bodies):
         kids = b.children
+        if b not in joints:     # the free root: its rows against every other column
+            for k, J in W.columns.items():
+                for d in [d for c in kids for d in [c] + below[c]]:
+                    qd, kd = joints[d]
+                    dq[k][qd] = add(dq[k][qd], dot6(J, Fq[d]))
+                    du[k][kd] = add(du[k][kd], dot6(J, Fv[d]))
+            continue
         Yc[b] = _sum_inertia(P, [W.Y[b]] + [Yc[c] for c in kids]) if kids else W.Y[b]
         Bc[b] = ((tuple(tuple(P.scalar(add(W.B[b][0][i][j], *(Bc[c][0][i][j] for c in kids)))
                               for j in range(3)) for i in range(3)),
@@ -357,14 +409,18 @@ def applied_residual(ne) -> list:
     return ne.forcing({b: ne.applied_wrench(b) for b in ne.bodies})
 
 
-def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, Program] | None:
+def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Program] | None:
     r""":math:`\partial R/\partial x` (``n_u x n_x``) of :math:`R = F - M u'` at ``u'`` held,
     and the forward-mode assignments of its applied part (to follow ``ne``'s program);
-    None where :func:`screw_joints` does not apply or below :data:`MIN_SPEEDS` speeds."""
+    None where :func:`screw_joints` does not apply or below :data:`MIN_SPEEDS` speeds.
+
+    A free root's columns (its coordinates and speeds: every state no joint holds) are
+    ``residual``'s (:meth:`~mbgen.derivation.recursion.NewtonEuler.residual`, ``R`` at
+    ``udot``) by forward mode: a few passes over the bodies, against one per coordinate."""
     if ne.nu < MIN_SPEEDS:
         return None
     joints = screw_joints(ne)
-    if joints is None:
+    if joints is None or (len(joints) < len(ne.bodies) and residual is None):
         return None
     L = ne.prep.layout
     dq, du = inertial_partials(ne, joints, udot)
@@ -376,6 +432,14 @@ def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, Program] | None:
         d = [[S0] * L.n_x for _ in range(L.n_u)]
     rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
             for i in range(L.n_u)]
+    held = {q for q, _ in joints.values()} | {L.n_q + k for _, k in joints.values()}
+    free = [j for j in range(L.n_x) if j not in held]
+    if free:
+        more, dr = derivatives(ne.P.build(), residual, [L.states[j] for j in free], "ner")
+        extra = Program(extra.assignments + more.assignments, extra.checks | more.checks)
+        for i in range(L.n_u):
+            for c, j in enumerate(free):
+                rows[i][j] = dr[i][c]
     return sm.ImmutableMatrix(rows), extra
 
 

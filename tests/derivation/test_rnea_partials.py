@@ -141,6 +141,30 @@ def test_a_coordinate_that_moves_two_bodies(kind, small):
     assert_pairs_close(jacobians(mimic(kind), np.random.default_rng(4)))
 
 
+def test_a_floating_base(small, tmp_path):
+    """A free root (six speeds, a quaternion) carrying a revolute and a prismatic joint: the
+    root's rows against the joints are analytic, its own columns forward mode; the
+    ``jacobian`` and the ``tangent_jacobian`` equal those of forward mode throughout."""
+    from urdf_models import FLOATING_PARTS, urdf, write
+
+    model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
+    ne = NewtonEuler(prepare(model))
+    assert rnea_partials.free_root(ne) is ne.bodies[0]
+    assert len(rnea_partials.screw_joints(ne)) == len(ne.bodies) - 1
+    analytic = equations_of(model, Method.NEWTON_EULER, jacobian=True)
+    forward = equations_of(model, Method.NEWTON_EULER, jacobian=False)
+    assert analytic.residual_jacobian is not None
+    outs = (Output.RHS, Output.JACOBIAN, Output.TANGENT_JACOBIAN)
+    a, b = run(analytic, outs).compiled, run(forward, outs).compiled
+    rng = np.random.default_rng(6)
+    pairs = []
+    for _ in range(3):
+        x, r = rng.uniform(-1, 1, a.n_x), rng.uniform(-1, 1, a.n_r)
+        pairs += [(getattr(a, o)(0.0, x, None, r), getattr(b, o)(0.0, x, None, r))
+                  for o in ("jacobian", "tangent_jacobian")]
+    assert_pairs_close(pairs)
+
+
 def test_spatial_arm_with_parameters_at_run_time():
     """``MIN_SPEEDS`` links, no monkeypatching: every link constant a run-time parameter."""
     scene = spatial_arm.scene(rnea_partials.MIN_SPEEDS)
