@@ -15,7 +15,13 @@ a pair of joints costs a few 6-vector dot products.
 relative to its parent by one coordinate ``q_k`` with ``q_k' = u_k``: turning about
 a fixed axis through its joint point (revolute; constant rotations before and after
 are allowed, the angle may be ``a q_k + b``) or sliding along a fixed axis
-(prismatic).  Then ``S_b`` is constant in the body,
+(prismatic).  A coordinate may move several bodies (a mimic joint): each body is a
+column of its own and the coordinate's rows and columns sum theirs.  The root may be
+free (:func:`free_root`: a floating base, six speeds along the body's unit twists, a
+quaternion): its rows against every joint are the ancestor formulas below with its six
+world columns, and its own columns -- seven coordinates, six speeds -- come from the
+residual by forward mode (:func:`residual_jacobian`), a few passes over the bodies where
+forward mode for every column took one per coordinate.  Then ``S_b`` is constant in the body,
 :math:`\partial(\cdot)/\partial q_k` of everything below joint ``k`` is the
 twist ``S_k`` (world :math:`J_k`), and in the world frame
 
