@@ -70,9 +70,12 @@ from .tree import S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, vadd, vneg,
 
 TWO = sm.Integer(2)
 
-#: Fewest speeds for which the analytic partials are used: below, forward mode through
-#: the program gives fewer operations after CSE (spatial arm, Jacobian alone: 386 / 235 at
-#: n = 2, 2,341 / 2,036 at 4, 3,479 / 3,526 at 5, 21,277 / 43,907 at 16).
+#: Fewest joints on the longest chain from the root (a free root not counted) for which the
+#: analytic partials are used: below, forward mode through the program gives fewer
+#: operations after CSE, its transports running down short chains only (spatial arm,
+#: Jacobian alone: 386 / 235 at n = 2, 2,341 / 2,036 at 4, 3,479 / 3,526 at 5, 21,277 /
+#: 43,907 at 16; with RHS and tangent_jacobian, Solo-12's legs of 3: 47,696 / 39,828, G1's
+#: chains of up to 7 on its floating base: 188,034 / 242,063).
 MIN_SPEEDS = 5
 
 
@@ -140,6 +143,14 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
             return None
         out[b] = (coords[q], s_index)
     return out or None
+
+
+def longest_chain(ne, joints) -> int:
+    """Joints (bodies of ``joints``) on the longest path from the root to a leaf."""
+    depth: dict = {}
+    for b in ne.bodies:     # parents come first
+        depth[b] = (b in joints) + (depth[b.parent] if b.parent is not None else 0)
+    return max(depth.values(), default=0)
 
 
 def free_root(ne) -> Body | None:
@@ -418,7 +429,8 @@ def applied_residual(ne) -> list:
 def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Program] | None:
     r""":math:`\partial R/\partial x` (``n_u x n_x``) of :math:`R = F - M u'` at ``u'`` held,
     and the forward-mode assignments of its applied part (to follow ``ne``'s program);
-    None where :func:`screw_joints` does not apply or below :data:`MIN_SPEEDS` speeds.
+    None where :func:`screw_joints` does not apply or the longest chain has fewer than
+    :data:`MIN_SPEEDS` joints (:func:`longest_chain`).
 
     A free root's columns (its coordinates and speeds: every state no joint holds) are
     ``residual``'s (:meth:`~mbgen.derivation.recursion.NewtonEuler.residual`, ``R`` at
@@ -426,7 +438,8 @@ def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Prog
     if ne.nu < MIN_SPEEDS:
         return None
     joints = screw_joints(ne)
-    if joints is None or (len(joints) < len(ne.bodies) and residual is None):
+    if joints is None or longest_chain(ne, joints) < MIN_SPEEDS or (
+            len(joints) < len(ne.bodies) and residual is None):
         return None
     L = ne.prep.layout
     dq, du = inertial_partials(ne, joints, udot)
@@ -449,5 +462,6 @@ def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Prog
     return sm.ImmutableMatrix(rows), extra
 
 
-__all__ = ["MIN_SPEEDS", "applied_residual", "inertial_partials", "residual_jacobian",
+__all__ = ["MIN_SPEEDS", "applied_residual", "free_root", "inertial_partials",
+           "longest_chain", "residual_jacobian",
            "screw_joints"]

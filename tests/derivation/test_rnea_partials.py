@@ -165,6 +165,19 @@ def test_a_floating_base(small, tmp_path):
     assert_pairs_close(pairs)
 
 
+def test_short_chains_on_a_floating_base_keep_forward_mode(tmp_path):
+    """Solo-12's legs of three joints: forward mode gives fewer operations than the analytic
+    partials (39,828 against 47,696 with the RHS and tangent_jacobian), so a tree whose
+    longest chain has fewer than MIN_SPEEDS joints keeps it; the hopper's chain has two."""
+    from urdf_models import FLOATING_PARTS, urdf, write
+
+    model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
+    ne = NewtonEuler(prepare(model))
+    assert rnea_partials.longest_chain(ne, rnea_partials.screw_joints(ne)) == 2
+    assert ne.nu >= rnea_partials.MIN_SPEEDS
+    assert equations_of(model, Method.NEWTON_EULER, jacobian=True).residual_jacobian is None
+
+
 def test_spatial_arm_with_parameters_at_run_time():
     """``MIN_SPEEDS`` links, no monkeypatching: every link constant a run-time parameter."""
     scene = spatial_arm.scene(rnea_partials.MIN_SPEEDS)
