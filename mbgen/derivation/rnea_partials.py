@@ -438,10 +438,13 @@ def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Prog
     if ne.nu < MIN_SPEEDS:
         return None
     joints = screw_joints(ne)
-    if joints is None or longest_chain(ne, joints) < MIN_SPEEDS or (
-            len(joints) < len(ne.bodies) and residual is None):
+    if joints is None or longest_chain(ne, joints) < MIN_SPEEDS:
         return None
     L = ne.prep.layout
+    held = {q for q, _ in joints.values()} | {L.n_q + k for _, k in joints.values()}
+    free = [j for j in range(L.n_x) if j not in held]
+    if free and residual is None:
+        return None
     dq, du = inertial_partials(ne, joints, udot)
     applied = applied_residual(ne)
     extra = Program()
@@ -451,8 +454,6 @@ def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Prog
         d = [[S0] * L.n_x for _ in range(L.n_u)]
     rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
             for i in range(L.n_u)]
-    held = {q for q, _ in joints.values()} | {L.n_q + k for _, k in joints.values()}
-    free = [j for j in range(L.n_x) if j not in held]
     if free:
         more, dr = derivatives(ne.P.build(), residual, [L.states[j] for j in free], "ner")
         extra = Program(extra.assignments + more.assignments, extra.checks | more.checks)
