@@ -4,8 +4,9 @@
 (the path it replaces, itself checked against finite differences and lambdified sympy in
 tests/runtime/test_jacobian.py), compiled, at seeded random states, parameters and inputs;
 on revolute chains (angles ``q`` and ``-q``), a branching tree, prismatic joints at the
-root, in the middle and at a leaf, loads (input torques, a spring, a damper), and with
-parameters at run time.  Where it does not apply, the equations say so by carrying none.
+root, in the middle and at a leaf, loads (input torques, a spring, a damper), a coordinate
+that moves two bodies (mimic joints), a floating base, and with parameters at run time.
+Where it does not apply, the equations say so by carrying none.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from mbgen.derivation.prepare import prepare
 from mbgen.derivation.recursion import NewtonEuler
 from mbgen.pipeline import equations_of, run
 from mbgen.scenes import n_link_cart, spatial_arm, torque_free
+from urdf_models import FLOATING_PARTS, urdf, write
 
 OUTS = (Output.RHS, Output.JACOBIAN)
 INERTIA = ((0.1, 0.2, 0.3, 0.01, 0.02, 0.03), (0.1, 0.25, 0.3, 0.0, 0.02, 0.0),
@@ -145,8 +147,6 @@ def test_a_floating_base(small, tmp_path):
     """A free root (six speeds, a quaternion) carrying a revolute and a prismatic joint: the
     root's rows against the joints are analytic, its own columns forward mode; the
     ``jacobian`` and the ``tangent_jacobian`` equal those of forward mode throughout."""
-    from urdf_models import FLOATING_PARTS, urdf, write
-
     model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
     ne = NewtonEuler(prepare(model))
     assert rnea_partials.free_root(ne) is ne.bodies[0]
@@ -169,8 +169,6 @@ def test_short_chains_on_a_floating_base_keep_forward_mode(tmp_path):
     """Solo-12's legs of three joints: forward mode gives fewer operations than the analytic
     partials (39,828 against 47,696 with the RHS and tangent_jacobian), so a tree whose
     longest chain has fewer than MIN_SPEEDS joints keeps it; the hopper's chain has two."""
-    from urdf_models import FLOATING_PARTS, urdf, write
-
     model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
     ne = NewtonEuler(prepare(model))
     assert rnea_partials.longest_chain(ne, rnea_partials.screw_joints(ne)) == 2
