@@ -373,11 +373,10 @@ def build(rendered: Rendered, *, force: bool = False, native: bool | None = None
 def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -> Path:
     """Build ``rendered``'s library in ``folder`` (:func:`library_command`); its path.
 
-    The model's source, then its batch loops: one translation unit, compiled and linked by
-    one compiler process, unless the source has parts (:mod:`mbgen.codegen.split`) and the
-    machine has cores (:func:`~mbgen.build.units.build_jobs`): then its units
-    (:func:`~mbgen.build.units.units`) are compiled by a pool of one compiler per core and
-    linked.  cffi parses the declarations meanwhile (:func:`load` opens the library next)."""
+    The model's source, then its batch loops: one translation unit and compiler process,
+    unless the source has parts (:mod:`mbgen.codegen.split`) and the machine has cores
+    (:func:`~mbgen.build.units.build_jobs`): then its units (:func:`~mbgen.build.units.units`),
+    by a pool of one compiler per core, and a link.  cffi parses the declarations meanwhile."""
     texts = units(rendered.files[f"{rendered.prefix}.c"], build_jobs())
     first = f'#include "{rendered.prefix}.c"' if len(texts) == 1 else texts[0]
     extra = {f"{name}_{k}.c": text for k, text in enumerate(texts[1:], 1)}
