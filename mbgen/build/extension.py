@@ -377,7 +377,7 @@ def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -
     unless the source has parts (:mod:`mbgen.codegen.split`) and the machine has cores
     (:func:`~mbgen.build.units.build_jobs`): then its units (:func:`~mbgen.build.units.units`),
     by a pool of one compiler per core, and a link.  cffi parses the declarations meanwhile."""
-    texts = units(rendered.files[f"{rendered.prefix}.c"], build_jobs())
+    texts = units(rendered.files[f"{rendered.prefix}.c"], jobs := build_jobs())
     first = f'#include "{rendered.prefix}.c"' if len(texts) == 1 else texts[0]
     extra = {f"{name}_{k}.c": text for k, text in enumerate(texts[1:], 1)}
     write_files(folder, {**rendered.files, f"{name}.c": f"{first}\n\n{rendered.extension}",
@@ -395,7 +395,7 @@ def _compile(rendered: Rendered, name: str, folder: Path, native: bool | None) -
     objects = [f"{source[:-2]}.o" for source in sources]
     flags = (*_user_flags()[0], *cflags(rendered, native), SHARED_FLAGS[0], "-c")
     run_compilers([[_cc(), *flags, s, "-o", o] for s, o in zip(sources, objects)], folder,
-                  name, rendered.prefix, jobs=build_jobs(), meanwhile=meanwhile)
+                  name, rendered.prefix, jobs=jobs, meanwhile=meanwhile)
     run_compilers([library_command(rendered, objects, out.name, native)], folder, name,
                   rendered.prefix)
     return out

@@ -80,7 +80,10 @@ class _PowerMixin:
         if assign_to is not None or not isinstance(expr, sm.Expr):
             return super().doprint(expr, assign_to)
         self._not_supported, self._number_symbols = set(), set()
-        text = _Fast(self).text(expr)
+        fast = self.__dict__.get("_fast")
+        if fast is None:   # one per printer: its numbers' texts serve every expression
+            fast = self._fast = _Fast(self)
+        text = fast.text(expr)
         if self._not_supported or self._number_symbols or "\n" in text:
             return super().doprint(expr, assign_to)
         return text

@@ -387,9 +387,10 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list]:
     Yc, Bc, fc, Fa, T, Fq, Fv, below = {}, {}, {}, {}, {}, {}, {}, {}
     for b in reversed(ne.bodies):
         kids = b.children
+        below[b] = [d for c in kids for d in [c] + below[c]]
         if b not in joints:     # the free root: its rows against every other column
             for k, J in W.columns.items():
-                for d in [d for c in kids for d in [c] + below[c]]:
+                for d in below[b]:
                     qd, kd = joints[d]
                     dq[k][qd] = add(dq[k][qd], dot6(J, Fq[d]))
                     du[k][kd] = add(du[k][kd], dot6(J, Fv[d]))
@@ -401,7 +402,6 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list]:
                  if kids else W.B[b])
         fc[b] = (P.vector(tuple(add(W.f[b][i], *(fc[c][i] for c in kids)) for i in range(6)))
                  if kids else W.f[b])
-        below[b] = [d for c in kids for d in [c] + below[c]]
         J, Vq, Aq, Av = W.J[b], W.Vq[b], W.Aq[b], W.Av[b]
         qb, kb = joints[b]
         Fa[b] = P.vector(inertia_action(Yc[b], J))
