@@ -60,6 +60,7 @@ is a named intermediate: :math:`O(n)` 6x6 work and :math:`O(n^2)` dot products.
 from __future__ import annotations
 
 import random
+from dataclasses import dataclass
 
 import sympy as sm
 
@@ -260,7 +261,7 @@ class _World:
     def __init__(self, ne, joints, udot):
         self.ne, self.P = ne, ne.P
         g = ne.gravity
-        ground_acc = join(ZERO3, vneg(g) if g is not None else ZERO3)
+        self.ground_acc = ground_acc = join(ZERO3, vneg(g) if g is not None else ZERO3)
         self.R, self.c, self.J, self.v, self.a = {}, {}, {}, {}, {}
         self.Y, self.B, self.f = {}, {}, {}
         self.Vq, self.Aq, self.Av = {}, {}, {}
@@ -376,32 +377,60 @@ def _sum_inertia(P, Ys):
     return m, h, I
 
 
-def inertial_partials(ne, joints, udot) -> tuple[list, list]:
-    r"""``(dtau_dq, dtau_du)``: :math:`\partial\tau/\partial q` (``n_u x n_q``) and
+@dataclass(frozen=True)
+class RootColumns:
+    r"""A free root's own columns of :math:`\partial\tau`: ``tangent[i][k]`` is
+    :math:`\partial\tau_i/\partial\delta_k` for the root moved along its ``k``-th speed's
+    body twist (:math:`M \exp(S_k \delta_k)`); ``R``, ``c`` its world rotation and origin,
+    ``S`` its speeds' body columns (speed index -> 6-vector)."""
+
+    body: Body
+    tangent: list
+    R: tuple
+    c: tuple
+    S: dict
+
+
+def _composite(P, W, b, kids, Yc, Bc, fc) -> None:
+    """``Y^C, B^C, f^C`` of ``b``'s subtree: its own plus its children's."""
+    if not kids:
+        Yc[b], Bc[b], fc[b] = W.Y[b], W.B[b], W.f[b]
+        return
+    Yc[b] = _sum_inertia(P, [W.Y[b]] + [Yc[c] for c in kids])
+    Bc[b] = (tuple(tuple(P.scalar(add(W.B[b][0][i][j], *(Bc[c][0][i][j] for c in kids)))
+                         for j in range(3)) for i in range(3)),
+             P.vector(vadd(W.B[b][1], *(Bc[c][1] for c in kids))))
+    fc[b] = P.vector(tuple(add(W.f[b][i], *(fc[c][i] for c in kids)) for i in range(6)))
+
+
+def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None]:
+    r"""``(dtau_dq, dtau_du, root)``: :math:`\partial\tau/\partial q` (``n_u x n_q``) and
     :math:`\partial\tau/\partial u` (``n_u x n_u``) of the inverse dynamics with
-    gravity, ``u'`` the placeholders ``udot`` (rows of sympy expressions)."""
+    gravity, ``u'`` the placeholders ``udot`` (rows of sympy expressions); a free root's
+    speed columns are in ``dtau_du``, its coordinates' columns left zero and its tangent
+    columns in ``root`` (:func:`root_coordinates` maps them).
+
+    The root's own columns (:func:`free_root`; everything moves with it, the ground does
+    not): :math:`\dot V_q = 0`, :math:`\dot A_q = a_{ground}\times J_k`,
+    :math:`\dot A_v = v_{root}\times J_k` (:math:`\partial a_d/\partial u_k =
+    J_k\times(v_d - v_{root})`); a descendant's row takes the formulas above, the root's
+    rows :math:`J_j\cdot Y^C\dot A_q` and :math:`J_j\cdot(B^C J_k + Y^C\dot A_v)`: its
+    columns move with it, and :math:`(J_k\times J_j)\cdot f^C` cancels
+    :math:`J_j\cdot(J_k\times^* f^C)`."""
     P, L = ne.P, ne.prep.layout
     W = _World(ne, joints, udot)
     dq = [[S0] * L.n_q for _ in range(L.n_u)]
     du = [[S0] * L.n_u for _ in range(L.n_u)]
+    root = None
     Yc, Bc, fc, Fa, T, Fq, Fv, below = {}, {}, {}, {}, {}, {}, {}, {}
     for b in reversed(ne.bodies):
         kids = b.children
         below[b] = [d for c in kids for d in [c] + below[c]]
-        if b not in joints:     # the free root: its rows against every other column
-            for k, J in W.columns.items():
-                for d in below[b]:
-                    qd, kd = joints[d]
-                    dq[k][qd] = add(dq[k][qd], dot6(J, Fq[d]))
-                    du[k][kd] = add(du[k][kd], dot6(J, Fv[d]))
+        _composite(P, W, b, kids, Yc, Bc, fc)
+        if b not in joints:     # the free root: its rows against every column, and its own
+            root = _root_columns(P, W, b, joints, below[b], (Yc[b], Bc[b], Fa, T, Fq, Fv),
+                                 dq, du)
             continue
-        Yc[b] = _sum_inertia(P, [W.Y[b]] + [Yc[c] for c in kids]) if kids else W.Y[b]
-        Bc[b] = ((tuple(tuple(P.scalar(add(W.B[b][0][i][j], *(Bc[c][0][i][j] for c in kids)))
-                              for j in range(3)) for i in range(3)),
-                  P.vector(vadd(W.B[b][1], *(Bc[c][1] for c in kids))))
-                 if kids else W.B[b])
-        fc[b] = (P.vector(tuple(add(W.f[b][i], *(fc[c][i] for c in kids)) for i in range(6)))
-                 if kids else W.f[b])
         J, Vq, Aq, Av = W.J[b], W.Vq[b], W.Aq[b], W.Av[b]
         qb, kb = joints[b]
         Fa[b] = P.vector(inertia_action(Yc[b], J))
@@ -417,7 +446,76 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list]:
             du[kd][kb] = add(du[kd][kb], dot6(Fa[d], Av), dot6(T[d], J))
             dq[kb][qd] = add(dq[kb][qd], dot6(J, Fq[d]))
             du[kb][kd] = add(du[kb][kd], dot6(J, Fv[d]))
-    return dq, du
+    return dq, du, root
+
+
+def _root_columns(P, W, b, joints, below, parts, dq, du) -> RootColumns:
+    """The free root ``b``'s rows against the joints' columns (into ``dq``, ``du``), its
+    speeds' columns (into ``du``) and its tangent columns (returned); see
+    :func:`inertial_partials`."""
+    Yc, Bc, Fa, T, Fq, Fv = parts
+    tangent = [dict.fromkeys(W.columns, S0) for _ in du]
+    for k, Jk in W.columns.items():
+        for d in below:
+            qd, kd = joints[d]
+            dq[k][qd] = add(dq[k][qd], dot6(Jk, Fq[d]))
+            du[k][kd] = add(du[k][kd], dot6(Jk, Fv[d]))
+        Aq = P.vector(mcross(W.ground_acc, Jk))
+        Av = P.vector(mcross(W.v[b], Jk))
+        Fq0 = P.vector(inertia_action(Yc, Aq))
+        Fv0 = P.vector(vadd6(coriolis_action(Bc, Jk), inertia_action(Yc, Av)))
+        for d in below:
+            kd = joints[d][1]
+            tangent[kd][k] = add(tangent[kd][k], dot6(Fa[d], Aq))
+            du[kd][k] = add(du[kd][k], dot6(Fa[d], Av), dot6(T[d], Jk))
+        for j, Jj in W.columns.items():
+            tangent[j][k] = add(tangent[j][k], dot6(Jj, Fq0))
+            du[j][k] = add(du[j][k], dot6(Jj, Fv0))
+    return RootColumns(b, tangent, W.R[b], W.c[b], dict(W.ne.kin[b].S))
+
+
+def root_coordinates(ne, root: RootColumns, coordinates) -> tuple[dict, Program] | None:
+    r"""``({j: {k: e_kj}}, extra)``: each root coordinate ``q_j`` of ``coordinates`` (layout
+    indices) as a body twist, :math:`\partial\delta_k/\partial q_j`, so that
+    :math:`\partial\tau/\partial q_j = \sum_k \partial\tau/\partial\delta_k\,e_{kj}`;
+    ``extra``: the forward-mode assignments of :math:`\partial R/\partial q_j`,
+    :math:`\partial c/\partial q_j`.  The body twist of a change of ``q_j`` is
+    :math:`(\omega, v) = (\mathrm{vex}(R^T \partial R/\partial q_j), R^T\partial c/\partial
+    q_j)`, and ``e_kj = S_k\cdot(\omega, v)``.  None unless ``R(q)`` is a rotation at every
+    ``q`` (checked at a random point off the unit quaternions: a rotation normalised where it
+    is read) and the columns ``S_k`` are orthonormal numbers."""
+    S = [tuple(sm.sympify(x) for x in col) for col in root.S.values()]
+    if not all(x.is_Number for col in S for x in col) or any(
+            sum((a * b for a, b in zip(S[i], S[j])), S0) != (1 if i == j else 0)
+            for i in range(len(S)) for j in range(len(S))):
+        return None
+    L = ne.prep.layout
+    moving = frozenset(L.coordinates) | frozenset(L.speeds) | {L.time}
+    look = _Look(dict(ne.P.assignments), moving)
+    R = [[look.inline(x) for x in row] for row in root.R]
+    consts = sorted(set().union(*(x.free_symbols for row in R for x in row)), key=str)
+    rng = random.Random(len(consts))
+    point = {c: sm.Float(rng.uniform(0.5, 1.5)) for c in consts}
+    Rn = sm.Matrix(R).xreplace(point).evalf()
+    if max(abs(complex(x)) for x in Rn.T * Rn - sm.eye(3)) > 1e-9:
+        return None
+    R, c = root.R, root.c
+    variables = [L.coordinates[j] for j in coordinates]
+    extra, d = derivatives(ne.P.build(), [x for row in R for x in row] + list(c), variables,
+                           "nert")
+    out = {}
+    for col, j in enumerate(coordinates):
+        dR = [[d[3 * m + i][col] for i in range(3)] for m in range(3)]
+        dc = [d[9 + m][col] for m in range(3)]
+
+        def RT(i, x):     # (R^T x)_i
+            return add(*(mul(R[m][i], x[m]) for m in range(3)))
+        w = (RT(2, [dR[m][1] for m in range(3)]), RT(0, [dR[m][2] for m in range(3)]),
+             RT(1, [dR[m][0] for m in range(3)]))
+        twist = w + tuple(RT(i, dc) for i in range(3))
+        out[j] = {k: add(*(mul(s, t) for s, t in zip(col_k, twist) if s != 0))
+                  for k, col_k in zip(root.S, S)}
+    return out, extra
 
 
 def applied_residual(ne) -> list:
@@ -445,13 +543,23 @@ def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Prog
     free = [j for j in range(L.n_x) if j not in held]
     if free and residual is None:
         return None
-    dq, du = inertial_partials(ne, joints, udot)
+    dq, du, root = inertial_partials(ne, joints, udot)
     applied = applied_residual(ne)
     extra = Program()
     if any(r != 0 for r in applied):
         extra, d = derivatives(ne.P.build(), applied, list(L.states), "nea")
     else:
         d = [[S0] * L.n_x for _ in range(L.n_u)]
+    if root is not None:     # its speeds are in du; its coordinates through its tangent
+        free = [j for j in free if j < L.n_q]
+        mapped = root_coordinates(ne, root, free)
+        if mapped is not None:
+            e, more = mapped
+            extra = Program(extra.assignments + more.assignments, extra.checks | more.checks)
+            for i in range(L.n_u):
+                for j, ej in e.items():
+                    dq[i][j] = add(*(mul(root.tangent[i][k], x) for k, x in ej.items()))
+            free = []
     rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
             for i in range(L.n_u)]
     if free:
@@ -463,6 +571,5 @@ def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Prog
     return sm.ImmutableMatrix(rows), extra
 
 
-__all__ = ["MIN_SPEEDS", "applied_residual", "free_root", "inertial_partials",
-           "longest_chain", "residual_jacobian",
-           "screw_joints"]
+__all__ = ["MIN_SPEEDS", "RootColumns", "applied_residual", "free_root", "inertial_partials",
+           "longest_chain", "residual_jacobian", "root_coordinates", "screw_joints"]
