@@ -68,7 +68,7 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
              if wants.reactions else None)
     kinetic, potential = ((ne.kinetic_energy(), potential_energy(prep, Grouping(prep)))
                           if wants.energy else (None, None))
-    partials = (residual_jacobian(ne, acceleration_symbols(nu), residual)
+    partials = (residual_jacobian(ne, acceleration_symbols(nu))
                 if wants.jacobian and residual is not None else None)
     program = ne.P.build()
     if partials is not None:

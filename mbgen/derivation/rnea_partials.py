@@ -19,9 +19,10 @@ are allowed, the angle may be ``a q_k + b``) or sliding along a fixed axis
 column of its own and the coordinate's rows and columns sum theirs.  The root may be
 free (:func:`free_root`: a floating base, six speeds along the body's unit twists, a
 quaternion): its rows against every joint are the ancestor formulas below with its six
-world columns, and its own columns -- seven coordinates, six speeds -- come from the
-residual by forward mode (:func:`residual_jacobian`), a few passes over the bodies where
-forward mode for every column took one per coordinate.  Then ``S_b`` is constant in the body,
+world columns; its own columns are the same formulas for a joint whose parent, the ground,
+does not move, and whose columns move with it (:func:`inertial_partials`); its coordinates'
+columns (a quaternion's four and a position's three) are its tangent columns times the body
+twist of each coordinate (:func:`root_coordinates`).  Then ``S_b`` is constant in the body,
 :math:`\partial(\cdot)/\partial q_k` of everything below joint ``k`` is the
 twist ``S_k`` (world :math:`J_k`), and in the world frame
 
@@ -71,12 +72,15 @@ from .tree import S0, ZERO3, add, cross, dot3, is_zero, matvec, mul, vadd, vneg,
 
 TWO = sm.Integer(2)
 
-#: Fewest joints on the longest chain from the root (a free root not counted) for which the
-#: analytic partials are used: below, forward mode through the program gives fewer
-#: operations after CSE, its transports running down short chains only (spatial arm,
-#: Jacobian alone: 386 / 235 at n = 2, 2,341 / 2,036 at 4, 3,479 / 3,526 at 5, 21,277 /
-#: 43,907 at 16; with RHS and tangent_jacobian, Solo-12's legs of 3: 47,696 / 39,828, G1's
-#: chains of up to 7 on its floating base: 188,034 / 242,063).
+#: Fewest joints on the longest chain from the root (a free root not counted), or in all on a
+#: free root, for which the analytic partials are used: below, forward mode through the
+#: program gives fewer operations after CSE, its transports running down short chains only
+#: (analytic / forward: spatial arm, Jacobian alone: 386 / 235 at n = 2, 2,341 / 2,036 at 4,
+#: 3,479 / 3,526 at 5, 21,277 / 43,907 at 16).  On a free root forward mode pays one pass over
+#: every body for each of the root's 13 columns, so the count there is of all the joints
+#: (RHS, jacobian and tangent_jacobian: a hopper's 2 joints 7,768 / 5,195; legs of 3 joints
+#: with tilted axes, 1, 2, 3, 4 of them: 13,762 / 14,693, 25,744 / 31,178, 37,025 / 46,974,
+#: 48,713 / 63,234; Solo-12 36,260 / 39,828; ANYmal B 38,937 / 46,492; G1 122,496 / 242,063).
 MIN_SPEEDS = 5
 
 
@@ -146,6 +150,13 @@ def screw_joints(ne) -> dict[Body, tuple[int, int]] | None:
     return out or None
 
 
+def worth_it(ne, joints) -> bool:
+    """Whether the analytic partials give fewer operations than forward mode (by
+    :data:`MIN_SPEEDS`): the longest chain, or on a free root all the joints."""
+    counted = len(joints) if free_root(ne) is not None else longest_chain(ne, joints)
+    return counted >= MIN_SPEEDS
+
+
 def longest_chain(ne, joints) -> int:
     """Joints (bodies of ``joints``) on the longest path from the root to a leaf."""
     depth: dict = {}
@@ -155,20 +166,28 @@ def longest_chain(ne, joints) -> int:
 
 
 def free_root(ne) -> Body | None:
-    """The one root body of a tree moved by six speeds along constant columns (a floating
-    base: ``S`` the unit twists in the body), else None.  Its columns are left to forward
-    mode (:func:`residual_jacobian`); every other body reads it as its parent."""
+    """The one root body of a tree moved by six speeds along orthonormal constant columns (a
+    floating base: ``S`` the unit twists in the body) whose rotation ``R(q)`` is one at every
+    ``q`` (checked at a random point: off the unit sphere, a quaternion's matrix is one only
+    where it is normalised where read), else None.  Every other body reads it as its parent
+    (:func:`inertial_partials`, :func:`root_coordinates`)."""
     roots = [b for b in ne.bodies if b.parent is None]
     if len(roots) != 1:
         return None
     b = roots[0]
-    k = ne.kin[b]
+    S = [tuple(sm.sympify(x) for x in col) for col in ne.kin[b].S.values()]
+    if len(S) != 6 or not all(x.is_Number for col in S for x in col) or any(
+            sum((x * y for x, y in zip(S[i], S[j])), S0) != (i == j)
+            for i in range(6) for j in range(6)):
+        return None
     L = ne.prep.layout
     moving = frozenset(L.coordinates) | frozenset(L.speeds) | {L.time}
-    if len(k.S) != 6 or any(sm.sympify(x).free_symbols & moving for col in k.S.values()
-                            for x in col):
-        return None
-    return b
+    look = _Look(dict(ne.P.assignments), moving)
+    R = sm.Matrix([[look.inline(x) for x in row] for row in ne.rotation(b).matrix])
+    rng = random.Random(6)
+    point = {c: sm.Float(rng.uniform(0.5, 1.5)) for c in sorted(R.free_symbols, key=str)}
+    RtR = (R.xreplace(point).T * R.xreplace(point)).evalf()
+    return b if max(abs(complex(x)) for x in RtR - sm.eye(3)) < 1e-9 else None
 
 
 def _turning(ne, b, moving):
@@ -474,47 +493,33 @@ def _root_columns(P, W, b, joints, below, parts, dq, du) -> RootColumns:
     return RootColumns(b, tangent, W.R[b], W.c[b], dict(W.ne.kin[b].S))
 
 
-def root_coordinates(ne, root: RootColumns, coordinates) -> tuple[dict, Program] | None:
+def root_coordinates(ne, root: RootColumns, coordinates) -> tuple[dict, Program]:
     r"""``({j: {k: e_kj}}, extra)``: each root coordinate ``q_j`` of ``coordinates`` (layout
     indices) as a body twist, :math:`\partial\delta_k/\partial q_j`, so that
     :math:`\partial\tau/\partial q_j = \sum_k \partial\tau/\partial\delta_k\,e_{kj}`;
     ``extra``: the forward-mode assignments of :math:`\partial R/\partial q_j`,
     :math:`\partial c/\partial q_j`.  The body twist of a change of ``q_j`` is
     :math:`(\omega, v) = (\mathrm{vex}(R^T \partial R/\partial q_j), R^T\partial c/\partial
-    q_j)`, and ``e_kj = S_k\cdot(\omega, v)``.  None unless ``R(q)`` is a rotation at every
-    ``q`` (checked at a random point off the unit quaternions: a rotation normalised where it
-    is read) and the columns ``S_k`` are orthonormal numbers."""
-    S = [tuple(sm.sympify(x) for x in col) for col in root.S.values()]
-    if not all(x.is_Number for col in S for x in col) or any(
-            sum((a * b for a, b in zip(S[i], S[j])), S0) != (1 if i == j else 0)
-            for i in range(len(S)) for j in range(len(S))):
-        return None
+    q_j)` (:math:`R^T\partial R` is skew: ``R`` is a rotation at every ``q``,
+    :func:`free_root`), and ``e_kj = S_k\cdot(\omega, v)`` (the ``S_k`` orthonormal)."""
     L = ne.prep.layout
-    moving = frozenset(L.coordinates) | frozenset(L.speeds) | {L.time}
-    look = _Look(dict(ne.P.assignments), moving)
-    R = [[look.inline(x) for x in row] for row in root.R]
-    consts = sorted(set().union(*(x.free_symbols for row in R for x in row)), key=str)
-    rng = random.Random(len(consts))
-    point = {c: sm.Float(rng.uniform(0.5, 1.5)) for c in consts}
-    Rn = sm.Matrix(R).xreplace(point).evalf()
-    if max(abs(complex(x)) for x in Rn.T * Rn - sm.eye(3)) > 1e-9:
-        return None
     R, c = root.R, root.c
     variables = [L.coordinates[j] for j in coordinates]
     extra, d = derivatives(ne.P.build(), [x for row in R for x in row] + list(c), variables,
                            "nert")
+
+    def RT(i, x):     # (R^T x)_i
+        return add(*(mul(R[m][i], x[m]) for m in range(3)))
+
     out = {}
     for col, j in enumerate(coordinates):
         dR = [[d[3 * m + i][col] for i in range(3)] for m in range(3)]
         dc = [d[9 + m][col] for m in range(3)]
-
-        def RT(i, x):     # (R^T x)_i
-            return add(*(mul(R[m][i], x[m]) for m in range(3)))
         w = (RT(2, [dR[m][1] for m in range(3)]), RT(0, [dR[m][2] for m in range(3)]),
              RT(1, [dR[m][0] for m in range(3)]))
         twist = w + tuple(RT(i, dc) for i in range(3))
-        out[j] = {k: add(*(mul(s, t) for s, t in zip(col_k, twist) if s != 0))
-                  for k, col_k in zip(root.S, S)}
+        out[j] = {k: add(*(mul(s, t) for s, t in zip(S_k, twist) if s != 0))
+                  for k, S_k in root.S.items()}
     return out, extra
 
 
@@ -524,52 +529,43 @@ def applied_residual(ne) -> list:
     return ne.forcing({b: ne.applied_wrench(b) for b in ne.bodies})
 
 
-def residual_jacobian(ne, udot, residual=None) -> tuple[sm.ImmutableMatrix, Program] | None:
+def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, Program] | None:
     r""":math:`\partial R/\partial x` (``n_u x n_x``) of :math:`R = F - M u'` at ``u'`` held,
-    and the forward-mode assignments of its applied part (to follow ``ne``'s program);
-    None where :func:`screw_joints` does not apply or the longest chain has fewer than
-    :data:`MIN_SPEEDS` joints (:func:`longest_chain`).
+    and the forward-mode assignments of its applied part and of a free root's rotation and
+    position (to follow ``ne``'s program); None where :func:`screw_joints` does not apply,
+    where forward mode gives fewer operations (:func:`worth_it`), or where a state that no
+    joint holds has no free root to hold it.
 
-    A free root's columns (its coordinates and speeds: every state no joint holds) are
-    ``residual``'s (:meth:`~mbgen.derivation.recursion.NewtonEuler.residual`, ``R`` at
-    ``udot``) by forward mode: a few passes over the bodies, against one per coordinate."""
+    A free root's speeds' columns are analytic (:func:`inertial_partials`), and so are its
+    coordinates' through its tangent columns (:func:`root_coordinates`)."""
     if ne.nu < MIN_SPEEDS:
         return None
     joints = screw_joints(ne)
-    if joints is None or longest_chain(ne, joints) < MIN_SPEEDS:
+    if joints is None or not worth_it(ne, joints):
         return None
     L = ne.prep.layout
     held = {q for q, _ in joints.values()} | {L.n_q + k for _, k in joints.values()}
-    free = [j for j in range(L.n_x) if j not in held]
-    if free and residual is None:
-        return None
+    free = [j for j in range(L.n_q) if j not in held]
     dq, du, root = inertial_partials(ne, joints, udot)
+    if root is None and len(held) < L.n_x:
+        return None
     applied = applied_residual(ne)
     extra = Program()
     if any(r != 0 for r in applied):
         extra, d = derivatives(ne.P.build(), applied, list(L.states), "nea")
     else:
         d = [[S0] * L.n_x for _ in range(L.n_u)]
-    if root is not None:     # its speeds are in du; its coordinates through its tangent
-        free = [j for j in free if j < L.n_q]
-        mapped = root_coordinates(ne, root, free)
-        if mapped is not None:
-            e, more = mapped
-            extra = Program(extra.assignments + more.assignments, extra.checks | more.checks)
-            for i in range(L.n_u):
-                for j, ej in e.items():
-                    dq[i][j] = add(*(mul(root.tangent[i][k], x) for k, x in ej.items()))
-            free = []
-    rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
-            for i in range(L.n_u)]
-    if free:
-        more, dr = derivatives(ne.P.build(), residual, [L.states[j] for j in free], "ner")
+    if root is not None and free:     # its speeds are in du; its coordinates through its tangent
+        e, more = root_coordinates(ne, root, free)
         extra = Program(extra.assignments + more.assignments, extra.checks | more.checks)
         for i in range(L.n_u):
-            for c, j in enumerate(free):
-                rows[i][j] = dr[i][c]
+            for j, ej in e.items():
+                dq[i][j] = add(*(mul(root.tangent[i][k], x) for k, x in ej.items()))
+    rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
+            for i in range(L.n_u)]
     return sm.ImmutableMatrix(rows), extra
 
 
 __all__ = ["MIN_SPEEDS", "RootColumns", "applied_residual", "free_root", "inertial_partials",
-           "longest_chain", "residual_jacobian", "root_coordinates", "screw_joints"]
+           "longest_chain", "residual_jacobian", "root_coordinates", "screw_joints",
+           "worth_it"]

@@ -11,6 +11,8 @@ Where it does not apply, the equations say so by carrying none.
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -19,9 +21,11 @@ from mbgen import Output
 from mbgen.derivation import Method, rnea_partials
 from mbgen.derivation.prepare import prepare
 from mbgen.derivation.recursion import NewtonEuler
+from mbgen.model import urdf as urdf_module
 from mbgen.pipeline import equations_of, run
 from mbgen.scenes import n_link_cart, spatial_arm, torque_free
-from urdf_models import FLOATING_PARTS, urdf, write
+from mbgen.symbolic.equations import acceleration_symbols
+from urdf_models import FLOATING_PARTS, inertial, joint, link, urdf, write
 
 OUTS = (Output.RHS, Output.JACOBIAN)
 INERTIA = ((0.1, 0.2, 0.3, 0.01, 0.02, 0.03), (0.1, 0.25, 0.3, 0.0, 0.02, 0.0),
@@ -143,14 +147,9 @@ def test_a_coordinate_that_moves_two_bodies(kind, small):
     assert_pairs_close(jacobians(mimic(kind), np.random.default_rng(4)))
 
 
-def test_a_floating_base(small, tmp_path):
-    """A free root (six speeds, a quaternion) carrying a revolute and a prismatic joint: the
-    root's rows against the joints are analytic, its own columns forward mode; the
-    ``jacobian`` and the ``tangent_jacobian`` equal those of forward mode throughout."""
-    model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
-    ne = NewtonEuler(prepare(model))
-    assert rnea_partials.free_root(ne) is ne.bodies[0]
-    assert len(rnea_partials.screw_joints(ne)) == len(ne.bodies) - 1
+def floating_pairs(model, samples=3):
+    """``(analytic, forward-mode)`` ``jacobian`` and ``tangent_jacobian`` of a floating
+    model at random states (quaternions off the unit sphere)."""
     analytic = equations_of(model, Method.NEWTON_EULER, jacobian=True)
     forward = equations_of(model, Method.NEWTON_EULER, jacobian=False)
     assert analytic.residual_jacobian is not None
@@ -158,22 +157,74 @@ def test_a_floating_base(small, tmp_path):
     a, b = run(analytic, outs).compiled, run(forward, outs).compiled
     rng = np.random.default_rng(6)
     pairs = []
-    for _ in range(3):
+    for _ in range(samples):
         x, r = rng.uniform(-1, 1, a.n_x), rng.uniform(-1, 1, a.n_r)
         pairs += [(getattr(a, o)(0.0, x, None, r), getattr(b, o)(0.0, x, None, r))
                   for o in ("jacobian", "tangent_jacobian")]
-    assert_pairs_close(pairs)
+    return pairs
 
 
-def test_short_chains_on_a_floating_base_keep_forward_mode(tmp_path):
-    """Solo-12's legs of three joints: forward mode gives fewer operations than the analytic
-    partials (39,828 against 47,696 with the RHS and tangent_jacobian), so a tree whose
-    longest chain has fewer than MIN_SPEEDS joints keeps it; the hopper's chain has two."""
+def root_passes(model) -> set:
+    """The tags of the forward-mode passes ``residual_jacobian`` added (``nea``: the applied
+    loads; ``nert``: a free root's rotation and position)."""
+    ne = NewtonEuler(prepare(model))
+    udot = acceleration_symbols(ne.nu)
+    _, extra = rnea_partials.residual_jacobian(ne, udot)
+    return {re.match(r"mbgen:([a-z]+)", str(s)).group(1) for s, _ in extra.assignments}
+
+
+def test_a_floating_base(small, tmp_path):
+    """A free root (six speeds, a quaternion) carrying a revolute and a prismatic joint: the
+    root's rows against the joints and its own columns are analytic, its coordinates'
+    through the body twist of each (only its rotation and position differentiated); the
+    ``jacobian`` and the ``tangent_jacobian`` equal those of forward mode throughout."""
+    model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
+    ne = NewtonEuler(prepare(model))
+    assert rnea_partials.free_root(ne) is ne.bodies[0]
+    assert len(rnea_partials.screw_joints(ne)) == len(ne.bodies) - 1
+    assert root_passes(model) == {"nea", "nert"}
+    assert_pairs_close(floating_pairs(model))
+
+
+def test_a_root_rotation_that_is_not_one_everywhere(small, tmp_path, monkeypatch):
+    """A quaternion's matrix not normalised where it is read is a rotation on the unit sphere
+    only: the chain through ``R^T dR`` would miss its radial part and the world columns
+    would not move rigidly, so the model keeps forward mode."""
+    normalised = urdf_module.quaternion_matrix
+
+    def unnormalised(x, y, z, w):
+        return normalised(x, y, z, w) * (x * x + y * y + z * z + w * w)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(urdf_module, "quaternion_matrix", unnormalised)
+        model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
+    assert rnea_partials.free_root(NewtonEuler(prepare(model))) is None
+    assert equations_of(model, Method.NEWTON_EULER, jacobian=True).residual_jacobian is None
+
+
+def test_few_joints_on_a_floating_base_keep_forward_mode(tmp_path):
+    """A free root with fewer than MIN_SPEEDS joints keeps forward mode (the hopper's 2: 5,195
+    operations forward against 7,768 analytic with the RHS and tangent_jacobian), with as
+    many it takes the analytic partials, whatever its chains' length (legs of 3 joints: 6
+    joints 25,744 against 31,178; Solo-12 36,260 against 39,828)."""
     model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
     ne = NewtonEuler(prepare(model))
     assert rnea_partials.longest_chain(ne, rnea_partials.screw_joints(ne)) == 2
     assert ne.nu >= rnea_partials.MIN_SPEEDS
     assert equations_of(model, Method.NEWTON_EULER, jacobian=True).residual_jacobian is None
+    legs = FLOATING_PARTS[:1]
+    for leg in range(2):
+        parent = "trunk"
+        for k in range(3):
+            child = f"leg{leg}_{k}"
+            legs += [link(child, inertial(0.4, "0 0 -0.1")),
+                     joint(child, "revolute", parent, child, f"0.1 {0.1 * leg} -0.2", "0 0.3 0",
+                           "0 1 0", '<limit lower="-3" upper="3" effort="10" velocity="5"/>')]
+            parent = child
+    model = mbgen.from_urdf(write(tmp_path, urdf(legs, "legs"), "legs.urdf"), floating=True)
+    ne = NewtonEuler(prepare(model))
+    assert rnea_partials.longest_chain(ne, rnea_partials.screw_joints(ne)) == 3
+    assert equations_of(model, Method.NEWTON_EULER, jacobian=True).residual_jacobian is not None
 
 
 def test_spatial_arm_with_parameters_at_run_time():
