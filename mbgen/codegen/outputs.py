@@ -84,10 +84,11 @@ def with_dependencies(outputs: Iterable[Output], equations: Equations) -> tuple[
 
 
 def needs_jacobian(outputs: Iterable[Output]) -> bool:
-    """Whether ``outputs`` include ``df/dx``, asked for or called by an implicit integrator
-    (what a derivation is asked for with ``derive(..., jacobian=True)``)."""
+    """Whether ``outputs`` include ``df/dx`` or its tangent-space form, asked for or called by
+    an implicit integrator (what a derivation is asked for with ``derive(..., jacobian=True)``:
+    both read its analytic ``residual_jacobian`` where it writes one)."""
     wanted = set(Output.parse(outputs))
-    return Output.JACOBIAN in wanted or any(
+    return bool({Output.JACOBIAN, Output.TANGENT_JACOBIAN} & wanted) or any(
         Output.JACOBIAN in METHODS[o].needs for o in INTEGRATORS if o in wanted)
 
 

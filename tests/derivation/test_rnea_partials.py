@@ -251,7 +251,11 @@ def test_below_min_speeds_forward_mode():
 
 
 def test_pipeline_asks_for_it_with_the_jacobian():
+    """With ``jacobian`` or ``tangent_jacobian`` (alone, G1's RHS and tangent_jacobian took
+    forward mode: 131,087 operations against 69,652), not with the RHS alone."""
     scene = spatial_arm.scene(rnea_partials.MIN_SPEEDS)
     with_jacobian = mbgen.run(scene, OUTS, build=False)
     assert with_jacobian.equations.residual_jacobian is not None
+    tangent = mbgen.run(scene, (Output.RHS, Output.TANGENT_JACOBIAN), build=False)
+    assert tangent.equations.residual_jacobian is not None
     assert mbgen.run(scene, (Output.RHS,), build=False).equations.residual_jacobian is None
