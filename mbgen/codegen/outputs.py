@@ -434,15 +434,20 @@ def _tangent(eq: Equations, info: OutputInfo, form: Form) -> Spec:
                    for v in (*(f"delta_{b}" for b in speeds), *speeds))
     tag = f"{info.array.lower()}_"
     recursive = form is Form.RECURSIVE and eq.residual is None
-    if recursive:
-        extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
-                               variables, tag)
-        dG, dR = d[:nq], d[nq:]
+    if not recursive and eq.residual_tangent is not None:   # the derivation's, no sum over G
+        extra = Program()
+        T = [list(eq.residual_tangent.row(i)) + list(eq.residual_jacobian.row(i))[nq:]
+             for i in range(nu)]
     else:
-        extra, dG, dR = _partials(eq, variables, tag, True)
-    G = [[(j, dG[j][nq + k]) for j in range(nq) if dG[j][nq + k] != 0] for k in range(nu)]
-    T = [[sm.Add(*(row[j] * g for j, g in G[k] if row[j] != 0)) for k in range(nu)]
-         + list(row[nq:]) for row in dR]
+        if recursive:
+            extra, d = derivatives(eq.program, list(eq.kinematics) + list(eq.accelerations),
+                                   variables, tag)
+            dG, dR = d[:nq], d[nq:]
+        else:
+            extra, dG, dR = _partials(eq, variables, tag, True)
+        G = [[(j, dG[j][nq + k]) for j in range(nq) if dG[j][nq + k] != 0] for k in range(nu)]
+        T = [[sm.Add(*(row[j] * g for j, g in G[k] if row[j] != 0)) for k in range(nu)]
+             + list(row[nq:]) for row in dR]
     size, columns = nu * 2 * nu, 2 * nu
     if recursive or all(e == 0 for row in T for e in row):
         entries = tuple((i * columns + k, T[i][k] if recursive else sm.S.Zero)

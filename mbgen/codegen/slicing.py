@@ -120,6 +120,8 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
         residual=None if equations.residual is None else bake_matrix(equations.residual),
         residual_jacobian=(None if equations.residual_jacobian is None
                            else bake_matrix(equations.residual_jacobian)),
+        residual_tangent=(None if equations.residual_tangent is None
+                          else bake_matrix(equations.residual_tangent)),
         contacts=(None if equations.contacts is None else replace(
             equations.contacts, jacobian=bake_matrix(equations.contacts.jacobian),
             drift=bake_matrix(equations.contacts.drift))),

@@ -529,12 +529,17 @@ def applied_residual(ne) -> list:
     return ne.forcing({b: ne.applied_wrench(b) for b in ne.bodies})
 
 
-def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, Program] | None:
-    r""":math:`\partial R/\partial x` (``n_u x n_x``) of :math:`R = F - M u'` at ``u'`` held,
-    and the forward-mode assignments of its applied part and of a free root's rotation and
-    position (to follow ``ne``'s program); None where :func:`screw_joints` does not apply,
-    where forward mode gives fewer operations (:func:`worth_it`), or where a state that no
-    joint holds has no free root to hold it.
+def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, sm.ImmutableMatrix | None,
+                                         Program] | None:
+    r"""``(dR/dx, dR/d delta, extra)``: :math:`\partial R/\partial x` (``n_u x n_x``) of
+    :math:`R = F - M u'` at ``u'`` held; its speeds' tangent columns
+    :math:`\partial R/\partial\delta` (``n_u x n_u``: a joint's its coordinate's column, a
+    free root's its tangent columns, so that ``tangent_jacobian`` sums no
+    :math:`\partial R/\partial q\,G` over the root's coordinates; None where the applied
+    loads depend on the root's coordinates); and the forward-mode assignments of the applied
+    part and of a free root's rotation and position (to follow ``ne``'s program).  None where
+    :func:`screw_joints` does not apply, where forward mode gives fewer operations
+    (:func:`worth_it`), or where a state that no joint holds has no free root to hold it.
 
     A free root's speeds' columns are analytic (:func:`inertial_partials`), and so are its
     coordinates' through its tangent columns (:func:`root_coordinates`)."""
@@ -555,15 +560,23 @@ def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, Program] | None:
         extra, d = derivatives(ne.P.build(), applied, list(L.states), "nea")
     else:
         d = [[S0] * L.n_x for _ in range(L.n_u)]
+    coordinate = {k: q for q, k in joints.values()}
+    tangent = None
     if root is not None and free:     # its speeds are in du; its coordinates through its tangent
         e, more = root_coordinates(ne, root, free)
         extra = Program(extra.assignments + more.assignments, extra.checks | more.checks)
         for i in range(L.n_u):
             for j, ej in e.items():
                 dq[i][j] = add(*(mul(root.tangent[i][k], x) for k, x in ej.items()))
+        if (set(root.S) | set(coordinate) == set(range(L.n_u))
+                and all(d[i][j] == 0 for i in range(L.n_u) for j in free)):
+            tangent = [[mul(-1, root.tangent[i][k]) if k in root.S else
+                        add(mul(-1, dq[i][coordinate[k]]), d[i][coordinate[k]])
+                        for k in range(L.n_u)] for i in range(L.n_u)]
     rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
             for i in range(L.n_u)]
-    return sm.ImmutableMatrix(rows), extra
+    return (sm.ImmutableMatrix(rows),
+            sm.ImmutableMatrix(tangent) if tangent is not None else None, extra)
 
 
 __all__ = ["MIN_SPEEDS", "RootColumns", "applied_residual", "free_root", "inertial_partials",

@@ -220,6 +220,11 @@ class Equations:
         derivation has it analytically (:mod:`mbgen.derivation.rnea_partials`; asked for
         with ``derive(..., jacobian=True)``); ``Output.JACOBIAN`` then uses it instead
         of differentiating ``residual`` through the program.
+    residual_tangent : ImmutableMatrix, shape (n_u, n_u), or None
+        ``dR/d delta`` at ``u'`` held, the configuration moved along each speed
+        (the sum over ``j`` of ``dR/dq_j G_jk``, ``G = dq'/du``), where the
+        derivation has it without that sum (a free root's tangent columns,
+        :mod:`mbgen.derivation.rnea_partials`); ``Output.TANGENT_JACOBIAN`` then uses it.
     reactions : JointLoads or None
         Joint reaction forces and moments, when derived.
     constraints : Constraints or None
@@ -251,6 +256,7 @@ class Equations:
     constraints: Constraints | None = None
     residual_jacobian: sm.ImmutableMatrix | None = None
     contacts: Contacts | None = None
+    residual_tangent: sm.ImmutableMatrix | None = None
 
     def __post_init__(self):
         self._check_shapes()
@@ -318,6 +324,11 @@ class Equations:
                 raise ModelError(f"residual_jacobian has shape {self.residual_jacobian.shape}, "
                                  f"expected ({n}, {L.n_x}) with a residual")
             checked.append(("residual Jacobian", self.residual_jacobian))
+        if self.residual_tangent is not None:
+            if self.residual_jacobian is None or self.residual_tangent.shape != (n, n):
+                raise ModelError(f"residual_tangent has shape {self.residual_tangent.shape}, "
+                                 f"expected ({n}, {n}) with a residual Jacobian")
+            checked.append(("residual tangent", self.residual_tangent))
         if self.constraints is not None:
             checked.append(("constraints", self.constraints.expressions()))
         if self.contacts is not None:

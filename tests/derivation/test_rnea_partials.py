@@ -153,6 +153,7 @@ def floating_pairs(model, samples=3):
     analytic = equations_of(model, Method.NEWTON_EULER, jacobian=True)
     forward = equations_of(model, Method.NEWTON_EULER, jacobian=False)
     assert analytic.residual_jacobian is not None
+    assert analytic.residual_tangent is not None    # tangent_jacobian: no sum over G
     outs = (Output.RHS, Output.JACOBIAN, Output.TANGENT_JACOBIAN)
     a, b = run(analytic, outs).compiled, run(forward, outs).compiled
     rng = np.random.default_rng(6)
@@ -169,7 +170,7 @@ def root_passes(model) -> set:
     loads; ``nert``: a free root's rotation and position)."""
     ne = NewtonEuler(prepare(model))
     udot = acceleration_symbols(ne.nu)
-    _, extra = rnea_partials.residual_jacobian(ne, udot)
+    _, _, extra = rnea_partials.residual_jacobian(ne, udot)
     return {re.match(r"mbgen:([a-z]+)", str(s)).group(1) for s, _ in extra.assignments}
 
 
