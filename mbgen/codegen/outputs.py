@@ -190,13 +190,17 @@ def _comment(info: OutputInfo) -> str:
     return f"{info.doc}{layout}."
 
 
-def _mass_blocks(eq: Equations):
+def _mass_blocks(eq: Equations, partials: bool = False):
     """What the solve needs: ``M`` (lower triangle) and ``F``, and for a constrained model
-    the acceleration bias ``BETA`` of ``A u' + beta = 0`` (over every speed)."""
+    the acceleration bias ``BETA`` of ``A u' + beta = 0`` (over every speed); ``partials``:
+    a Jacobian that reads the analytic ``residual_jacobian``, which solves with the
+    equations' ``partials_solve`` where they carry it (the same ``M`` and ``F`` from the
+    partials' own kinematics)."""
     n = eq.layout.n_u + eq.layout.n_d
-    M = eq.mass_matrix
+    own = partials and eq.partials_solve is not None and eq.contacts is None
+    M, F = eq.partials_solve if own else (eq.mass_matrix, eq.forcing)
     lower = tuple((i * n + j, M[i, j]) for i in range(n) for j in range(i + 1))
-    blocks = (Block("M", n * n, lower), Block("F", n, tuple(enumerate(eq.forcing))))
+    blocks = (Block("M", n * n, lower), Block("F", n, tuple(enumerate(F))))
     if eq.constraints is not None:
         blocks += (Block("BETA", eq.constraints.m,
                          tuple(enumerate(eq.constraints.acceleration_bias))),)
@@ -381,8 +385,9 @@ def _sensitivity(eq: Equations, info: OutputInfo, form: Form) -> Spec:
         # a recursion's pivots are still checked: a singular M is an error, not zeros
         return Spec(info.output, info.array, shape, labels, (Block("out", L.n_x * nv, rows),),
                     variables=variables, extra=extra, pivots=eq.accelerations is not None)
+    analytic = info.output is Output.JACOBIAN and eq.residual_jacobian is not None
     return Spec(info.output, info.array, shape, labels,
-                (Block("out", L.n_x * nv, g_entries), *_mass_blocks(eq)),
+                (Block("out", L.n_x * nv, g_entries), *_mass_blocks(eq, analytic)),
                 solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv,
                 variables=variables, extra=extra)
 
@@ -458,8 +463,8 @@ def _tangent(eq: Equations, info: OutputInfo, form: Form) -> Spec:
     post = Block("DT", size, tuple((k * nu + i, T[i][k]) for k in range(columns)
                                    for i in range(nu)))
     return Spec(info.output, info.array, (nu, columns), labels,
-                (Block("out", size, ()), *_mass_blocks(eq)), solve=True, post=(post,),
-                columns=columns, variables=variables, extra=extra, first_row=0)
+                (Block("out", size, ()), *_mass_blocks(eq, not recursive)), solve=True,
+                post=(post,), columns=columns, variables=variables, extra=extra, first_row=0)
 
 
 def _implicit_sensitivity(eq: Equations, info: OutputInfo, variables, shape, labels,

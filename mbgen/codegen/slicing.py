@@ -122,6 +122,8 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
                            else bake_matrix(equations.residual_jacobian)),
         residual_tangent=(None if equations.residual_tangent is None
                           else bake_matrix(equations.residual_tangent)),
+        partials_solve=(None if equations.partials_solve is None
+                        else tuple(map(bake_matrix, equations.partials_solve))),
         contacts=(None if equations.contacts is None else replace(
             equations.contacts, jacobian=bake_matrix(equations.contacts.jacobian),
             drift=bake_matrix(equations.contacts.drift))),

@@ -72,7 +72,7 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
                 if wants.jacobian and residual is not None else None)
     program = ne.P.build()
     if partials is not None:
-        program = Program(program.assignments + partials[2].assignments, program.checks)
+        program = Program(program.assignments + partials.extra.assignments, program.checks)
     return Equations(
         name=model.name,
         layout=layout,
@@ -88,8 +88,9 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
         accelerations=sm.ImmutableMatrix(udot) if udot is not None else None,
         reactions=loads,
         residual=sm.ImmutableMatrix(residual) if residual is not None else None,
-        residual_jacobian=partials[0] if partials is not None else None,
-        residual_tangent=partials[1] if partials is not None else None,
+        residual_jacobian=partials.jacobian if partials is not None else None,
+        residual_tangent=partials.tangent if partials is not None else None,
+        partials_solve=(partials.mass, partials.forcing) if partials is not None else None,
         contacts=contacts,
     )
 

@@ -282,6 +282,7 @@ class _World:
         g = ne.gravity
         self.ground_acc = ground_acc = join(ZERO3, vneg(g) if g is not None else ZERO3)
         self.R, self.c, self.J, self.v, self.a = {}, {}, {}, {}, {}
+        self.a0, self.f0 = {}, {}     # a, f at u' = 0: the bias of the Jacobians' own F
         self.Y, self.B, self.f = {}, {}, {}
         self.Vq, self.Aq, self.Av = {}, {}, {}
         self.columns: dict = {}     # the free root's world columns, speed index -> J
@@ -310,6 +311,8 @@ class _World:
         Y = self._inertia(b, R, c)
         h = P.vector(inertia_action(Y, v))
         self.R[b], self.c[b], self.v[b], self.a[b], self.Y[b] = R, c, v, a, Y
+        self.a0[b] = ground_acc
+        self.f0[b] = P.vector(vadd6(inertia_action(Y, ground_acc), fcross(v, h)))
         self.B[b] = self._coriolis(split(v), Y, h)
         self.f[b] = P.vector(vadd6(inertia_action(Y, a), fcross(v, h)))
 
@@ -319,11 +322,11 @@ class _World:
         Rb = ne.rotation(b).matrix
         if p is None:
             R, c = Rb, ne.kin[b].r
-            vp, ap = ZERO6, ground_acc
+            vp, ap, ap0 = ZERO6, ground_acc, ground_acc
         else:
             R = matmul3(self.R[p], Rb)
             c = vadd(self.c[p], matvec(self.R[p], ne.kin[b].r))
-            vp, ap = self.v[p], self.a[p]
+            vp, ap, ap0 = self.v[p], self.a[p], self.a0[p]
         R = tuple(tuple(P.scalar(x) for x in row) for row in R)
         c = P.vector(c)
         sw, sv = split(ne.kin[b].S[k])
@@ -341,6 +344,8 @@ class _World:
         B = self._coriolis(split(v), Y, h)
         self.R[b], self.c[b], self.J[b], self.v[b], self.a[b] = R, c, J, v, a
         self.Y[b], self.B[b], self.f[b] = Y, B, f
+        self.a0[b] = a0 = P.vector(vadd6(ap0, scale6(u, Vq)))
+        self.f0[b] = P.vector(vadd6(inertia_action(Y, a0), fcross(v, h)))
         self.Vq[b], self.Aq[b], self.Av[b] = Vq, Aq, Av
 
     def _coriolis(self, v, Y, h):
@@ -422,8 +427,8 @@ def _composite(P, W, b, kids, Yc, Bc, fc) -> None:
     fc[b] = P.vector(tuple(add(W.f[b][i], *(fc[c][i] for c in kids)) for i in range(6)))
 
 
-def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None]:
-    r"""``(dtau_dq, dtau_du, root)``: :math:`\partial\tau/\partial q` (``n_u x n_q``) and
+def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None, tuple]:
+    r"""``(dtau_dq, dtau_du, root, (M, C))``: :math:`\partial\tau/\partial q` (``n_u x n_q``) and
     :math:`\partial\tau/\partial u` (``n_u x n_u``) of the inverse dynamics with
     gravity, ``u'`` the placeholders ``udot`` (rows of sympy expressions); a free root's
     speed columns are in ``dtau_du``, its coordinates' columns left zero and its tangent
@@ -435,7 +440,7 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None]
     J_k\times(v_d - v_{root})`); a descendant's row takes the formulas above, the root's
     rows :math:`J_j\cdot Y^C\dot A_q` and :math:`J_j\cdot(B^C J_k + Y^C\dot A_v)`: its
     columns move with it, and :math:`(J_k\times J_j)\cdot f^C` cancels
-    :math:`J_j\cdot(J_k\times^* f^C)`."""
+    :math:`J_j\cdot(J_k\times^* f^C)`.  ``(M, C)``: :func:`mass_and_bias`."""
     P, L = ne.P, ne.prep.layout
     W = _World(ne, joints, udot)
     dq = [[S0] * L.n_q for _ in range(L.n_u)]
@@ -465,7 +470,48 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None]
             du[kd][kb] = add(du[kd][kb], dot6(Fa[d], Av), dot6(T[d], J))
             dq[kb][qd] = add(dq[kb][qd], dot6(J, Fq[d]))
             du[kb][kd] = add(du[kb][kd], dot6(J, Fv[d]))
-    return dq, du, root
+    return dq, du, root, mass_and_bias(ne, W, joints, below, Fa, Yc)
+
+
+def mass_and_bias(ne, W, joints, below, Fa, Yc) -> tuple[list, list]:
+    r"""``(M, C)``: the mass matrix (rows, ``n_u x n_u``) and the inertial bias
+    :math:`C = \tau(q, u, 0)` with gravity, in the world-frame quantities the partials hold,
+    for the Jacobians' own solve of :math:`M u' = F` with :math:`F = R^{app} - C`.
+
+    :math:`M_{kl} = \sum J_b\cdot F_{a,d}` over the bodies ``b`` of ``k`` and ``d`` of
+    ``l``, one an ancestor of the other or the same (:math:`F_a = Y^C J`: a dot product per
+    pair, where the composite-rigid-body pass in the bodies' frames carries a force up the
+    chain per pair), the armature on the diagonal; :math:`C_k = \sum J_b\cdot f^C_{0,b}`,
+    :math:`f_0 = Y a_0 + v\times^* Y v` with :math:`a_0` the accelerations at
+    :math:`u' = 0`.  A free root's columns ``J_k`` are joints of the root's body, its own
+    block :math:`J_k\cdot Y^C J_l`."""
+    P, n = ne.P, ne.nu
+    M = [[S0] * n for _ in range(n)]
+    C = [S0] * n
+    fc0: dict = {}
+    for b in reversed(ne.bodies):
+        fc0[b] = P.vector(tuple(add(W.f0[b][i], *(fc0[c][i] for c in b.children))
+                                for i in range(6))) if b.children else W.f0[b]
+        if b in joints:
+            pairs = [(joints[b][1], W.J[b])]
+        else:        # the free root: its columns, and its own block
+            pairs = list(W.columns.items())
+            for k, Jk in pairs:
+                YJ = P.vector(inertia_action(Yc[b], Jk))
+                for m, Jm in pairs:
+                    M[m][k] = add(M[m][k], dot6(Jm, YJ))
+        for k, J in pairs:
+            C[k] = add(C[k], dot6(J, fc0[b]))
+            if b in joints:
+                M[k][k] = add(M[k][k], dot6(J, Fa[b]))
+            for d in below[b]:
+                kd = joints[d][1]
+                x = dot6(J, Fa[d])
+                M[k][kd] = add(M[k][kd], x)
+                M[kd][k] = add(M[kd][k], x)
+    for k, a in ne.armature.items():
+        M[k][k] = add(M[k][k], a)
+    return M, C
 
 
 def _root_columns(P, W, b, joints, below, parts, dq, du) -> RootColumns:
@@ -529,17 +575,31 @@ def applied_residual(ne) -> list:
     return ne.forcing({b: ne.applied_wrench(b) for b in ne.bodies})
 
 
-def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, sm.ImmutableMatrix | None,
-                                         Program] | None:
-    r"""``(dR/dx, dR/d delta, extra)``: :math:`\partial R/\partial x` (``n_u x n_x``) of
-    :math:`R = F - M u'` at ``u'`` held; its speeds' tangent columns
-    :math:`\partial R/\partial\delta` (``n_u x n_u``: a joint's its coordinate's column, a
-    free root's its tangent columns, so that ``tangent_jacobian`` sums no
-    :math:`\partial R/\partial q\,G` over the root's coordinates; None where the applied
-    loads depend on the root's coordinates); and the forward-mode assignments of the applied
-    part and of a free root's rotation and position (to follow ``ne``'s program).  None where
-    :func:`screw_joints` does not apply, where forward mode gives fewer operations
-    (:func:`worth_it`), or where a state that no joint holds has no free root to hold it.
+@dataclass(frozen=True)
+class Partials:
+    r"""What :func:`residual_jacobian` derives: ``jacobian`` :math:`\partial R/\partial x`
+    (``n_u x n_x``), ``tangent`` :math:`\partial R/\partial\delta` (``n_u x n_u``) or None,
+    ``mass`` and ``forcing``, ``M`` and ``F`` for the Jacobians' own solve
+    (:func:`mass_and_bias`), and ``extra``, the forward-mode assignments that follow ``ne``'s
+    program."""
+
+    jacobian: sm.ImmutableMatrix
+    tangent: sm.ImmutableMatrix | None
+    mass: sm.ImmutableMatrix
+    forcing: sm.ImmutableMatrix
+    extra: Program
+
+
+def residual_jacobian(ne, udot) -> Partials | None:
+    r""":math:`\partial R/\partial x` (``n_u x n_x``) of :math:`R = F - M u'` at ``u'`` held
+    (:class:`Partials`); its speeds' tangent columns :math:`\partial R/\partial\delta` (a
+    joint's its coordinate's column, a free root's its tangent columns, so that
+    ``tangent_jacobian`` sums no :math:`\partial R/\partial q\,G` over the root's
+    coordinates; None where the applied loads depend on the root's coordinates); ``M`` and
+    ``F`` from the same quantities; and the forward-mode assignments of the applied part and
+    of a free root's rotation and position.  None where :func:`screw_joints` does not apply,
+    where forward mode gives fewer operations (:func:`worth_it`), or where a state that no
+    joint holds has no free root to hold it.
 
     A free root's speeds' columns are analytic (:func:`inertial_partials`), and so are its
     coordinates' through its tangent columns (:func:`root_coordinates`)."""
@@ -551,7 +611,7 @@ def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, sm.ImmutableMatrix 
     L = ne.prep.layout
     held = {q for q, _ in joints.values()} | {L.n_q + k for _, k in joints.values()}
     free = [j for j in range(L.n_q) if j not in held]
-    dq, du, root = inertial_partials(ne, joints, udot)
+    dq, du, root, (mass, bias) = inertial_partials(ne, joints, udot)
     if root is None and len(held) < L.n_x:
         return None
     applied = applied_residual(ne)
@@ -575,10 +635,12 @@ def residual_jacobian(ne, udot) -> tuple[sm.ImmutableMatrix, sm.ImmutableMatrix 
                         for k in range(L.n_u)] for i in range(L.n_u)]
     rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
             for i in range(L.n_u)]
-    return (sm.ImmutableMatrix(rows),
-            sm.ImmutableMatrix(tangent) if tangent is not None else None, extra)
+    forcing = [add(applied[k], mul(-1, bias[k])) for k in range(L.n_u)]
+    return Partials(sm.ImmutableMatrix(rows),
+                    sm.ImmutableMatrix(tangent) if tangent is not None else None,
+                    sm.ImmutableMatrix(mass), sm.ImmutableMatrix(forcing), extra)
 
 
-__all__ = ["MIN_SPEEDS", "RootColumns", "applied_residual", "free_root", "inertial_partials",
-           "longest_chain", "residual_jacobian", "root_coordinates", "screw_joints",
-           "worth_it"]
+__all__ = ["MIN_SPEEDS", "Partials", "RootColumns", "applied_residual", "free_root",
+           "inertial_partials", "longest_chain", "mass_and_bias", "residual_jacobian",
+           "root_coordinates", "screw_joints", "worth_it"]

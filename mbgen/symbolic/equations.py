@@ -225,6 +225,11 @@ class Equations:
         (the sum over ``j`` of ``dR/dq_j G_jk``, ``G = dq'/du``), where the
         derivation has it without that sum (a free root's tangent columns,
         :mod:`mbgen.derivation.rnea_partials`); ``Output.TANGENT_JACOBIAN`` then uses it.
+    partials_solve : (ImmutableMatrix, ImmutableMatrix), shapes (n_u, n_u) and (n_u, 1), or None
+        ``M`` and ``F`` again, from the quantities the analytic ``residual_jacobian`` holds
+        (:func:`mbgen.derivation.rnea_partials.mass_and_bias`): the Jacobians that read it
+        solve with these, which share its kinematics, instead of ``mass_matrix`` and
+        ``forcing``.
     reactions : JointLoads or None
         Joint reaction forces and moments, when derived.
     constraints : Constraints or None
@@ -257,6 +262,7 @@ class Equations:
     residual_jacobian: sm.ImmutableMatrix | None = None
     contacts: Contacts | None = None
     residual_tangent: sm.ImmutableMatrix | None = None
+    partials_solve: tuple[sm.ImmutableMatrix, sm.ImmutableMatrix] | None = None
 
     def __post_init__(self):
         self._check_shapes()
@@ -300,6 +306,29 @@ class Equations:
                              f"for {len(c.names)} contacts, expected ({3 * len(c.names)}, {n}) "
                              f"and ({3 * len(c.names)}, 1)")
 
+    def _analytic_parts(self, n: int) -> list:
+        """The derivation's analytic Jacobian parts (``residual_jacobian``, ``residual_tangent``,
+        ``partials_solve``) as checked parts, their shapes checked."""
+        L = self.layout
+        out: list = []
+        if self.residual_jacobian is not None:
+            if self.residual is None or self.residual_jacobian.shape != (n, L.n_x):
+                raise ModelError(f"residual_jacobian has shape {self.residual_jacobian.shape}, "
+                                 f"expected ({n}, {L.n_x}) with a residual")
+            out.append(("residual Jacobian", self.residual_jacobian))
+        if self.residual_tangent is not None:
+            if self.residual_jacobian is None or self.residual_tangent.shape != (n, n):
+                raise ModelError(f"residual_tangent has shape {self.residual_tangent.shape}, "
+                                 f"expected ({n}, {n}) with a residual Jacobian")
+            out.append(("residual tangent", self.residual_tangent))
+        if self.partials_solve is not None:
+            M, F = self.partials_solve
+            if self.residual_jacobian is None or M.shape != (n, n) or F.shape != (n, 1):
+                raise ModelError(f"partials_solve has shapes {M.shape} and {F.shape}, expected "
+                                 f"({n}, {n}) and ({n}, 1) with a residual Jacobian")
+            out += [("partials' mass matrix", M), ("partials' forcing", F)]
+        return out
+
     def _checked_parts(self) -> tuple[list, set]:
         """``(checked, known)``: the named parts whose symbols are checked (the residual's
         and its Jacobian's shapes on the way), and the symbols they may contain."""
@@ -319,16 +348,7 @@ class Equations:
                 raise ModelError(f"residual has shape {self.residual.shape}, expected ({n}, 1)")
             checked.append(("residual", self.residual))
             known = known | set(acceleration_symbols(n))
-        if self.residual_jacobian is not None:
-            if self.residual is None or self.residual_jacobian.shape != (n, L.n_x):
-                raise ModelError(f"residual_jacobian has shape {self.residual_jacobian.shape}, "
-                                 f"expected ({n}, {L.n_x}) with a residual")
-            checked.append(("residual Jacobian", self.residual_jacobian))
-        if self.residual_tangent is not None:
-            if self.residual_jacobian is None or self.residual_tangent.shape != (n, n):
-                raise ModelError(f"residual_tangent has shape {self.residual_tangent.shape}, "
-                                 f"expected ({n}, {n}) with a residual Jacobian")
-            checked.append(("residual tangent", self.residual_tangent))
+        checked += self._analytic_parts(n)
         if self.constraints is not None:
             checked.append(("constraints", self.constraints.expressions()))
         if self.contacts is not None:

@@ -167,6 +167,9 @@ def test_the_analytic_partials_of_the_inverse_dynamics_are_unchanged(monkeypatch
     theirs, = numbers(kane, [dR])
     assert np.abs(theirs).max() > 0.1
     assert np.allclose(ours, theirs, rtol=1e-12, atol=1e-12)
+    own_M, own_F, M, F = numbers(ne, [*ne.partials_solve, ne.mass_matrix, ne.forcing])
+    assert np.allclose(own_M, M, rtol=1e-12, atol=1e-12)   # the armature on its diagonal
+    assert np.allclose(own_F, F, rtol=1e-12, atol=1e-12)
 
 
 @pytest.mark.slow

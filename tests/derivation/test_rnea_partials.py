@@ -15,6 +15,7 @@ import re
 
 import numpy as np
 import pytest
+import sympy as sm
 
 import mbgen
 from mbgen import Output
@@ -170,7 +171,7 @@ def root_passes(model) -> set:
     loads; ``nert``: a free root's rotation and position)."""
     ne = NewtonEuler(prepare(model))
     udot = acceleration_symbols(ne.nu)
-    _, _, extra = rnea_partials.residual_jacobian(ne, udot)
+    extra = rnea_partials.residual_jacobian(ne, udot).extra
     return {re.match(r"mbgen:([a-z]+)", str(s)).group(1) for s, _ in extra.assignments}
 
 
@@ -201,6 +202,33 @@ def test_a_root_rotation_that_is_not_one_everywhere(small, tmp_path, monkeypatch
         model = mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, "hopper")), floating=True)
     assert rnea_partials.free_root(NewtonEuler(prepare(model))) is None
     assert equations_of(model, Method.NEWTON_EULER, jacobian=True).residual_jacobian is None
+
+
+def values(eq, exprs, rng):
+    """``exprs`` (matrices of ``eq``) at a random state (inputs, parameters and the held
+    ``u'`` too), ``g = 9.81``, the program evaluated assignment by assignment."""
+    L = eq.layout
+    at = {s: sm.Float(rng.uniform(-1, 1))
+          for s in (*L.states, *L.inputs, *acceleration_symbols(L.n_u))}
+    at.update({s: sm.Float(rng.uniform(0.5, 1.5)) for s in L.parameters})
+    at.update({sm.Symbol("g"): sm.Float(9.81), L.time: 0})
+    for symbol, expr in eq.program.assignments:
+        at[symbol] = sm.Float(float(expr.xreplace(at)))
+    return [np.array(sm.Matrix(e).xreplace(at).evalf(), dtype=float) for e in exprs]
+
+
+@pytest.mark.parametrize("kind", ["branch", "slider", "loads", "fingers", "hopper"])
+def test_the_jacobians_own_mass_matrix_and_forcing(kind, small, tmp_path):
+    """``M`` and ``F`` from the partials' world-frame quantities (``partials_solve``, what the
+    Jacobians solve with) are the derivation's ``M`` and ``F``."""
+    model = (mimic(kind) if kind == "fingers" else tree(kind) if kind != "hopper" else
+             mbgen.from_urdf(write(tmp_path, urdf(FLOATING_PARTS, kind)), floating=True))
+    eq = equations_of(model, Method.NEWTON_EULER, jacobian=True)
+    own_M, own_F, M, F = values(eq, [*eq.partials_solve, eq.mass_matrix, eq.forcing],
+                                np.random.default_rng(8))
+    assert np.abs(M).max() > 0.1 and np.abs(F).max() > 0.1
+    assert np.allclose(own_M, M, rtol=1e-12, atol=1e-12)
+    assert np.allclose(own_F, F, rtol=1e-12, atol=1e-12)
 
 
 def test_few_joints_on_a_floating_base_keep_forward_mode(tmp_path):
