@@ -43,8 +43,13 @@ from .solver import UNROLL_MAX, Statement, pivot_factor
 
 #: A model past ``UNROLL_MAX`` speeds takes the tree factor for its column solves when ``L``
 #: has at most this fraction of the dense ``n (n - 1) / 2`` structural nonzeros (G1: 306 of
-#: 595, Solo-12: 99 of 153; a chain: all of them, and it keeps the dense loops).
+#: 595, Solo-12: 99 of 153; a chain: all of them) ...
 TREE_FILL = 0.75
+#: ... or at most this many (a chain of 33 speeds): the straight-line solve beats the dense
+#: loops there too (spatial arm, jacobian, module's flags, paired C loops: 16 links 5.63 ->
+#: 4.95 us, 32 links 20.3 -> 18.6 us; gcc 6.2 -> 6.5 s and 31.0 -> 31.8 s), and its factor's
+#: straight-line code, about n^3 / 6 statements for a chain, stays bounded.
+TREE_DENSE_MAX = 528
 
 
 def _fill(n: int, pattern: frozenset, order: tuple) -> dict[int, tuple[int, ...]]:
@@ -183,11 +188,14 @@ def vector_lines(program: list[Statement], stride: int, factors) -> list[str]:
 def tree_factor(n: int, pattern: frozenset) -> TreeFactor | None:
     """The :class:`TreeFactor` a model of ``n`` speeds solves its columns with, or ``None``
     (the dense loops): ``n`` past ``UNROLL_MAX`` (below, the unrolled solver already touches
-    structural nonzeros only) and ``L`` at most :data:`TREE_FILL` of dense."""
+    structural nonzeros only) and ``L`` at most :data:`TREE_FILL` of dense or at most
+    :data:`TREE_DENSE_MAX` nonzeros."""
     if n <= UNROLL_MAX:
         return None
     tree = TreeFactor(n, pattern)
-    return tree if tree.nonzeros <= TREE_FILL * n * (n - 1) / 2 else None
+    small = tree.nonzeros <= max(TREE_FILL * n * (n - 1) / 2, TREE_DENSE_MAX)
+    return tree if small else None
 
 
-__all__ = ["TREE_FILL", "TreeFactor", "elimination_order", "tree_factor", "vector_lines"]
+__all__ = ["TREE_DENSE_MAX", "TREE_FILL", "TreeFactor", "elimination_order", "tree_factor",
+           "vector_lines"]

@@ -3,13 +3,14 @@
 
 * the factor of a tree pattern, leaves first, fills nothing in, and its statements run as
   Python solve ``M x = b`` to 1e-12 for a random positive definite ``M`` of that pattern;
-* which models take it: past ``UNROLL_MAX`` speeds and sparse (a branched tree); a chain
-  (dense ``M``) and a small model keep the dense loops;
+* which models take it: past ``UNROLL_MAX`` speeds and sparse (a branched tree) or small
+  enough (a chain of up to 33 speeds); a longer chain and a small model keep the loops;
 * a branched model (a hub with three pendulums; the unrolling threshold lowered so that four
   speeds take the path) compiles to ``<prefix>_tree_factor`` and the tree's column solve: C
   and generated Python agree bit for bit, with the dense path (its generated Python) to
   1e-12, and with the lambdified reference; it compiles without a warning as strict C and
-  C++ and within its stack bounds; the 3-link cart (a chain) keeps ``ldl_solve_columns``.
+  C++ and within its stack bounds; the 3-link cart (a chain) past ``TREE_DENSE_MAX`` keeps
+  ``ldl_solve_columns``.
 """
 
 from __future__ import annotations
@@ -72,12 +73,14 @@ def test_a_tree_factor_fills_nothing_in_and_solves():
     assert np.abs(np.array(scope["b"]) - x).max() <= 1e-12 * np.abs(x).max()
 
 
-def test_only_a_sparse_factor_past_the_unrolled_size_takes_the_tree():
+def test_past_the_unrolled_size_a_sparse_or_bounded_factor_takes_the_tree():
     star = (-1, 0, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8)   # a hub and four chains of three
     assert len(star) == 13 > UNROLL_MAX
     assert tree_factor(13, tree_pattern(star)) is not None
-    chain = tuple(range(-1, 12))
-    assert tree_factor(13, tree_pattern(chain)) is None           # dense M: the loops
+    chain = tuple(range(-1, 32))                      # dense M, 528 nonzeros in L
+    assert tree_factor(33, tree_pattern(chain)).nonzeros == tree_solve.TREE_DENSE_MAX
+    longer = tuple(range(-1, 33))
+    assert tree_factor(34, tree_pattern(longer)) is None          # dense and long: the loops
     small = star[:9]
     assert tree_factor(9, tree_pattern(small)) is None            # unrolled already
 
@@ -119,6 +122,7 @@ def test_a_branched_model_solves_its_columns_over_the_tree(small_trees, tmp_path
     assert "hub_tree_factor(M, CD)" in source and "ldl_solve_columns" not in source
     assert "_tree_solve(M, CD, DT, j * 4)" in result.rendered.python
     small_trees.setattr(tree_solve, "TREE_FILL", 0.0)
+    small_trees.setattr(tree_solve, "TREE_DENSE_MAX", 0)
     dense = run(hub("hub_dense"), outputs, build=False)
     assert "ldl_solve_columns" in dense.rendered.files["hub_dense.c"]
     py, py_dense = mbgen.python_model(result.rendered), mbgen.python_model(dense.rendered)
@@ -145,6 +149,8 @@ def _strict_and_within_its_stack_bound(rendered, folder):
 
 
 def test_a_chain_keeps_the_dense_column_solve(small_trees):
+    """Dense and past TREE_DENSE_MAX (lowered to 2 here): the loops."""
+    small_trees.setattr(tree_solve, "TREE_DENSE_MAX", 2)
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian"), build=False)
     source = result.rendered.files[f"{result.rendered.prefix}.c"]
     assert "ldl_solve_columns" in source and "_tree_factor" not in source
