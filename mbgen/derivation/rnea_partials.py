@@ -56,6 +56,11 @@ program in forward mode (cheap: they touch few bodies).  A joint's armature adds
 :math:`-a_k u'_k` to ``R`` (:meth:`~mbgen.derivation.recursion.NewtonEuler.residual`):
 a constant times the held ``u'``, it changes neither partial.  Every per-body quantity
 is a named intermediate: :math:`O(n)` 6x6 work and :math:`O(n^2)` dot products.
+
+The Jacobians need ``u'`` first: they solve ``M u' = F`` with ``M`` and ``F`` from the same
+world-frame quantities (:func:`mass_and_bias`: :math:`M_{bd} = J_b\cdot F_{a,d}`, a dot
+product per pair), not the derivation's own, which carry forces up the chain in the
+bodies' frames (G1's ``jacobian``: 22 % fewer operations, 14 % less time).
 """
 
 from __future__ import annotations
