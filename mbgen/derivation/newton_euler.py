@@ -24,7 +24,8 @@ in its own module:
    gives ``u'`` directly when every speed belongs to exactly one joint;
 3. :mod:`mbgen.derivation.reactions` -- the joint reactions ``f_b`` above;
 4. :mod:`mbgen.derivation.rnea_partials` -- the analytic state Jacobian of the
-   inverse dynamics, where every joint is revolute or prismatic (asked for by
+   inverse dynamics, and ``M`` and ``F`` for its solve, where every joint is revolute or
+   prismatic and the root fixed or free (:mod:`mbgen.derivation.rnea_scope`; asked for by
    ``wants.jacobian``).
 
 Every per-body quantity is a named intermediate of one program
