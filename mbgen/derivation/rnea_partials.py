@@ -117,7 +117,8 @@ def coriolis_transpose_action(B, x) -> tuple:
 def worth_it(ne, joints) -> bool:
     """Whether the analytic partials give fewer operations than forward mode (by
     :data:`MIN_SPEEDS`): the longest chain, or on a free root all the joints."""
-    counted = len(joints) if free_root(ne) is not None else longest_chain(ne, joints)
+    free = len(joints) < len(ne.bodies)     # screw_joints leaves out only a free root
+    counted = len(joints) if free else longest_chain(ne, joints)
     return counted >= MIN_SPEEDS
 
 
