@@ -53,7 +53,7 @@ from .model.builder import Model
 from .model.scene import Scene, source_label
 from .runtime.compiled import CompiledModel
 from .symbolic.equations import Equations
-from .symbolic.graph import reachable
+from .symbolic.graph import fewer_collections, reachable
 
 #: The values of a :class:`PipelineResult` that a warm run derives only when they are read.
 DERIVED = ("equations", "baked", "kernel")
@@ -515,12 +515,13 @@ def run(source: Model | Equations | Scene, outputs: Iterable | None = None, *,
                                  cse_backend=cse_backend, targets=targets, method=method,
                                  form=form, comparisons=comparisons, warm=False)
         return _warm_result(stored, stages, clock, cold)
-    trial = _chosen(stages, method_of(method) if method is not None else None, comparisons)
-    kernel = trial.kernel
-    if isinstance(source, Scene) and source.saturate:   # the bounds the step API clamps to
-        kernel = replace(kernel, input_bounds=tuple(
-            (n, lo, hi) for n, (lo, hi) in sorted(source.input_bounds().items())))
-    rendered = clock("render", render, kernel, targets)
+    with fewer_collections():
+        trial = _chosen(stages, method_of(method) if method is not None else None, comparisons)
+        kernel = trial.kernel
+        if isinstance(source, Scene) and source.saturate:   # the bounds the step API clamps to
+            kernel = replace(kernel, input_bounds=tuple(
+                (n, lo, hi) for n, (lo, hi) in sorted(source.input_bounds().items())))
+        rendered = clock("render", render, kernel, targets)
     if key:
         warm_cache.store(key, rendered)
     compiled, cached = None, False

@@ -8,11 +8,48 @@ expression DAG once.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+import gc
+import threading
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from functools import cmp_to_key
 
 import sympy as sm
 from sympy.functions.elementary.piecewise import ExprCondPair
+
+#: The cyclic collector's first threshold while expressions are built
+#: (:func:`fewer_collections`); Python's default is 700.
+GC_THRESHOLD = 200_000
+_gc_lock = threading.Lock()
+_gc_depth = [0, None]     # nesting depth, the thresholds to restore
+
+
+@contextmanager
+def fewer_collections() -> Iterator[None]:
+    """Run the cyclic garbage collector less often inside: its first threshold is raised
+    to :data:`GC_THRESHOLD` allocations, and restored on the way out (nested or in
+    several threads: by the last one out).
+
+    Why: a derivation allocates a few hundred thousand expression nodes, hardly any of them in
+    a reference cycle, and every 700 allocations Python scans the youngest objects, every
+    7,000 the middle generation, now and then everything alive (sympy's import included).
+    The spatial arm's RHS, derive..render in a new process (``build=False``), six runs
+    each at the default / raised threshold: n = 4 0.25-0.30 / 0.21-0.26 s, n = 32
+    2.47-2.74 / 2.12-2.53 s; the peak resident memory is the same (133 MB).
+    """
+    with _gc_lock:
+        if _gc_depth[0] == 0:
+            _gc_depth[1] = gc.get_threshold()
+            first, *rest = _gc_depth[1]
+            gc.set_threshold(max(first, GC_THRESHOLD), *rest)
+        _gc_depth[0] += 1
+    try:
+        yield
+    finally:
+        with _gc_lock:
+            _gc_depth[0] -= 1
+            if _gc_depth[0] == 0:
+                gc.set_threshold(*_gc_depth[1])
 
 
 def walk_unique(exprs: Iterable[sm.Basic]):

@@ -112,3 +112,36 @@ def test_reproducer_values_and_jacobian():
     assert baked.n_p == 0
     x = np.array([0.3, 0.1])
     np.testing.assert_allclose(baked.rhs(0.0, x), model.rhs(0.0, x), rtol=1e-13)
+
+
+def test_fewer_collections_raises_the_threshold_and_restores_it():
+    """Inside, the collector's first threshold is at least GC_THRESHOLD; the user's own
+    thresholds come back on the way out, after nesting and after an exception; a pipeline
+    run derives inside it."""
+    import gc
+
+    from mbgen.abi import Output
+    from mbgen.pipeline import StageTimer, run
+    from mbgen.scenes.spatial_arm import scene
+    from mbgen.symbolic.graph import GC_THRESHOLD, fewer_collections
+
+    before = gc.get_threshold()
+    gc.set_threshold(1234, 9, 8)
+    try:
+        with fewer_collections():
+            assert gc.get_threshold() == (GC_THRESHOLD, 9, 8)
+            with fewer_collections():
+                assert gc.get_threshold()[0] == GC_THRESHOLD
+            assert gc.get_threshold()[0] == GC_THRESHOLD
+        assert gc.get_threshold() == (1234, 9, 8)
+        with pytest.raises(ZeroDivisionError):
+            with fewer_collections():
+                1 / 0
+        assert gc.get_threshold() == (1234, 9, 8)
+        seen = []
+        run(scene(2), (Output.RHS,), build=False,
+            timer=StageTimer(started=lambda stage: seen.append((stage, gc.get_threshold()[0]))))
+        assert seen and all(t == GC_THRESHOLD for _, t in seen), seen
+        assert gc.get_threshold() == (1234, 9, 8)
+    finally:
+        gc.set_threshold(*before)
