@@ -95,7 +95,7 @@ extern "C" {
 #define SPATIAL_ARM_P_g 1 /* g */
 
 /* SHA-256 (16 hex digits) of spatial_arm.h, .c and .py with this value blanked. */
-#define SPATIAL_ARM_CONTENT_HASH "80aed35af8f7f900"
+#define SPATIAL_ARM_CONTENT_HASH "040721cc9c24f9c4"
 
 /* Stack bound in bytes of one call of each function, the functions it calls included
  * (automatic variables plus 256 bytes per call level; no recursion, no VLAs, no alloca). */
