@@ -15,6 +15,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -22,7 +24,7 @@ import mbgen
 import mbgen.codegen.targets.model
 from checks import CC, assert_compiles_strictly
 from cstack import call_graph, deepest, stack_usage
-from mbgen.codegen import tree_solve
+from mbgen.codegen import split, tree_solve
 from mbgen.codegen.solver import UNROLL_MAX, py_lines
 from mbgen.codegen.tree_solve import TreeFactor, tree_factor
 from mbgen.model.scene import load_scene
@@ -120,6 +122,7 @@ def test_a_branched_model_solves_its_columns_over_the_tree(small_trees, tmp_path
     result = run(hub(), outputs)
     source = result.rendered.files[f"{result.rendered.prefix}.c"]
     assert "hub_tree_factor(M, CD)" in source and "ldl_solve_columns" not in source
+    assert "double DT[" not in source   # the columns' right-hand sides go into J's rows
     assert "_tree_solve(M, CD, DT, j * 4)" in result.rendered.python
     small_trees.setattr(tree_solve, "TREE_FILL", 0.0)
     small_trees.setattr(tree_solve, "TREE_DENSE_MAX", 0)
@@ -136,6 +139,30 @@ def test_a_branched_model_solves_its_columns_over_the_tree(small_trees, tmp_path
         assert np.abs(J - J_dense).max() <= 1e-12 * np.abs(J_dense).max()
     report = check(None, result=result, samples=4)
     assert report.ok, report.format()
+    _strict_and_within_its_stack_bound(result.rendered, tmp_path)
+
+
+def test_in_parts_the_columns_are_stored_in_the_output_rows(small_trees, tmp_path):
+    """Cut into parts, the parts store DT's entries straight into J's rows: the same bits as
+    the parts that store into a local DT copied there; strict C and C++."""
+    small_trees.setattr(split, "SPLIT_CHARS", 400)
+    small_trees.setattr(split, "PART_CHARS", 400)
+    result = run(hub("hub_parts"), ("rhs", "jacobian"))
+    source = result.rendered.files["hub_parts.c"]
+    assert "hub_parts_jacobian_part1(" in source and "double DT[" not in source
+    assert re.search(r"static void hub_parts_jacobian_part\d+\([^)]*double \*J, double \*W\)",
+                     source)
+    small_trees.setattr(mbgen.codegen.targets.model, "_columns_in_place", lambda view: False)
+    copied = run(hub("hub_copied"), ("rhs", "jacobian"))
+    assert "double DT[" in copied.rendered.files["hub_copied.c"]
+    py = mbgen.python_model(result.rendered)
+    rng = np.random.default_rng(3)
+    p = result.compiled.default_parameters
+    for _ in range(3):
+        x, r = rng.uniform(-1, 1, 8), rng.uniform(-1, 1, 4)
+        J = result.compiled.jacobian(0.0, x, p, r)
+        assert np.array_equal(J, copied.compiled.jacobian(0.0, x, p, r))
+        assert np.abs(J - py.jacobian(0.0, x, p, r)).max() <= 1e-14 * np.abs(J).max()
     _strict_and_within_its_stack_bound(result.rendered, tmp_path)
 
 
