@@ -89,6 +89,18 @@ NATIVE = ("-march=native",)
 #: 17.6 s, 348 MB).  Lanes are independent columns (no sum is reordered), so the results
 #: are bit for bit those of -O2.
 VECTORIZE = ("-fvect-cost-model=dynamic",)
+#: Added to :data:`CFLAGS` where the compiler takes it: gcc's basic-block ("SLP") vectoriser,
+#: which packs scalars of straight-line code into vectors, costs far more compile time and
+#: memory on generated code than it gains at run time (loops, the column solves, are
+#: vectorised by the loop vectoriser either way).  The same sources (RHS, ``jacobian`` and
+#: ``tangent_jacobian``), module flags with / without it, gcc's seconds and peak memory, then
+#: ``jacobian`` and ``tangent_jacobian`` in paired C loops (min of 15 x 2,000 calls, µs):
+#: G1 36.7 / 26.2 s, 1.35 / 0.39 GB, 14.4-14.5 / 14.5-15.0, 12.5 / 12.6-12.7; Solo-12 10.6 /
+#: 7.2 s, 417 / 252 MB, 4.18-4.26 / 4.13-4.17, 3.70 / 3.50; Panda 3.6 / 3.5 s, 2.08 / 1.94,
+#: 1.96 / 1.97-1.99; 16-link arm 10.9 / 8.3 s, 428 / 310 MB, 4.40 / 4.57-4.64, 4.50-4.52 /
+#: 4.57-4.61; 32-link arm 52.0 / 28.9 s, 1.12 / 0.38 GB, 16.5 / 17.5, 17.5 / 17.6 (its RHS
+#: 1.91 either way).
+NO_SLP = ("-fno-tree-slp-vectorize",)
 
 #: Flags that break the IEEE arithmetic the generated code relies on, refused wherever they
 #: come from ($CFLAGS, $LDFLAGS, Python's own flags), each with its reason; the second field
@@ -157,8 +169,8 @@ def _cc() -> str:
 
 def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
     """Compiler flags for ``rendered``: :data:`CFLAGS`, at -O1 for a large source,
-    :data:`VECTORIZE` where the compiler takes it, and :data:`NATIVE` where ``native``
-    (default :func:`wants_native`) and the compiler takes it.
+    :data:`VECTORIZE` and :data:`NO_SLP` where the compiler takes them, and :data:`NATIVE`
+    where ``native`` (default :func:`wants_native`) and the compiler takes it.
 
     A module built by ``mbgen.compile`` runs on the machine that built it, so it is built
     for that CPU: 1.1-1.3x faster from n = 8 links on (:data:`NATIVE`'s figures).
@@ -187,8 +199,9 @@ def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
         source = rendered.files[f"{rendered.prefix}.c"]
         level = "-O1" if longest_function(source) > LARGE_FUNCTION_CHARS else "-O2"
     flags = tuple(level if f == "-O2" else f for f in CFLAGS)
-    if accepts(_cc(), VECTORIZE):
-        flags += VECTORIZE
+    for extra in (VECTORIZE, NO_SLP):
+        if accepts(_cc(), extra):
+            flags += extra
     if (wants_native() if native is None else native) and native_target(_cc()):
         flags += NATIVE
     return flags

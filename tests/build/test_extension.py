@@ -64,13 +64,16 @@ def test_g1s_floating_jacobian_keeps_O2():
     assert longest < extension.LARGE_FUNCTION_CHARS and level == "-O2"
 
 
-def test_the_vectoriser_flag_is_added_only_where_the_compiler_takes_it(monkeypatch, rendered):
+@pytest.mark.parametrize("name", ["VECTORIZE", "NO_SLP"])
+def test_the_vectoriser_flags_are_added_only_where_the_compiler_takes_them(monkeypatch,
+                                                                           rendered, name):
     cc = extension._cc()
+    flags = getattr(extension, name)
     assert not extension.accepts(cc, ("-fno-such-option-mbgen",))
-    wanted = extension.accepts(cc, extension.VECTORIZE)
-    assert (extension.VECTORIZE[0] in extension.cflags(rendered)) == wanted
+    wanted = extension.accepts(cc, flags)
+    assert (flags[0] in extension.cflags(rendered)) == wanted
     monkeypatch.setattr(extension, "accepts", lambda cc, flags: False)
-    assert extension.VECTORIZE[0] not in extension.cflags(rendered)
+    assert flags[0] not in extension.cflags(rendered)
 
 
 @pytest.mark.slow
