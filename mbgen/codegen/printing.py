@@ -255,7 +255,8 @@ def _negative(number) -> bool:
 #: Kernels with more operations after CSE than this print the terms of a sum in the order
 #: sympy stores them instead of re-sorting each sum (``sort=False``): sympy's sorting of
 #: terms is most of rendering a mid-sized kernel (the 8-link arm's RHS, 1,806 operations:
-#: 0.17 s sorted, 0.04 s stored; the 16-link arm's 0.32 / 0.07 s).  Small kernels keep the
+#: 0.24 s sorted, 0.03 s stored; the 16-link arm's 0.32 / 0.06 s; ``mbgen bench arm``, one
+#: run each).  Small kernels keep the
 #: sorted order, where it costs little, and the golden files, figures and check margins
 #: measured on them.  With every kernel in the stored order one check failed: four_bar's
 #: energy drift near its dead point, C dopri5 at rtol 1e-10, 1.1e-6 against its bound of
