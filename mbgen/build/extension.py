@@ -99,7 +99,10 @@ VECTORIZE = ("-fvect-cost-model=dynamic",)
 #: 7.2 s, 417 / 252 MB, 4.18-4.26 / 4.13-4.17, 3.70 / 3.50; Panda 3.6 / 3.5 s, 2.08 / 1.94,
 #: 1.96 / 1.97-1.99; 16-link arm 10.9 / 8.3 s, 428 / 310 MB, 4.40 / 4.57-4.64, 4.50-4.52 /
 #: 4.57-4.61; 32-link arm 52.0 / 28.9 s, 1.12 / 0.38 GB, 16.5 / 17.5, 17.5 / 17.6 (its RHS
-#: 1.91 either way).
+#: 1.91 either way).  It also changed bits: with it, gcc 12 with -march=native (AVX-512) gave
+#: one entry of a small tree's Jacobian cut into parts a rounding (2.8e-17) away from the
+#: generated Python's (``tests/codegen/test_tree_solve.py``), -ffp-contract=off
+#: notwithstanding.
 NO_SLP = ("-fno-tree-slp-vectorize",)
 
 #: Flags that break the IEEE arithmetic the generated code relies on, refused wherever they
