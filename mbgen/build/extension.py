@@ -79,30 +79,17 @@ CFLAGS = ("-std=c99", "-O2", "-ffp-contract=off", "-g0")
 #: -O2: 33 / 423 / 1,242 / 2,711; -O2 -march=native: 31 / 350 / 968 / 2,417; -O3 and
 #: -O3 -march=native gave the same as -O2 and -O2 -march=native (within 4 %).
 NATIVE = ("-march=native",)
-#: Added to :data:`CFLAGS` where the compiler takes it (:func:`accepts`): gcc's -O2 vectorises
-#: a loop only where that needs no check and no remainder ("very cheap"), so the column
-#: solve of a Jacobian (``ldl_solve_columns``, a loop over ``C`` columns, ``C`` a parameter)
-#: stayed scalar, and it was 59 % of G1's Jacobian and 70 % of Solo-12's (perf).  The
-#: dynamic cost model vectorises it: C loop, module flags, paired runs, µs -O2 / with it /
-#: -O3: G1 (floating) 70.5 / 40.7 / 37.8, Solo-12 11.6 / 7.5 / 7.1, 32-link arm 28.4 / 26.2
-#: / 24.7, Panda 2.49 / 2.48 / 2.48; gcc's time and memory unchanged (G1 17.9 / 17.8 /
-#: 17.6 s, 348 MB).  Lanes are independent columns (no sum is reordered), so the results
-#: are bit for bit those of -O2.
+#: Added where the compiler takes it (:func:`accepts`): gcc's -O2 vectorises only "very cheap"
+#: loops, so a Jacobian's column solve (a loop over a parameter's count of columns) stayed
+#: scalar: 59 % of G1's Jacobian, 70 % of Solo-12's (perf).  The dynamic cost model vectorises
+#: it (paired C loops, µs, -O2 / with it / -O3: G1 70.5 / 40.7 / 37.8, Solo-12 11.6 / 7.5 /
+#: 7.1, 32-link arm 28.4 / 26.2 / 24.7; gcc's time unchanged).  Lanes are independent columns
+#: (no sum is reordered): the bits of -O2.
 VECTORIZE = ("-fvect-cost-model=dynamic",)
-#: Added to :data:`CFLAGS` where the compiler takes it: gcc's basic-block ("SLP") vectoriser,
-#: which packs scalars of straight-line code into vectors, costs far more compile time and
-#: memory on generated code than it gains at run time (loops, the column solves, are
-#: vectorised by the loop vectoriser either way).  The same sources (RHS, ``jacobian`` and
-#: ``tangent_jacobian``), module flags with / without it, gcc's seconds and peak memory, then
-#: ``jacobian`` and ``tangent_jacobian`` in paired C loops (min of 15 x 2,000 calls, µs):
-#: G1 36.7 / 26.2 s, 1.35 / 0.39 GB, 14.4-14.5 / 14.5-15.0, 12.5 / 12.6-12.7; Solo-12 10.6 /
-#: 7.2 s, 417 / 252 MB, 4.18-4.26 / 4.13-4.17, 3.70 / 3.50; Panda 3.6 / 3.5 s, 2.08 / 1.94,
-#: 1.96 / 1.97-1.99; 16-link arm 10.9 / 8.3 s, 428 / 310 MB, 4.40 / 4.57-4.64, 4.50-4.52 /
-#: 4.57-4.61; 32-link arm 52.0 / 28.9 s, 1.12 / 0.38 GB, 16.5 / 17.5, 17.5 / 17.6 (its RHS
-#: 1.91 either way).  It also changed bits: with it, gcc 12 with -march=native (AVX-512) gave
-#: one entry of a small tree's Jacobian cut into parts a rounding (2.8e-17) away from the
-#: generated Python's (``tests/codegen/test_tree_solve.py``), -ffp-contract=off
-#: notwithstanding.
+#: Added where the compiler takes it: gcc's basic-block vectoriser cost generated code far
+#: more compile time and memory than it gained (G1's Jacobians: 36.7 -> 26.2 s, 1.35 -> 0.39
+#: GB; run time within 5 % on the robots and arms), and changed bits against the generated
+#: Python (gcc 12, AVX-512); docs/performance.md, "Without gcc's basic-block vectoriser".
 NO_SLP = ("-fno-tree-slp-vectorize",)
 
 #: Flags that break the IEEE arithmetic the generated code relies on, refused wherever they
@@ -183,14 +170,11 @@ def cflags(rendered: Rendered, native: bool | None = None) -> tuple[str, ...]:
     portable flags; so do ensemble workers, whose machines may differ, unless
     ``MBGEN_NATIVE=1``.
 
-    gcc's -O2 grows much faster than linearly with the size of one function:
-    the Whipple bicycle's RHS + Jacobian (343 KB of C) took 53.5 s and 3.4 GB at
-    -O2 against 8.8 s and 0.28 GB at -O1, for calls 10 % slower (RHS 1.43 vs
-    1.57 µs, Jacobian 8.4 vs 9.1 µs).  So a source whose longest function exceeds
-    :data:`LARGE_FUNCTION_CHARS` compiles at -O1; :mod:`mbgen.codegen.split` cuts the
-    long functions of unconstrained models into parts, which keep -O2.  ``$MBGEN_OPT``
-    (one of :data:`OPT_LEVELS`) overrides the choice; the flags are part of the module's
-    cache key.
+    gcc's -O2 grows much faster than linearly with one function's size (the Whipple
+    bicycle's RHS + Jacobian: 53.5 s, 3.4 GB at -O2, 8.8 s, 0.28 GB at -O1), so a source
+    whose longest function exceeds :data:`LARGE_FUNCTION_CHARS` compiles at -O1;
+    :mod:`mbgen.codegen.split` cuts unconstrained models' long functions into parts, which
+    keep -O2.  ``$MBGEN_OPT`` (:data:`OPT_LEVELS`) overrides; the flags are in the cache key.
     """
     forced = os.environ.get("MBGEN_OPT", "").strip()
     if forced:
