@@ -3,7 +3,8 @@
 Derived expressions share subtrees (the same Python object appears in many
 places), so a naive recursive walk visits a subtree once per reference and can
 take exponential time on deep rotation chains.  These helpers walk the
-expression DAG once.
+expression DAG once.  :func:`fewer_collections` runs the garbage collector less often
+while a pipeline builds expressions.
 """
 
 from __future__ import annotations
