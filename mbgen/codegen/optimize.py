@@ -159,7 +159,8 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
     if any(s.pivots for s in specs):
         roots += sorted(checks, key=str)
     program_defs = dict(assignments)
-    reached = reachable(roots, program_defs)
+    program_reads: dict = {}    # shared by every reachable() over program_defs (per output)
+    reached = reachable(roots, program_defs, program_reads)
     assignments = [(sym, e) for sym, e in assignments if sym in reached]
     checks &= reached
     defined = {sym for sym, _ in assignments}
@@ -184,6 +185,8 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
     after_solve = _depends_on(reps, solved - defined)
 
     functions = []
+    rep_reads: dict = {}
+    tree_counts: dict = {}
     for s in specs:
         vel = tuple(_reduce(b, reduced_of) for b in s.velocity)
         pre = tuple(_reduce(b, reduced_of) for b in s.pre)
@@ -192,15 +195,17 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
         roots = [e for b in pre + post for _, e in b.entries]
         if s.pivots:   # a zero pivot times a zero right-hand side is still singular
             roots += sorted(checks, key=order.__getitem__)
-        first = set(reachable(vel_roots, rep_expr))
-        needed = sorted(reachable(roots, rep_expr) | first, key=order.__getitem__)
+        first = set(reachable(vel_roots, rep_expr, rep_reads))
+        needed = sorted(reachable(roots, rep_expr, rep_reads) | first, key=order.__getitem__)
         vel_temps = tuple((t, rep_expr[t]) for t in needed if t in first)
         temps = tuple((t, rep_expr[t]) for t in needed if t not in after_solve and t not in first)
         post_temps = tuple((t, rep_expr[t]) for t in needed if t in after_solve)
         every = vel_temps + temps + post_temps
         used_syms, uses = _usage(equations, vel_roots + roots + [e for _, e in every])
         raw = [e for b in s.velocity + s.pre + s.post for _, e in b.entries]
-        before = count_ops_tree(raw + [program_defs[d] for d in reachable(raw, program_defs)])
+        before = count_ops_tree(raw + [program_defs[d] for d in
+                                       reachable(raw, program_defs, program_reads)],
+                                tree_counts)
         after = (count_ops_dag([e for _, e in every])
                  + sum(count_ops_dag([e]) for e in vel_roots + roots))
         functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,

@@ -125,14 +125,15 @@ def node_ops(node: sm.Basic) -> int:
     return 1
 
 
-def count_ops_tree(exprs: Iterable[sm.Basic]) -> int:
+def count_ops_tree(exprs: Iterable[sm.Basic], memo: dict | None = None) -> int:
     """Operations of ``exprs`` evaluated as trees (no sharing): what a printer emits without CSE.
 
     Counted with :func:`node_ops`, memoised per distinct node for every expression at
     once (a node's tree count does not depend on who reads it), so it is fast on shared
-    DAGs even when the tree it describes is huge; the walk stops at counted nodes.
+    DAGs even when the tree it describes is huge; the walk stops at counted nodes.  ``memo``
+    (node -> count) may be shared between calls.
     """
-    memo: dict = {}
+    memo = {} if memo is None else memo
     total = 0
     for e in exprs:
         e = e if hasattr(e, "args") else sm.sympify(e)
@@ -210,9 +211,12 @@ def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = N
     return [memo[e] for e in exprs]
 
 
-def reachable(roots: Iterable[sm.Basic], defs: Mapping) -> set:
+def reachable(roots: Iterable[sm.Basic], defs: Mapping, reads: dict | None = None) -> set:
     """The symbols of ``defs`` (symbol -> definition) that ``roots`` read, directly or through
-    other definitions; each definition is visited once."""
+    other definitions; each definition is visited once.  ``reads`` (symbol -> the symbols of
+    ``defs`` its definition reads) may be shared between calls over the same ``defs``, so
+    that a definition is walked once for all of them (a kernel asks once per output)."""
+    reads = {} if reads is None else reads
     needed: set = set()
     stack = list(free_symbols(roots) & defs.keys())
     while stack:
@@ -220,7 +224,10 @@ def reachable(roots: Iterable[sm.Basic], defs: Mapping) -> set:
         if s in needed:
             continue
         needed.add(s)
-        stack.extend(d for d in free_symbols([defs[s]]) if d in defs and d not in needed)
+        direct = reads.get(s)
+        if direct is None:
+            direct = reads[s] = [d for d in free_symbols([defs[s]]) if d in defs]
+        stack.extend(d for d in direct if d not in needed)
     return needed
 
 

@@ -145,3 +145,26 @@ def test_fewer_collections_raises_the_threshold_and_restores_it():
         assert gc.get_threshold() == (1234, 9, 8)
     finally:
         gc.set_threshold(*before)
+
+
+def test_reachable_shares_what_each_definition_reads(monkeypatch):
+    """With ``reads`` shared, a second call over the same definitions walks none again, and
+    both calls answer as separate ones do."""
+    from mbgen.symbolic import graph
+
+    a, b, c, d, x = sm.symbols("a b c d x")
+    defs = {a: x + 1, b: a * x, c: sm.sin(b) + a, d: c * c}
+    walked = []
+    real = graph.free_symbols
+
+    def counting(exprs):
+        walked.append(len(list(exprs)))
+        return real(exprs)
+
+    separate = (graph.reachable([d], defs), graph.reachable([b + x], defs))
+    monkeypatch.setattr(graph, "free_symbols", counting)
+    reads: dict = {}
+    assert graph.reachable([d], defs, reads) == separate[0] == {a, b, c, d}
+    first = len(walked)
+    assert graph.reachable([b + x], defs, reads) == separate[1] == {a, b}
+    assert len(walked) - first == 1     # the roots only: a and b were walked by the first call
