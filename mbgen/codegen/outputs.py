@@ -376,7 +376,8 @@ def _sensitivity(eq: Equations, info: OutputInfo, form: Form) -> Spec:
         return _implicit_sensitivity(eq, info, variables, shape, labels, tag)
     if eq.contacts is not None:
         return _contact_sensitivity(eq, info, variables, shape, labels, tag)
-    extra, dG, dR = _partials(eq, variables, tag, info.output is Output.JACOBIAN)
+    analytic = info.output is Output.JACOBIAN and eq.residual_jacobian is not None
+    extra, dG, dR = _partials(eq, variables, tag, analytic)
     g_entries = tuple((i * nv + j, dG[i][j]) for i in range(nq) for j in range(nv))
     d_entries = tuple((j * nu + i, dR[i][j]) for j in range(nv) for i in range(nu))
     if all(e == 0 for _, e in d_entries):  # u' does not depend on v: no solve needed
@@ -385,7 +386,6 @@ def _sensitivity(eq: Equations, info: OutputInfo, form: Form) -> Spec:
         # a recursion's pivots are still checked: a singular M is an error, not zeros
         return Spec(info.output, info.array, shape, labels, (Block("out", L.n_x * nv, rows),),
                     variables=variables, extra=extra, pivots=eq.accelerations is not None)
-    analytic = info.output is Output.JACOBIAN and eq.residual_jacobian is not None
     return Spec(info.output, info.array, shape, labels,
                 (Block("out", L.n_x * nv, g_entries), *_mass_blocks(eq, analytic)),
                 solve=True, post=(Block("DT", nv * nu, d_entries),), columns=nv,
