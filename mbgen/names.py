@@ -58,7 +58,7 @@ RESERVED = frozenset(
     """
     t x p r out status math np numpy i j k n s d L b A G DT result
     dxdt M F energy J Jp dfdt positions velocities reactions Jr lam fh dfh
-    Jc Jt CJ CB CD CW CV CG DC DL LAM
+    Jc Jt CJ CB CD CW CV CG DC DL LAM PM PP
     sqrt sin cos tan asin acos atan atan2 sinh cosh tanh asinh acosh atanh exp exp2 expm1
     log log2 log10 log1p pow fabs abs floor ceil fmod fmin fmax hypot cbrt erf erfc
     tgamma lgamma isfinite isnan isinf copysign round trunc sign

@@ -22,6 +22,7 @@ from ..symbolic.graph import count_ops_dag, count_ops_tree, free_symbols, reacha
 from ..symbolic.layout import Layout
 from .cse import CseBackend, eliminate
 from .outputs import Block, Form, Spec, spec, with_dependencies
+from .pairs import with_pairs
 from .solver import solve_ops
 
 __all__ = ["Output", "CseBackend", "Block", "Form", "KernelFunction", "Kernel", "optimize"]
@@ -146,7 +147,8 @@ def optimize(equations: Equations, outputs=(Output.RHS,),
 
 def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) -> Kernel:
     prefix = _temp_prefix(equations)
-    specs = [spec(equations, o, form) for o in outputs if not o.is_integrator]
+    specs = [with_pairs(equations, spec(equations, o, form)) for o in outputs
+             if not o.is_integrator]
 
     # every assignment the outputs reach (the program's, and each output's own), and every
     # output expression: what the outputs do not reach (another output's intermediates, the
@@ -208,6 +210,8 @@ def _kernel(equations: Equations, outputs, cse_backend: CseBackend, form: Form) 
                                 tree_counts)
         after = (count_ops_dag([e for _, e in every])
                  + sum(count_ops_dag([e]) for e in vel_roots + roots))
+        if s.pairs is not None:     # the loops' products (mbgen.codegen.pairs)
+            before, after = before + s.pairs.operations, after + s.pairs.operations
         functions.append(KernelFunction(s, temps, pre, post_temps, post, uses, used_syms,
                                         before, after, frozenset(checks & set(needed)),
                                         vel_temps, vel))

@@ -63,6 +63,7 @@ from ..integrators import METHODS
 from ..symbolic.availability import SENSITIVITIES, imported, imported_hint, require, time_symbols
 from ..symbolic.equations import Equations, acceleration_symbols, lambda_symbols
 from ..symbolic.graph import differentiate
+from ..symbolic.pairs import ChainPairs
 from ..symbolic.program import Program, derivatives
 from .contacts import padded
 
@@ -136,6 +137,7 @@ class Spec:
     forces: bool = False   # contact columns: write dlambda (else du') for each column
     stride: int = 0    # contact columns: DT, DC row-major with this many (padded) columns
     first_row: int | None = None   # columns: the solved rows' first row (spec's default: n_q)
+    pairs: ChainPairs | None = None   # M's and DT's pair entries in loops (mbgen.codegen.pairs)
 
     @property
     def out_size(self) -> int:

@@ -124,6 +124,9 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
                           else bake_matrix(equations.residual_tangent)),
         partials_solve=(None if equations.partials_solve is None
                         else tuple(map(bake_matrix, equations.partials_solve))),
+        pairs=(None if equations.pairs is None else replace(
+            equations.pairs, ancestor=bake_matrix(equations.pairs.ancestor),
+            descendant=bake_matrix(equations.pairs.descendant))),
         contacts=(None if equations.contacts is None else replace(
             equations.contacts, jacobian=bake_matrix(equations.contacts.jacobian),
             drift=bake_matrix(equations.contacts.drift))),

@@ -218,7 +218,7 @@ def _reorder(eq: Equations, prep: Prepared, rows: list[_Row], A: list, b: list) 
                    forcing=sm.ImmutableMatrix(n, 1, [F[i] for i in order]),
                    program=program if isinstance(program, Program) else Program(),
                    accelerations=None, reactions=reactions, constraints=cons, residual=None,
-                   residual_jacobian=None)
+                   residual_jacobian=None, pairs=None)
 
 
 def ordered(model) -> list:

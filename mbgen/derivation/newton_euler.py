@@ -92,6 +92,7 @@ def newton_euler(prep: Prepared, wants: Wants) -> Equations:
         residual_jacobian=partials.jacobian if partials is not None else None,
         residual_tangent=partials.tangent if partials is not None else None,
         partials_solve=(partials.mass, partials.forcing) if partials is not None else None,
+        pairs=partials.pairs if partials is not None else None,
         contacts=contacts,
     )
 

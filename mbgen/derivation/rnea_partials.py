@@ -69,6 +69,7 @@ from dataclasses import dataclass
 
 import sympy as sm
 
+from ..symbolic.pairs import ANCESTOR, DESCENDANT, ChainPairs
 from ..symbolic.program import Program, derivatives
 from .joints import Body
 from .rnea_scope import free_root, screw_joints
@@ -284,9 +285,10 @@ def _composite(P, W, b, kids, Yc, Bc, fc) -> None:
     fc[b] = P.vector(tuple(add(W.f[b][i], *(fc[c][i] for c in kids)) for i in range(6)))
 
 
-def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None, tuple]:
-    r"""``(dtau_dq, dtau_du, root, (M, C))``: :math:`\partial\tau/\partial q` (``n_u x n_q``) and
-    :math:`\partial\tau/\partial u` (``n_u x n_u``) of the inverse dynamics with
+def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None, tuple,
+                                                  ChainPairs | None]:
+    r"""``(dtau_dq, dtau_du, root, (M, C), pairs)``: :math:`\partial\tau/\partial q`
+    (``n_u x n_q``) and :math:`\partial\tau/\partial u` (``n_u x n_u``) of the inverse dynamics with
     gravity, ``u'`` the placeholders ``udot`` (rows of sympy expressions); a free root's
     speed columns are in ``dtau_du``, its coordinates' columns left zero and its tangent
     columns in ``root`` (:func:`root_coordinates` maps them).
@@ -297,7 +299,9 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None,
     J_k\times(v_d - v_{root})`); a descendant's row takes the formulas above, the root's
     rows :math:`J_j\cdot Y^C\dot A_q` and :math:`J_j\cdot(B^C J_k + Y^C\dot A_v)`: its
     columns move with it, and :math:`(J_k\times J_j)\cdot f^C` cancels
-    :math:`J_j\cdot(J_k\times^* f^C)`.  ``(M, C)``: :func:`mass_and_bias`."""
+    :math:`J_j\cdot(J_k\times^* f^C)`.  ``(M, C)``: :func:`mass_and_bias`; ``pairs``: the
+    vectors of the pair products on a chain (:func:`chain_pairs`), which ``dtau`` and ``M``
+    hold too."""
     P, L = ne.P, ne.prep.layout
     W = _World(ne, joints, udot)
     dq = [[S0] * L.n_q for _ in range(L.n_u)]
@@ -327,7 +331,28 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None,
             du[kd][kb] = add(du[kd][kb], dot6(Fa[d], Av), dot6(T[d], J))
             dq[kb][qd] = add(dq[kb][qd], dot6(J, Fq[d]))
             du[kb][kd] = add(du[kb][kd], dot6(J, Fv[d]))
-    return dq, du, root, mass_and_bias(ne, W, joints, below, Fa, Yc)
+    pairs = chain_pairs(ne, joints, W, (Fa, T, Fq, Fv)) if root is None else None
+    return dq, du, root, mass_and_bias(ne, W, joints, below, Fa, Yc), pairs
+
+
+def chain_pairs(ne, joints, W, vectors) -> ChainPairs | None:
+    """The pair products' vectors (:class:`~mbgen.symbolic.pairs.ChainPairs`) where the
+    joints form one chain of at least two bodies in the layout's order (body ``i``:
+    coordinate ``q0 + i``, speed ``u0 + i``), else None."""
+    bodies = list(ne.bodies)
+    if len(bodies) < 2 or any(b not in joints for b in bodies) or \
+            any(b.parent is not (bodies[i - 1] if i else None) for i, b in enumerate(bodies)):
+        return None
+    q0, u0 = joints[bodies[0]]
+    if any(joints[b] != (q0 + i, u0 + i) for i, b in enumerate(bodies)):
+        return None
+    Fa, T, Fq, Fv = vectors
+    own = {"J": W.J, "Aq": W.Aq, "Vq": W.Vq, "Av": W.Av, "Fa": Fa, "T": T, "Fq": Fq, "Fv": Fv}
+
+    def rows(names):
+        return sm.ImmutableMatrix([[own[name][b][c] for b in bodies]
+                                   for name, (_, size) in names.items() for c in range(size)])
+    return ChainPairs(len(bodies), q0, u0, rows(ANCESTOR), rows(DESCENDANT))
 
 
 def mass_and_bias(ne, W, joints, below, Fa, Yc) -> tuple[list, list]:
@@ -437,14 +462,16 @@ class Partials:
     r"""What :func:`residual_jacobian` derives: ``jacobian`` :math:`\partial R/\partial x`
     (``n_u x n_x``), ``tangent`` :math:`\partial R/\partial\delta` (``n_u x n_u``) or None,
     ``mass`` and ``forcing``, ``M`` and ``F`` for the Jacobians' own solve
-    (:func:`mass_and_bias`), and ``extra``, the forward-mode assignments that follow ``ne``'s
-    program."""
+    (:func:`mass_and_bias`), ``extra``, the forward-mode assignments that follow ``ne``'s
+    program, and ``pairs``, the pair products of a chain as vectors (:func:`chain_pairs`;
+    None where an applied load's derivative falls on a pair's entry)."""
 
     jacobian: sm.ImmutableMatrix
     tangent: sm.ImmutableMatrix | None
     mass: sm.ImmutableMatrix
     forcing: sm.ImmutableMatrix
     extra: Program
+    pairs: ChainPairs | None = None
 
 
 def residual_jacobian(ne, udot) -> Partials | None:
@@ -468,7 +495,7 @@ def residual_jacobian(ne, udot) -> Partials | None:
     L = ne.prep.layout
     held = {q for q, _ in joints.values()} | {L.n_q + k for _, k in joints.values()}
     free = [j for j in range(L.n_q) if j not in held]
-    dq, du, root, (mass, bias) = inertial_partials(ne, joints, udot)
+    dq, du, root, (mass, bias), pairs = inertial_partials(ne, joints, udot)
     if root is None and len(held) < L.n_x:
         return None
     applied = applied_residual(ne)
@@ -492,12 +519,14 @@ def residual_jacobian(ne, udot) -> Partials | None:
                         for k in range(L.n_u)] for i in range(L.n_u)]
     rows = [[add(mul(-1, x), d[i][j]) for j, x in enumerate(dq[i] + du[i])]
             for i in range(L.n_u)]
+    if pairs is not None and any(d[i][j] != 0 for i, j in pairs.positions(L.n_q)["R"]):
+        pairs = None    # an applied load couples a pair: its entries stay written out
     forcing = [add(applied[k], mul(-1, bias[k])) for k in range(L.n_u)]
     return Partials(sm.ImmutableMatrix(rows),
                     sm.ImmutableMatrix(tangent) if tangent is not None else None,
-                    sm.ImmutableMatrix(mass), sm.ImmutableMatrix(forcing), extra)
+                    sm.ImmutableMatrix(mass), sm.ImmutableMatrix(forcing), extra, pairs)
 
 
-__all__ = ["MIN_SPEEDS", "Partials", "RootColumns", "applied_residual", "free_root",
+__all__ = ["MIN_SPEEDS", "Partials", "chain_pairs", "RootColumns", "applied_residual", "free_root",
            "inertial_partials", "longest_chain", "mass_and_bias", "residual_jacobian",
            "root_coordinates", "screw_joints", "worth_it"]

@@ -513,4 +513,5 @@ def _inlined(eq: Equations) -> Equations:
                    kinetic_energy=None if eq.kinetic_energy is None else T,
                    potential_energy=None if eq.potential_energy is None else V,
                    points=points, program=Program(), accelerations=None, reactions=reactions,
-                   residual=None, residual_jacobian=None, contacts=contacts)
+                   residual=None, residual_jacobian=None, residual_tangent=None,
+                   partials_solve=None, pairs=None, contacts=contacts)

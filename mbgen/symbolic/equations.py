@@ -21,6 +21,7 @@ from ..errors import ModelError
 from ..summary import names, table
 from .graph import count_ops_dag, free_symbols, leaves
 from .layout import Layout
+from .pairs import ChainPairs
 from .program import Program
 
 #: How generated headers and summaries name a derivation method (``Equations.method``);
@@ -230,6 +231,10 @@ class Equations:
         (:func:`mbgen.derivation.rnea_partials.mass_and_bias`): the Jacobians that read it
         solve with these, which share its kinematics, instead of ``mass_matrix`` and
         ``forcing``.
+    pairs : ChainPairs or None
+        The ancestor–descendant products of a chain's ``residual_jacobian`` and
+        ``partials_solve`` as per-body vectors (:mod:`mbgen.symbolic.pairs`), where the
+        derivation has them: the generated ``jacobian`` computes those entries in loops.
     reactions : JointLoads or None
         Joint reaction forces and moments, when derived.
     constraints : Constraints or None
@@ -263,6 +268,7 @@ class Equations:
     contacts: Contacts | None = None
     residual_tangent: sm.ImmutableMatrix | None = None
     partials_solve: tuple[sm.ImmutableMatrix, sm.ImmutableMatrix] | None = None
+    pairs: ChainPairs | None = None
 
     def __post_init__(self):
         self._check_shapes()
@@ -327,6 +333,12 @@ class Equations:
                 raise ModelError(f"partials_solve has shapes {M.shape} and {F.shape}, expected "
                                  f"({n}, {n}) and ({n}, 1) with a residual Jacobian")
             out += [("partials' mass matrix", M), ("partials' forcing", F)]
+        if self.pairs is not None:
+            if self.partials_solve is None:
+                raise ModelError("pairs without partials_solve: the pair products are entries "
+                                 "of the analytic residual Jacobian and its mass matrix")
+            out += [("pairs' ancestor vectors", self.pairs.ancestor),
+                    ("pairs' descendant vectors", self.pairs.descendant)]
         return out
 
     def _checked_parts(self) -> tuple[list, set]:

@@ -22,8 +22,7 @@ import pytest
 
 import mbgen
 import mbgen.codegen.targets.model
-from checks import CC, assert_compiles_strictly
-from cstack import call_graph, deepest, stack_usage
+from cstack import assert_within_stack_bounds
 from mbgen.codegen import split, tree_solve
 from mbgen.codegen.solver import UNROLL_MAX, py_lines
 from mbgen.codegen.tree_solve import TreeFactor, tree_factor
@@ -139,7 +138,7 @@ def test_a_branched_model_solves_its_columns_over_the_tree(small_trees, tmp_path
         assert np.abs(J - J_dense).max() <= 1e-12 * np.abs(J_dense).max()
     report = check(None, result=result, samples=4)
     assert report.ok, report.format()
-    _strict_and_within_its_stack_bound(result.rendered, tmp_path)
+    assert_within_stack_bounds(result.rendered, tmp_path)
 
 
 def test_in_parts_the_columns_are_stored_in_the_output_rows(small_trees, tmp_path):
@@ -154,7 +153,8 @@ def test_in_parts_the_columns_are_stored_in_the_output_rows(small_trees, tmp_pat
     assert "hub_parts_jacobian_part1(" in source and "double DT[" not in source
     assert re.search(r"static void hub_parts_jacobian_part\d+\([^)]*double \*J, double \*W\)",
                      source)
-    small_trees.setattr(mbgen.codegen.targets.model, "_columns_in_place", lambda view: False)
+    small_trees.setattr(mbgen.codegen.targets.model, "_columns_in_place",
+                        lambda view, slots=(): False)
     copied = run(hub("hub_copied"), ("rhs", "jacobian"))
     assert "double DT[" in copied.rendered.files["hub_copied.c"]
     py = mbgen.python_model(result.rendered)
@@ -165,16 +165,7 @@ def test_in_parts_the_columns_are_stored_in_the_output_rows(small_trees, tmp_pat
         J = result.compiled.jacobian(0.0, x, p, r)
         assert np.array_equal(J, copied.compiled.jacobian(0.0, x, p, r))
         assert np.array_equal(J, py.jacobian(0.0, x, p, r))
-    _strict_and_within_its_stack_bound(result.rendered, tmp_path)
-
-
-def _strict_and_within_its_stack_bound(rendered, folder):
-    """No warning as strict C99 and C++11; gcc's stack use under the bounds of the header."""
-    assert_compiles_strictly(rendered.files, rendered.prefix, folder)
-    usage = stack_usage(CC, folder, rendered.files, "-O0")
-    graph = {f: {c for c in cs if c in usage} for f, cs in call_graph(rendered.source).items()}
-    for fn, bound in dict(rendered.stack_bounds).items():
-        assert deepest(fn, usage, graph) <= bound, (fn, deepest(fn, usage, graph), bound)
+    assert_within_stack_bounds(result.rendered, tmp_path)
 
 
 def test_a_chain_keeps_the_dense_column_solve(small_trees):

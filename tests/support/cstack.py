@@ -3,11 +3,15 @@
 ``stack_usage(cc, folder, files, opt)`` compiles the files and returns ``{function: bytes}``
 (a clone such as ``f.constprop.0`` counts for ``f``; unbounded use fails);
 ``call_graph(source)`` reads which generated function calls which;
-``deepest(fn, usage, graph)`` is the largest sum of frames along a chain from ``fn``.
+``deepest(fn, usage, graph)`` is the largest sum of frames along a chain from ``fn``;
+``assert_within_stack_bounds(rendered, folder)`` checks a rendered model against its header's
+bounds (and that it compiles strictly).
 """
 
 import re
 import subprocess
+
+from checks import CC, assert_compiles_strictly
 
 
 def stack_usage(cc, tmp_path, files, opt):
@@ -36,3 +40,13 @@ def call_graph(source):
 
 def deepest(fn, usage, graph):
     return usage[fn] + max((deepest(c, usage, graph) for c in graph[fn]), default=0)
+
+
+def assert_within_stack_bounds(rendered, folder):
+    """No warning as strict C99 and C++11; gcc's stack use (``-O0``) under the bounds the
+    header states, along every call chain."""
+    assert_compiles_strictly(rendered.files, rendered.prefix, folder)
+    usage = stack_usage(CC, folder, rendered.files, "-O0")
+    graph = {f: {c for c in cs if c in usage} for f, cs in call_graph(rendered.source).items()}
+    for fn, bound in dict(rendered.stack_bounds).items():
+        assert deepest(fn, usage, graph) <= bound, (fn, deepest(fn, usage, graph), bound)

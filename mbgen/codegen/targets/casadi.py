@@ -41,6 +41,7 @@ from dataclasses import dataclass
 from ..._version import __version__
 from ...abi import OUTPUT_INFO, Output
 from ...symbolic.availability import time_symbols
+from ..pairs import dt_slots
 from ..templating import environment
 from .base import Job, Target
 
@@ -136,6 +137,7 @@ def pattern(kernel, fn) -> frozenset:
             flat |= {nq + i for i in range(nu) if live & group[i]}
         if s.columns:
             live = {(k // nu, k % nu) for k, e in blocks["DT"].entries if e != 0}
+            live |= {(k // nu, k % nu) for k in dt_slots(s, nu)}   # the pair loops' entries
             flat |= {(nq + i) * n_cols + j for i in range(nu) for j in range(s.columns)
                      if any((j, k) in live for k in group[i])}
     return frozenset((i // n_cols, i % n_cols) for i in flat)

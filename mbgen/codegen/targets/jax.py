@@ -24,6 +24,7 @@ from ..._version import __version__
 from ...abi import Output
 from ...symbolic.equations import acceleration_symbols
 from ..optimize import Kernel, KernelFunction
+from ..pairs import columns_target, lines
 from ..printing import SORT_TERMS_MAX_OPS, PyPrinter
 from ..solver import factor_program, pivot_factor, solve_program
 from ..templating import environment
@@ -110,8 +111,14 @@ def _view(kernel: Kernel, fn: KernelFunction, printer: JaxPrinter) -> dict:
                 pre=blocks(fn.pre), solve=s.solve, rhs=s.output is Output.RHS and s.solve,
                 post_temps=temps(fn.post_temporaries), post=blocks(fn.post),
                 columns=s.columns, checks=bool(fn.checks) or s.solve,
+                pairs_pre=_pairs(s, L, "pre"), pairs_post=_pairs(s, L, "post"),
                 n_q=s.first_row, n_u=L.n_u,
                 ops=fn.ops_after)
+
+
+def _pairs(s, L, stage: str) -> list[str]:
+    """The chain's pair products of ``stage`` (:mod:`mbgen.codegen.pairs`), as in Python."""
+    return lines(s, L.n_u, stage, columns_target(L.n_u), "python")
 
 
 def _lines(program) -> list[str]:

@@ -20,7 +20,7 @@ a constrained model's velocity and KKT solves over the LU.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..._version import __version__
 from ...abi import Output
@@ -29,6 +29,7 @@ from ..contacts import contact_solver
 from ..header import SMALL, frame
 from ..optimize import Kernel, KernelFunction
 from ..outputs import Form
+from ..pairs import columns_target, dt_slots, lines
 from ..printing import SORT_TERMS_MAX_OPS, CPrinter, PyPrinter, math_functions
 from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines, solve_program
 from ..split import split_view
@@ -158,27 +159,44 @@ def _tree_views(kernel: Kernel, c_views: list, py_views: list) -> None:
     solves columns, of a model with a :func:`~mbgen.codegen.targets.runtime.model_tree`; the
     RHS keeps the ``ldl``) of every view and ``tree_columns`` (its column solve's C lines)
     of the C views; a C view's ``DT`` is written straight into the output's rows
-    (:func:`_columns_in_place`)."""
-    tree = model_tree(kernel)
+    (:func:`_columns_in_place`); then the pair loops' lines (:func:`_pair_views`), which
+    write there too."""
+    tree, L = model_tree(kernel), kernel.layout
     for v in c_views + py_views:
         v["tree"] = tree is not None and bool(v["solve"] and v["columns"]) and not v["contact"]
-    for v in c_views:
+    for fn, v in zip(kernel.functions, c_views):
         v["tree_columns"] = _tree_columns(tree, v) if v["tree"] and v["columns"] else []
-        v["in_place"] = bool(v["tree_columns"]) and _columns_in_place(v)
+        v["in_place"] = bool(v["tree_columns"]) and _columns_in_place(v, dt_slots(fn.spec, L.n_u))
+    for fn, c, py in zip(kernel.functions, c_views, py_views):
+        _pair_views(fn.spec, c, py)
 
 
-def _columns_in_place(view: dict) -> bool:
+def _pair_views(s, c: dict, py: dict) -> None:
+    """Keys ``pairs_pre`` and ``pairs_post`` of a function's C and Python views: the lines of
+    the chain's pair products (:mod:`mbgen.codegen.pairs`; none without them).  ``R`` goes to
+    ``DT`` (column-major), or in the C to the output's rows where they are stored in place."""
+    for v, language in ((c, "c"), (py, "python")):
+        target = columns_target(v["n_u"])
+        if v.get("in_place"):
+            width = v["columns"]
+            target = replace(target, R=(v["out"], width, 1, v["n_q"] * width))
+        v["pairs_pre"] = lines(s, v["n_u"], "pre", target, language)
+        v["pairs_post"] = lines(s, v["n_u"], "post", target, language)
+
+
+def _columns_in_place(view: dict, slots=frozenset()) -> bool:
     """Store the columns' right-hand sides, ``DT`` (column-major, ``columns x n_u``), where the
     tree's column solve reads them, the output's rows from ``n_q`` on (row-major ``n_u x
     columns``), instead of a local array copied there: True where every entry of ``DT`` is
-    assigned, so the copy does nothing the stores do not.  The 32-link arm, module's flags,
+    assigned (or in ``slots``, written by the pair loops), so the copy does nothing the
+    stores do not.  The 32-link arm, module's flags,
     paired C loops: ``jacobian`` 18.8 -> 16.5 µs, ``tangent_jacobian`` 19.7 -> 17.5 µs, the
     same bits, 16 KB less stack; but gcc's basic-block vectoriser then took 32.6 -> 52.0 s
     and 0.40 -> 1.12 GB, which :data:`~mbgen.build.extension.NO_SLP` takes back (26.7 s,
     0.38 GB; 17.5 and 17.6 µs)."""
     n_u, n_q, width = view["n_u"], view["n_q"], view["columns"]
     for b in view["post"]:
-        if b["name"] == "DT" and len({k for k, _ in b["assignments"]}) == b["size"]:
+        if b["name"] == "DT" and len({k for k, _ in b["assignments"]} | slots) == b["size"]:
             b.update(name=view["out"], local=False, assignments=[
                 ((n_q + k % n_u) * width + k // n_u, e) for k, e in b["assignments"]])
             return True
