@@ -45,6 +45,44 @@ static void bicycle_ldl_solve(const double *M, double *b)
     b[0] = b[0] - M[3]*b[1] - M[6]*b[2];
 }
 
+/* The mass matrix over the structural nonzeros of the kinematic tree (mbgen/codegen/tree_solve.py):
+ * M = P^T L D L^T P in place, eliminating in the order 2 1 0 (the leaves
+ * first: L has M's pattern), ID = 1/d.  Returns BICYCLE_NOT_POSITIVE_DEFINITE when a pivot
+ * is not above 48 * DBL_EPSILON * M_pp (NaN included). */
+static int bicycle_tree_factor(double *M, double *ID)
+{
+    const double tol2 = 48 * DBL_EPSILON * M[8];
+    if (!(M[8] > tol2)) return BICYCLE_NOT_POSITIVE_DEFINITE;
+    ID[2] = 1.0/M[8];
+    M[7] = (M[7])*ID[2];
+    M[6] = (M[6])*ID[2];
+    const double tol1 = 48 * DBL_EPSILON * M[4];
+    const double w1_2 = M[7]*M[8];
+    M[4] = M[4] - M[7]*w1_2;
+    if (!(M[4] > tol1)) return BICYCLE_NOT_POSITIVE_DEFINITE;
+    ID[1] = 1.0/M[4];
+    M[3] = (M[3] - M[6]*w1_2)*ID[1];
+    const double tol0 = 48 * DBL_EPSILON * M[0];
+    const double w0_2 = M[6]*M[8];
+    const double w0_1 = M[3]*M[4];
+    M[0] = M[0] - M[6]*w0_2 - M[3]*w0_1;
+    if (!(M[0] > tol0)) return BICYCLE_NOT_POSITIVE_DEFINITE;
+    ID[0] = 1.0/M[0];
+    return BICYCLE_OK;
+}
+
+/* b <- M^-1 b in place with the factors of bicycle_tree_factor. */
+static void bicycle_tree_solve(const double *M, const double *ID, double *b)
+{
+    b[1] = b[1] - M[7]*b[2];
+    b[0] = b[0] - M[6]*b[2] - M[3]*b[1];
+    b[2] = b[2]*ID[2];
+    b[1] = b[1]*ID[1];
+    b[0] = b[0]*ID[0];
+    b[1] = b[1] - M[3]*b[0];
+    b[2] = b[2] - M[7]*b[1] - M[6]*b[0];
+}
+
 /* 1 when every v[0..n-1] is finite: NaN and infinities are the values with v - v != 0. */
 static int bicycle_all_finite(const double *v, int n)
 {
@@ -618,6 +656,21 @@ int bicycle_rhs(double t, const double *x, const double *p, double *dxdt)
     return bicycle_all_finite(dxdt, 10) ? BICYCLE_OK : BICYCLE_NONFINITE;
 }
 
+/* M^-1 applied to the 10 columns of bicycle_jacobian in the rows of B (3 x 10,
+ * row-major) with the factors of bicycle_tree_factor, over the tree's structural nonzeros
+ * (mbgen/codegen/tree_solve.py): per column the operations of bicycle_tree_solve in its order. */
+static void bicycle_jacobian_tree_columns(const double *M, const double *ID, double *B)
+{
+    int j;
+    { const double _k0 = M[7]; for (j = 0; j < 10; ++j) B[10 + j] = B[10 + j] - _k0*B[20 + j]; }
+    { const double _k0 = M[6], _k1 = M[3]; for (j = 0; j < 10; ++j) B[0 + j] = B[0 + j] - _k0*B[20 + j] - _k1*B[10 + j]; }
+    { const double _k0 = ID[2]; for (j = 0; j < 10; ++j) B[20 + j] = B[20 + j]*_k0; }
+    { const double _k0 = ID[1]; for (j = 0; j < 10; ++j) B[10 + j] = B[10 + j]*_k0; }
+    { const double _k0 = ID[0]; for (j = 0; j < 10; ++j) B[0 + j] = B[0 + j]*_k0; }
+    { const double _k0 = M[3]; for (j = 0; j < 10; ++j) B[10 + j] = B[10 + j] - _k0*B[0 + j]; }
+    { const double _k0 = M[7], _k1 = M[6]; for (j = 0; j < 10; ++j) B[20 + j] = B[20 + j] - _k0*B[10 + j] - _k1*B[0 + j]; }
+}
+
 /* Jacobian df/dx of the first-order right-hand side, row-major n_x x n_x.
  * 5333 operations (368145 before CSE). */
 int bicycle_jacobian(double t, const double *x, const double *p, double *J)
@@ -634,9 +687,8 @@ int bicycle_jacobian(double t, const double *x, const double *p, double *J)
     const double g = p[0];
     double M[9];
     double F[3];
-    double DT[30];
+    double CD[3];
     int i;
-    int j;
     const double v0 = sin(phi);
     const double v1 = (v0*v0);
     const double v2 = sin(delta);
@@ -2055,11 +2107,11 @@ int bicycle_jacobian(double t, const double *x, const double *p, double *J)
     F[0] = v431 + v250*v434 + v251*v435 + v353*v409 + v355*v411 + v356*v413;
     F[1] = v426 + v258*v434 + v259*v435 + v358*v409 + v360*v411 + v361*v413;
     F[2] = v416 + v260*v436 + v264*v434 + v266*v435 + v362*v409;
-    i = bicycle_ldl(M);
+    i = bicycle_tree_factor(M, CD);
     if (i != BICYCLE_OK) {
         return i;
     }
-    bicycle_ldl_solve(M, F);
+    bicycle_tree_solve(M, CD, F);
     const double v505 = F[0]*v250 + F[1]*v258 + F[2]*v264;
     const double v506 = F[0]*v251 + F[1]*v259 + F[2]*v266;
     const double v507 = F[2]*v260;
@@ -2265,42 +2317,38 @@ int bicycle_jacobian(double t, const double *x, const double *p, double *J)
     const double v1266 = -v1262 + v1000*v1264 + v1240*v994 + v1252*v998 + v1253*v997 + v1263*v999 + v355*v995;
     const double v1267 = -v1258 + v1003*v1253 + v1004*v1252 + v1005*v1263 + v1006*v1264 + v1241*v994 + v360*v995;
     const double v1268 = v1009*v1263 + v1010*v1264 + v1011*v1265;
-    DT[0] = 0.0;
-    DT[1] = 0.0;
-    DT[2] = 0.0;
-    DT[3] = 0.0;
-    DT[4] = 0.0;
-    DT[5] = 0.0;
-    DT[6] = 0.0;
-    DT[7] = 0.0;
-    DT[8] = 0.0;
-    DT[9] = v1001;
-    DT[10] = v1007;
-    DT[11] = v1012;
-    DT[12] = v1207;
-    DT[13] = v1208;
-    DT[14] = v1209;
-    DT[15] = v1233;
-    DT[16] = v1234;
-    DT[17] = v1235;
-    DT[18] = v1266;
-    DT[19] = v1267;
-    DT[20] = v1268;
-    DT[21] = v1367;
-    DT[22] = v1368;
-    DT[23] = v1369;
-    DT[24] = v1458;
-    DT[25] = v1459;
-    DT[26] = v1460;
-    DT[27] = v1538;
-    DT[28] = v1539;
-    DT[29] = v1540;
-    for (j = 0; j < 10; ++j) {
-        bicycle_ldl_solve(M, DT + j * 3);
-        for (i = 0; i < 3; ++i) {
-            J[(7 + i) * 10 + j] = DT[j * 3 + i];
-        }
-    }
+    J[70] = 0.0;
+    J[80] = 0.0;
+    J[90] = 0.0;
+    J[71] = 0.0;
+    J[81] = 0.0;
+    J[91] = 0.0;
+    J[72] = 0.0;
+    J[82] = 0.0;
+    J[92] = 0.0;
+    J[73] = v1001;
+    J[83] = v1007;
+    J[93] = v1012;
+    J[74] = v1207;
+    J[84] = v1208;
+    J[94] = v1209;
+    J[75] = v1233;
+    J[85] = v1234;
+    J[95] = v1235;
+    J[76] = v1266;
+    J[86] = v1267;
+    J[96] = v1268;
+    J[77] = v1367;
+    J[87] = v1368;
+    J[97] = v1369;
+    J[78] = v1458;
+    J[88] = v1459;
+    J[98] = v1460;
+    J[79] = v1538;
+    J[89] = v1539;
+    J[99] = v1540;
+    /* M^-1 [DT] over the tree's structural nonzeros (mbgen/codegen/tree_solve.py), in the rows of the output */
+    bicycle_jacobian_tree_columns(M, CD, J + 70);
     return bicycle_all_finite(J, 100) ? BICYCLE_OK : BICYCLE_NONFINITE;
 }
 

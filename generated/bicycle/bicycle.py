@@ -99,6 +99,44 @@ def _ldl_solve(M, b, o=0):
     b[o + 0] = b[o + 0] - M[3]*b[o + 1] - M[6]*b[o + 2]
 
 
+def _tree_factor(M):
+    """M = P^T L D L^T P in place over the kinematic tree's structural nonzeros, the leaves first;
+    returns ID = 1/d.  As in the C, statement by statement (mbgen/codegen/tree_solve.py)."""
+    ID = [0.0] * 3
+    tol2 = 48 * DBL_EPSILON * M[8]
+    if not M[8] > tol2:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[2] = 1.0/M[8]
+    M[7] = (M[7])*ID[2]
+    M[6] = (M[6])*ID[2]
+    tol1 = 48 * DBL_EPSILON * M[4]
+    w1_2 = M[7]*M[8]
+    M[4] = M[4] - M[7]*w1_2
+    if not M[4] > tol1:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[1] = 1.0/M[4]
+    M[3] = (M[3] - M[6]*w1_2)*ID[1]
+    tol0 = 48 * DBL_EPSILON * M[0]
+    w0_2 = M[6]*M[8]
+    w0_1 = M[3]*M[4]
+    M[0] = M[0] - M[6]*w0_2 - M[3]*w0_1
+    if not M[0] > tol0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[0] = 1.0/M[0]
+    return ID
+
+
+def _tree_solve(M, ID, b, o=0):
+    """b[o:o + n_u] <- M^-1 b[o:o + n_u] with the factors of _tree_factor; as in the C."""
+    b[o + 1] = b[o + 1] - M[7]*b[o + 2]
+    b[o + 0] = b[o + 0] - M[6]*b[o + 2] - M[3]*b[o + 1]
+    b[o + 2] = b[o + 2]*ID[2]
+    b[o + 1] = b[o + 1]*ID[1]
+    b[o + 0] = b[o + 0]*ID[0]
+    b[o + 1] = b[o + 1] - M[3]*b[o + 0]
+    b[o + 2] = b[o + 2] - M[7]*b[o + 1] - M[6]*b[o + 0]
+
+
 def rhs(t, x, p):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
@@ -2109,8 +2147,8 @@ def _jacobian(math, t, x, p):
     F[0] = v431 + v250*v434 + v251*v435 + v353*v409 + v355*v411 + v356*v413
     F[1] = v426 + v258*v434 + v259*v435 + v358*v409 + v360*v411 + v361*v413
     F[2] = v416 + v260*v436 + v264*v434 + v266*v435 + v362*v409
-    _ldl(M)
-    _ldl_solve(M, F)
+    CD = _tree_factor(M)
+    _tree_solve(M, CD, F)
     v505 = F[0]*v250 + F[1]*v258 + F[2]*v264
     v506 = F[0]*v251 + F[1]*v259 + F[2]*v266
     v507 = F[2]*v260
@@ -2348,7 +2386,7 @@ def _jacobian(math, t, x, p):
     DT[28] = v1539
     DT[29] = v1540
     for j in range(10):
-        _ldl_solve(M, DT, j * 3)
+        _tree_solve(M, CD, DT, j * 3)
         for i in range(3):
             J[(7 + i) * 10 + j] = DT[j * 3 + i]
     result = np.array(J, dtype=np.float64).reshape(10, 10)

@@ -30,6 +30,29 @@ static void spring_pendulum_ldl_solve(const double *M, double *b)
     b[1] = b[1]/M[3];
 }
 
+/* The mass matrix over the structural nonzeros of the kinematic tree (mbgen/codegen/tree_solve.py):
+ * M = P^T L D L^T P in place, eliminating in the order 1 0 (the leaves
+ * first: L has M's pattern), ID = 1/d.  Returns SPRING_PENDULUM_NOT_POSITIVE_DEFINITE when a pivot
+ * is not above 32 * DBL_EPSILON * M_pp (NaN included). */
+static int spring_pendulum_tree_factor(double *M, double *ID)
+{
+    const double tol1 = 32 * DBL_EPSILON * M[3];
+    if (!(M[3] > tol1)) return SPRING_PENDULUM_NOT_POSITIVE_DEFINITE;
+    ID[1] = 1.0/M[3];
+    const double tol0 = 32 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return SPRING_PENDULUM_NOT_POSITIVE_DEFINITE;
+    ID[0] = 1.0/M[0];
+    return SPRING_PENDULUM_OK;
+}
+
+/* b <- M^-1 b in place with the factors of spring_pendulum_tree_factor. */
+static void spring_pendulum_tree_solve(const double *M, const double *ID, double *b)
+{
+    (void)M;
+    b[1] = b[1]*ID[1];
+    b[0] = b[0]*ID[0];
+}
+
 /* 1 when every v[0..n-1] is finite: NaN and infinities are the values with v - v != 0. */
 static int spring_pendulum_all_finite(const double *v, int n)
 {
@@ -102,6 +125,17 @@ int spring_pendulum_rhs(double t, const double *x, const double *p, double *dxdt
     return spring_pendulum_all_finite(dxdt, 4) ? SPRING_PENDULUM_OK : SPRING_PENDULUM_NONFINITE;
 }
 
+/* M^-1 applied to the 4 columns of spring_pendulum_jacobian in the rows of B (2 x 4,
+ * row-major) with the factors of spring_pendulum_tree_factor, over the tree's structural nonzeros
+ * (mbgen/codegen/tree_solve.py): per column the operations of spring_pendulum_tree_solve in its order. */
+static void spring_pendulum_jacobian_tree_columns(const double *M, const double *ID, double *B)
+{
+    int j;
+    (void)M;
+    { const double _k0 = ID[1]; for (j = 0; j < 4; ++j) B[4 + j] = B[4 + j]*_k0; }
+    { const double _k0 = ID[0]; for (j = 0; j < 4; ++j) B[0 + j] = B[0 + j]*_k0; }
+}
+
 /* Jacobian df/dx of the first-order right-hand side, row-major n_x x n_x.
  * 60 operations (145 before CSE). */
 int spring_pendulum_jacobian(double t, const double *x, const double *p, double *J)
@@ -117,9 +151,8 @@ int spring_pendulum_jacobian(double t, const double *x, const double *p, double 
     const double g = p[3];
     double M[4];
     double F[2];
-    double DT[8];
+    double CD[2];
     int i;
-    int j;
     const double v0 = l + s_;
     const double v1 = 2.0*m;
     const double v2 = v0*v1;
@@ -153,25 +186,21 @@ int spring_pendulum_jacobian(double t, const double *x, const double *p, double 
     M[3] = m;
     F[0] = -u1*v3 - v0*v5;
     F[1] = -v0*v14 - v15*v8 + v16;
-    i = spring_pendulum_ldl(M);
+    i = spring_pendulum_tree_factor(M, CD);
     if (i != SPRING_PENDULUM_OK) {
         return i;
     }
-    spring_pendulum_ldl_solve(M, F);
-    DT[0] = -v0*v16;
-    DT[1] = v17;
-    DT[2] = -F[0]*v2 - u2*v18 + v17;
-    DT[3] = -k_*v0*v13*(2.0*s_ + v6) - v12*v19*v8/(sqrt(v9)*v9) - v14 + v15 - v19/((v11*v11)*v8);
-    DT[4] = -v3;
-    DT[5] = -v18*v8;
-    DT[6] = -u1*v2;
-    DT[7] = 0.0;
-    for (j = 0; j < 4; ++j) {
-        spring_pendulum_ldl_solve(M, DT + j * 2);
-        for (i = 0; i < 2; ++i) {
-            J[(2 + i) * 4 + j] = DT[j * 2 + i];
-        }
-    }
+    spring_pendulum_tree_solve(M, CD, F);
+    J[8] = -v0*v16;
+    J[12] = v17;
+    J[9] = -F[0]*v2 - u2*v18 + v17;
+    J[13] = -k_*v0*v13*(2.0*s_ + v6) - v12*v19*v8/(sqrt(v9)*v9) - v14 + v15 - v19/((v11*v11)*v8);
+    J[10] = -v3;
+    J[14] = -v18*v8;
+    J[11] = -u1*v2;
+    J[15] = 0.0;
+    /* M^-1 [DT] over the tree's structural nonzeros (mbgen/codegen/tree_solve.py), in the rows of the output */
+    spring_pendulum_jacobian_tree_columns(M, CD, J + 8);
     return spring_pendulum_all_finite(J, 16) ? SPRING_PENDULUM_OK : SPRING_PENDULUM_NONFINITE;
 }
 

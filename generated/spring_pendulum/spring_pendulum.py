@@ -83,6 +83,27 @@ def _ldl_solve(M, b, o=0):
     b[o + 1] = b[o + 1]/M[3]
 
 
+def _tree_factor(M):
+    """M = P^T L D L^T P in place over the kinematic tree's structural nonzeros, the leaves first;
+    returns ID = 1/d.  As in the C, statement by statement (mbgen/codegen/tree_solve.py)."""
+    ID = [0.0] * 2
+    tol1 = 32 * DBL_EPSILON * M[3]
+    if not M[3] > tol1:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[1] = 1.0/M[3]
+    tol0 = 32 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[0] = 1.0/M[0]
+    return ID
+
+
+def _tree_solve(M, ID, b, o=0):
+    """b[o:o + n_u] <- M^-1 b[o:o + n_u] with the factors of _tree_factor; as in the C."""
+    b[o + 1] = b[o + 1]*ID[1]
+    b[o + 0] = b[o + 0]*ID[0]
+
+
 def rhs(t, x, p):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
@@ -203,8 +224,8 @@ def _jacobian(math, t, x, p):
     F = [0.0] * 2
     F[0] = -u1*v3 - v0*v5
     F[1] = -v0*v14 - v15*v8 + v16
-    _ldl(M)
-    _ldl_solve(M, F)
+    CD = _tree_factor(M)
+    _tree_solve(M, CD, F)
     DT = [0.0] * 8
     DT[0] = -v0*v16
     DT[1] = v17
@@ -215,7 +236,7 @@ def _jacobian(math, t, x, p):
     DT[6] = -u1*v2
     DT[7] = 0
     for j in range(4):
-        _ldl_solve(M, DT, j * 2)
+        _tree_solve(M, CD, DT, j * 2)
         for i in range(2):
             J[(2 + i) * 4 + j] = DT[j * 2 + i]
     result = np.array(J, dtype=np.float64).reshape(4, 4)

@@ -39,6 +39,41 @@ static void stiff_chain_ldl_solve(const double *M, double *b)
     b[4] = b[4]/M[24];
 }
 
+/* The mass matrix over the structural nonzeros of the kinematic tree (mbgen/codegen/tree_solve.py):
+ * M = P^T L D L^T P in place, eliminating in the order 4 3 2 1 0 (the leaves
+ * first: L has M's pattern), ID = 1/d.  Returns STIFF_CHAIN_NOT_POSITIVE_DEFINITE when a pivot
+ * is not above 80 * DBL_EPSILON * M_pp (NaN included). */
+static int stiff_chain_tree_factor(double *M, double *ID)
+{
+    const double tol4 = 80 * DBL_EPSILON * M[24];
+    if (!(M[24] > tol4)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    ID[4] = 1.0/M[24];
+    const double tol3 = 80 * DBL_EPSILON * M[18];
+    if (!(M[18] > tol3)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    ID[3] = 1.0/M[18];
+    const double tol2 = 80 * DBL_EPSILON * M[12];
+    if (!(M[12] > tol2)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    ID[2] = 1.0/M[12];
+    const double tol1 = 80 * DBL_EPSILON * M[6];
+    if (!(M[6] > tol1)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    ID[1] = 1.0/M[6];
+    const double tol0 = 80 * DBL_EPSILON * M[0];
+    if (!(M[0] > tol0)) return STIFF_CHAIN_NOT_POSITIVE_DEFINITE;
+    ID[0] = 1.0/M[0];
+    return STIFF_CHAIN_OK;
+}
+
+/* b <- M^-1 b in place with the factors of stiff_chain_tree_factor. */
+static void stiff_chain_tree_solve(const double *M, const double *ID, double *b)
+{
+    (void)M;
+    b[4] = b[4]*ID[4];
+    b[3] = b[3]*ID[3];
+    b[2] = b[2]*ID[2];
+    b[1] = b[1]*ID[1];
+    b[0] = b[0]*ID[0];
+}
+
 /* 1 when every v[0..n-1] is finite: NaN and infinities are the values with v - v != 0. */
 static int stiff_chain_all_finite(const double *v, int n)
 {
@@ -195,6 +230,20 @@ int stiff_chain_rhs(double t, const double *x, const double *p, double *dxdt)
     return stiff_chain_all_finite(dxdt, 10) ? STIFF_CHAIN_OK : STIFF_CHAIN_NONFINITE;
 }
 
+/* M^-1 applied to the 10 columns of stiff_chain_jacobian in the rows of B (5 x 10,
+ * row-major) with the factors of stiff_chain_tree_factor, over the tree's structural nonzeros
+ * (mbgen/codegen/tree_solve.py): per column the operations of stiff_chain_tree_solve in its order. */
+static void stiff_chain_jacobian_tree_columns(const double *M, const double *ID, double *B)
+{
+    int j;
+    (void)M;
+    { const double _k0 = ID[4]; for (j = 0; j < 10; ++j) B[40 + j] = B[40 + j]*_k0; }
+    { const double _k0 = ID[3]; for (j = 0; j < 10; ++j) B[30 + j] = B[30 + j]*_k0; }
+    { const double _k0 = ID[2]; for (j = 0; j < 10; ++j) B[20 + j] = B[20 + j]*_k0; }
+    { const double _k0 = ID[1]; for (j = 0; j < 10; ++j) B[10 + j] = B[10 + j]*_k0; }
+    { const double _k0 = ID[0]; for (j = 0; j < 10; ++j) B[0 + j] = B[0 + j]*_k0; }
+}
+
 /* Jacobian df/dx of the first-order right-hand side, row-major n_x x n_x.
  * 313 operations (925 before CSE). */
 int stiff_chain_jacobian(double t, const double *x, const double *p, double *J)
@@ -221,9 +270,8 @@ int stiff_chain_jacobian(double t, const double *x, const double *p, double *J)
     const double a = p[8];
     double M[25];
     double F[5];
-    double DT[50];
+    double CD[5];
     int i;
-    int j;
     const double w0 = (x1*x1);
     const double w1 = -(a*a);
     const double w2 = w0 + w1;
@@ -471,67 +519,63 @@ int stiff_chain_jacobian(double t, const double *x, const double *p, double *J)
     F[2] = w64;
     F[3] = w66;
     F[4] = w65;
-    i = stiff_chain_ldl(M);
+    i = stiff_chain_tree_factor(M, CD);
     if (i != STIFF_CHAIN_OK) {
         return i;
     }
-    stiff_chain_ldl_solve(M, F);
-    DT[0] = -w84;
-    DT[1] = -w83;
-    DT[2] = 0.0;
-    DT[3] = 0.0;
-    DT[4] = 0.0;
-    DT[5] = -w102;
-    DT[6] = -w101;
-    DT[7] = -w100;
-    DT[8] = 0.0;
-    DT[9] = 0.0;
-    DT[10] = 0.0;
-    DT[11] = -w121;
-    DT[12] = -w120;
-    DT[13] = -w119;
-    DT[14] = 0.0;
-    DT[15] = 0.0;
-    DT[16] = 0.0;
-    DT[17] = -w137;
-    DT[18] = -w136;
-    DT[19] = -w135;
-    DT[20] = 0.0;
-    DT[21] = 0.0;
-    DT[22] = 0.0;
-    DT[23] = -w142;
-    DT[24] = -w141;
-    DT[25] = -w147;
-    DT[26] = -w146;
-    DT[27] = 0.0;
-    DT[28] = 0.0;
-    DT[29] = 0.0;
-    DT[30] = -w155;
-    DT[31] = -w154;
-    DT[32] = -w153;
-    DT[33] = 0.0;
-    DT[34] = 0.0;
-    DT[35] = 0.0;
-    DT[36] = -w163;
-    DT[37] = -w162;
-    DT[38] = -w161;
-    DT[39] = 0.0;
-    DT[40] = 0.0;
-    DT[41] = 0.0;
-    DT[42] = -w171;
-    DT[43] = -w170;
-    DT[44] = -w169;
-    DT[45] = 0.0;
-    DT[46] = 0.0;
-    DT[47] = 0.0;
-    DT[48] = -w176;
-    DT[49] = -w175;
-    for (j = 0; j < 10; ++j) {
-        stiff_chain_ldl_solve(M, DT + j * 5);
-        for (i = 0; i < 5; ++i) {
-            J[(5 + i) * 10 + j] = DT[j * 5 + i];
-        }
-    }
+    stiff_chain_tree_solve(M, CD, F);
+    J[50] = -w84;
+    J[60] = -w83;
+    J[70] = 0.0;
+    J[80] = 0.0;
+    J[90] = 0.0;
+    J[51] = -w102;
+    J[61] = -w101;
+    J[71] = -w100;
+    J[81] = 0.0;
+    J[91] = 0.0;
+    J[52] = 0.0;
+    J[62] = -w121;
+    J[72] = -w120;
+    J[82] = -w119;
+    J[92] = 0.0;
+    J[53] = 0.0;
+    J[63] = 0.0;
+    J[73] = -w137;
+    J[83] = -w136;
+    J[93] = -w135;
+    J[54] = 0.0;
+    J[64] = 0.0;
+    J[74] = 0.0;
+    J[84] = -w142;
+    J[94] = -w141;
+    J[55] = -w147;
+    J[65] = -w146;
+    J[75] = 0.0;
+    J[85] = 0.0;
+    J[95] = 0.0;
+    J[56] = -w155;
+    J[66] = -w154;
+    J[76] = -w153;
+    J[86] = 0.0;
+    J[96] = 0.0;
+    J[57] = 0.0;
+    J[67] = -w163;
+    J[77] = -w162;
+    J[87] = -w161;
+    J[97] = 0.0;
+    J[58] = 0.0;
+    J[68] = 0.0;
+    J[78] = -w171;
+    J[88] = -w170;
+    J[98] = -w169;
+    J[59] = 0.0;
+    J[69] = 0.0;
+    J[79] = 0.0;
+    J[89] = -w176;
+    J[99] = -w175;
+    /* M^-1 [DT] over the tree's structural nonzeros (mbgen/codegen/tree_solve.py), in the rows of the output */
+    stiff_chain_jacobian_tree_columns(M, CD, J + 50);
     return stiff_chain_all_finite(J, 100) ? STIFF_CHAIN_OK : STIFF_CHAIN_NONFINITE;
 }
 

@@ -95,6 +95,42 @@ def _ldl_solve(M, b, o=0):
     b[o + 4] = b[o + 4]/M[24]
 
 
+def _tree_factor(M):
+    """M = P^T L D L^T P in place over the kinematic tree's structural nonzeros, the leaves first;
+    returns ID = 1/d.  As in the C, statement by statement (mbgen/codegen/tree_solve.py)."""
+    ID = [0.0] * 5
+    tol4 = 80 * DBL_EPSILON * M[24]
+    if not M[24] > tol4:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[4] = 1.0/M[24]
+    tol3 = 80 * DBL_EPSILON * M[18]
+    if not M[18] > tol3:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[3] = 1.0/M[18]
+    tol2 = 80 * DBL_EPSILON * M[12]
+    if not M[12] > tol2:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[2] = 1.0/M[12]
+    tol1 = 80 * DBL_EPSILON * M[6]
+    if not M[6] > tol1:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[1] = 1.0/M[6]
+    tol0 = 80 * DBL_EPSILON * M[0]
+    if not M[0] > tol0:
+        raise NotPositiveDefinite('mass matrix is not positive definite')
+    ID[0] = 1.0/M[0]
+    return ID
+
+
+def _tree_solve(M, ID, b, o=0):
+    """b[o:o + n_u] <- M^-1 b[o:o + n_u] with the factors of _tree_factor; as in the C."""
+    b[o + 4] = b[o + 4]*ID[4]
+    b[o + 3] = b[o + 3]*ID[3]
+    b[o + 2] = b[o + 2]*ID[2]
+    b[o + 1] = b[o + 1]*ID[1]
+    b[o + 0] = b[o + 0]*ID[0]
+
+
 def rhs(t, x, p):
     """First-order right-hand side dxdt = [G(q,u,t); M^-1 F]; M solved by L D L^T.
 
@@ -519,8 +555,8 @@ def _jacobian(math, t, x, p):
     F[2] = w64
     F[3] = w66
     F[4] = w65
-    _ldl(M)
-    _ldl_solve(M, F)
+    CD = _tree_factor(M)
+    _tree_solve(M, CD, F)
     DT = [0.0] * 50
     DT[0] = -w84
     DT[1] = -w83
@@ -573,7 +609,7 @@ def _jacobian(math, t, x, p):
     DT[48] = -w176
     DT[49] = -w175
     for j in range(10):
-        _ldl_solve(M, DT, j * 5)
+        _tree_solve(M, CD, DT, j * 5)
         for i in range(5):
             J[(5 + i) * 10 + j] = DT[j * 5 + i]
     result = np.array(J, dtype=np.float64).reshape(10, 10)

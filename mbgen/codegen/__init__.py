@@ -12,6 +12,8 @@ prints a kernel with :mod:`~mbgen.codegen.printing` into the Jinja templates of
 loops, the FMU and the embedding example.  :mod:`~mbgen.codegen.split` cuts a long C
 function into parts that share a work array (a compiler's time stays linear in the model),
 :mod:`~mbgen.codegen.solver` unrolls the mass matrix's ``L D L^T`` solve,
+:mod:`~mbgen.codegen.tree_solve` factors it over a tree's structural nonzeros,
+:mod:`~mbgen.codegen.pairs` writes a chain's pair products of the Jacobian as loops,
 :mod:`~mbgen.codegen.header` states the header's index macros, content hash and the units of
 the stack bounds (each target states its own; the C helpers are runtime routines emitted
 once, :mod:`mbgen.codegen.targets.runtime`), :mod:`~mbgen.codegen.escape` escapes user text

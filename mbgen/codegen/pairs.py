@@ -36,14 +36,13 @@ from ..abi import Output
 from ..symbolic.equations import Equations
 from ..symbolic.pairs import ANCESTOR, DESCENDANT, PRODUCTS, ChainPairs, Product
 from .outputs import Block, Spec
-from .solver import UNROLL_MAX
 
-#: Fewest speeds for the loops: past :data:`~mbgen.codegen.solver.UNROLL_MAX`, where the
-#: columns are solved over the tree in the output's rows.  Spatial arm, ``jacobian``, module's
-#: flags, paired C loops, written out / loops: 8 links 1.85–2.11 / 1.85–2.09 µs, 12 links
-#: (the unrolled solve, ``DT`` column-major) 4.66–4.98 / 4.56–5.10 µs and gcc 4.6 / 5.9 s;
-#: 16 links 4.57–4.91 / 4.07–4.50 µs, 32 links 17.4 / 13.4 µs and gcc 28.1 / 23.7 s.
-LOOPS_MIN = UNROLL_MAX + 1
+#: Fewest speeds for the loops.  Spatial arm, ``jacobian``, module's flags, paired C loops,
+#: the columns solved over the tree in the output's rows, written out / loops: 7 links
+#: 1,077–1,079 / 1,104–1,107 ns, 8 1,337–1,359 / 1,359–1,363, 10 2,114–2,117 / 2,036–2,040, 12
+#: 2,728–2,758 / 2,591–2,604; 16 4,566–4,576 / 3,715–3,728 and 32 17.2–18.0 / 13.3–13.4 µs
+#: (gcc 10.5 / 5.5 and 28.1 / 19.8 s).
+LOOPS_MIN = 10
 #: Where each vector lives: name -> (array, first row).
 LOCATION = {"J": ("PM", 0), "Fa": ("PM", 6), "Aq": ("PP", 0), "Vq": ("PP", 6),
             "Av": ("PP", 9), "T": ("PP", 15), "Fq": ("PP", 18), "Fv": ("PP", 24)}

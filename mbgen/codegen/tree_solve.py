@@ -18,16 +18,19 @@ overwritten: ``D`` on the diagonal, ``L_pq`` at the slot of the pair ``{p, q}``)
 (``n``: ``1/d_p``).  Pivots: the mass matrix's rule (:mod:`mbgen.codegen.solver`).
 
 Users: the contact solve (:mod:`mbgen.codegen.contacts`) builds on :class:`TreeFactor`, and a
-model function that solves many columns (the Jacobian's ``M^{-1} [columns]``) of a model
-past :data:`~mbgen.codegen.solver.UNROLL_MAX` speeds whose factor is sparse
-(:func:`tree_factor`: at most :data:`TREE_FILL` of the dense count) factors ``M`` with
+model function that solves many columns (the Jacobian's ``M^{-1} [columns]``) of a model of
+at least :data:`TREE_MIN` speeds whose factor is sparse or small enough
+(:func:`tree_factor`: at most :data:`TREE_FILL` of the dense count or
+:data:`TREE_DENSE_MAX` nonzeros) factors ``M`` with
 :meth:`TreeFactor.factor` (the runtime routine ``tree``) and solves its columns with
 :func:`vector_lines` of :meth:`TreeFactor.solve`: one loop over the columns per statement.
 The statements are :class:`~mbgen.codegen.solver.Statement` values, printed in C and in
 Python by the same functions, so both do the same operations in the same order.
 
 Measured on G1 (35 speeds, 71 columns; paired C loops, the module's flags): the Jacobian in
-0.80x the time of the dense ``ldl`` + ``ldl_solve_columns`` (Solo-12: 0.77x).  The column
+0.80x the time of the dense ``ldl`` + ``ldl_solve_columns`` (Solo-12: 0.77x).  Below
+:data:`~mbgen.codegen.solver.UNROLL_MAX` speeds too it beats the unrolled ``ldl_solve`` per
+column into a local ``DT`` copied to the output (:data:`TREE_MIN`).  The column
 solve is straight-line vector loops in a function of its own: the same loops inline in the
 long public function ran 5 % slower and compiled 4 s longer, and a loop over index lists
 (row, ``L``'s slot, column) ran 1.12x slower than the straight-line loops.
@@ -39,9 +42,16 @@ import re
 from dataclasses import dataclass
 from functools import cached_property
 
-from .solver import UNROLL_MAX, Statement, pivot_factor
+from .solver import Statement, pivot_factor
 
-#: A model past ``UNROLL_MAX`` speeds takes the tree factor for its column solves when ``L``
+#: Fewest speeds for the tree's factor and column solve.  Spatial arm, ``jacobian``, module's
+#: flags, paired C loops, unrolled ``ldl_solve`` per column / the tree's: 2 links 80–94 / 64–71
+#: ns, 3 210–214 / 184–187, 4 431–433 / 371, 5 643–668 / 554–556, 6 979–1,007 / 887–907
+#: (the pair loops too), 8 1,906–1,923 / 1,337–1,359, 10 2,923–2,941 / 2,114–2,117, 12
+#: 4,684–4,705 / 2,728–2,758 (without the pair loops); gcc within noise at 2–4 links (0.09–0.14
+#: s at 2), 3.0–3.7 against 4.0–4.7 s at 8.
+TREE_MIN = 2
+#: A model of ``TREE_MIN`` speeds or more takes the tree factor for its column solves when ``L``
 #: has at most this fraction of the dense ``n (n - 1) / 2`` structural nonzeros (G1: 306 of
 #: 595, Solo-12: 99 of 153; a chain: all of them) ...
 TREE_FILL = 0.75
@@ -187,15 +197,14 @@ def vector_lines(program: list[Statement], stride: int, factors) -> list[str]:
 
 def tree_factor(n: int, pattern: frozenset) -> TreeFactor | None:
     """The :class:`TreeFactor` a model of ``n`` speeds solves its columns with, or ``None``
-    (the dense loops): ``n`` past ``UNROLL_MAX`` (below, the unrolled solver already touches
-    structural nonzeros only) and ``L`` at most :data:`TREE_FILL` of dense or at most
-    :data:`TREE_DENSE_MAX` nonzeros."""
-    if n <= UNROLL_MAX:
+    (the dense loops, or a single speed's unrolled solve): at least :data:`TREE_MIN` speeds
+    and ``L`` at most :data:`TREE_FILL` of dense or at most :data:`TREE_DENSE_MAX` nonzeros."""
+    if n < TREE_MIN:
         return None
     tree = TreeFactor(n, pattern)
     small = tree.nonzeros <= max(TREE_FILL * n * (n - 1) / 2, TREE_DENSE_MAX)
     return tree if small else None
 
 
-__all__ = ["TREE_DENSE_MAX", "TREE_FILL", "TreeFactor", "elimination_order", "tree_factor",
-           "vector_lines"]
+__all__ = ["TREE_DENSE_MAX", "TREE_FILL", "TREE_MIN", "TreeFactor", "elimination_order",
+           "tree_factor", "vector_lines"]

@@ -21,6 +21,9 @@ rendering code (:mod:`mbgen.codegen`), the lambdified reference
 :mod:`~mbgen.symbolic.availability`
     Which outputs a set of equations can give (and the error when it cannot),
     and what each sensitivity output differentiates by.
+:mod:`~mbgen.symbolic.pairs`
+    :class:`~mbgen.symbolic.pairs.ChainPairs`: a chain's ancestor–descendant
+    products of the analytic Jacobian as per-body vectors (``Equations.pairs``).
 
 Derived expressions share subexpressions: a deep rotation chain is a small
 graph but an exponentially large tree.  Every pass here visits each distinct

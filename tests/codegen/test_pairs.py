@@ -3,8 +3,8 @@
 * the derivation's vectors give exactly the entries of ``residual_jacobian`` and of the
   Jacobian's own mass matrix (symbolically, every pair of a 6-link arm), and only a chain
   carries them: a branch, a load between two bodies of a pair and a floating base do not;
-* the 5-link arm (the thresholds lowered, so that its columns take the tree's solve in the
-  output's rows): the C's ``jacobian`` and ``tangent_jacobian`` (where each ``q'`` is its
+* the 5-link arm (``LOOPS_MIN`` lowered; its columns take the tree's solve in the output's
+  rows): the C's ``jacobian`` and ``tangent_jacobian`` (where each ``q'`` is its
   ``u``) have the loops and no written-out pair; they equal the generated Python's bit for
   bit, and the copying and the split builds'; the written-out build's and the lambdified
   reference's to 1e-12 and the checker's tolerance; strict C99 and C++ within its stack
@@ -26,7 +26,7 @@ import mbgen.codegen.targets.model
 from checks import assert_close, random_states
 from cstack import assert_within_stack_bounds
 from mbgen import Output
-from mbgen.codegen import pairs, split, tree_solve
+from mbgen.codegen import pairs, split
 from mbgen.derivation import Method, rnea_partials
 from mbgen.pipeline import equations_of, run
 from mbgen.scenes import spatial_arm
@@ -64,10 +64,8 @@ def pendulums(kind: str) -> mbgen.Model:
 
 @pytest.fixture
 def short(monkeypatch):
-    """The loops from two speeds on, and the tree's column solve from two (not unrolled)."""
+    """The loops from two speeds on."""
     monkeypatch.setattr(pairs, "LOOPS_MIN", 2)
-    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
-    monkeypatch.setattr(tree_solve, "UNROLL_MAX", 1)
     return monkeypatch
 
 

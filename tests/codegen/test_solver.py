@@ -1,6 +1,7 @@
 """The dense-loop L D L^T solver (used past ``UNROLL_MAX`` = 12 speeds) in the default suite.
 
-Two ways in: the threshold lowered so that a 4-speed cart takes the loop path (fast),
+Two ways in: the threshold lowered (and the tree's column solve off) so that a 4-speed cart
+takes the loop path (fast),
 and a real 13-speed cart (the 12-link pendulum on a cart), both checked in C and in the
 generated Python against the lambdified equations solved by NumPy.
 """
@@ -8,21 +9,30 @@ generated Python against the lambdified equations solved by NumPy.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import mbgen
 import mbgen.codegen.targets.model
+from mbgen.codegen import tree_solve
 from mbgen.codegen.solver import UNROLL_MAX
 from mbgen.model.scene import load_scene
 from mbgen.pipeline import run
 from mbgen.verify.check import check
 
 
+@pytest.fixture
+def dense_loops(monkeypatch):
+    """The unrolling threshold at 1 and no tree factor: small models take the dense loops."""
+    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
+    monkeypatch.setattr(tree_solve, "TREE_FILL", 0.0)
+    monkeypatch.setattr(tree_solve, "TREE_DENSE_MAX", 0)
+
+
 def _loops(rendered) -> bool:
     return "for (j = 0; j < " in rendered.files[f"{rendered.prefix}.c"]
 
 
-def test_threshold_as_a_parameter(monkeypatch):
-    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
+def test_threshold_as_a_parameter(dense_loops):
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "mass_matrix"))
     assert _loops(result.rendered) and "for j in range(n):" in result.rendered.python
     report = check(None, result=result, samples=6)
@@ -38,11 +48,10 @@ def test_thirteen_speeds_take_the_loop_path():
     assert all(r.compared == 3 for r in report.rows)
 
 
-def test_the_row_wise_column_solve_gives_the_per_column_solves_bits(monkeypatch):
+def test_the_row_wise_column_solve_gives_the_per_column_solves_bits(dense_loops):
     """Past UNROLL_MAX the Jacobian's columns are solved together, row by row (the inner
     loops along a row vectorise): per column the operations of ``ldl_solve`` in its order,
     so the C Jacobian is the generated Python's (one column at a time) bit for bit."""
-    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
     result = run(load_scene("n_link_cart", n=3), ("rhs", "jacobian", "parameter_jacobian"))
     assert "double acc[8];" in result.rendered.source
     py = mbgen.python_model(result.rendered)
@@ -55,12 +64,11 @@ def test_the_row_wise_column_solve_gives_the_per_column_solves_bits(monkeypatch)
                                           getattr(py, name)(0.0, x, None, r))
 
 
-def test_the_column_solve_is_the_generated_pythons_bit_for_bit(monkeypatch):
+def test_the_column_solve_is_the_generated_pythons_bit_for_bit(dense_loops):
     """``ldl_solve_columns`` takes four rows of ``L`` per pass over a row of ``B``; each
     column still sees ``ldl_solve``'s subtractions in its order, so the C Jacobian is the
     generated Python's (one column at a time) bit for bit.  Six speeds: the four-row passes
     run forward (rows 4, 5) and backward (rows 0, 1), the one-row rest too."""
-    monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
     result = run(load_scene("n_link_cart", n=5), ("rhs", "jacobian"))
     assert "k + 4 <=" in result.rendered.files[f"{result.rendered.prefix}.c"]
     namespace: dict = {}

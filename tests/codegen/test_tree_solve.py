@@ -3,8 +3,9 @@
 
 * the factor of a tree pattern, leaves first, fills nothing in, and its statements run as
   Python solve ``M x = b`` to 1e-12 for a random positive definite ``M`` of that pattern;
-* which models take it: past ``UNROLL_MAX`` speeds and sparse (a branched tree) or small
-  enough (a chain of up to 33 speeds); a longer chain and a small model keep the loops;
+* which models take it: from two speeds on (below ``UNROLL_MAX`` too), sparse (a branched
+  tree) or small enough (a chain of up to 33 speeds); a longer chain keeps the loops and a
+  single speed its unrolled solve;
 * a branched model (a hub with three pendulums; the unrolling threshold lowered so that four
   speeds take the path) compiles to ``<prefix>_tree_factor`` and the tree's column solve: C
   and generated Python agree bit for bit, with the dense path (its generated Python) to
@@ -74,7 +75,7 @@ def test_a_tree_factor_fills_nothing_in_and_solves():
     assert np.abs(np.array(scope["b"]) - x).max() <= 1e-12 * np.abs(x).max()
 
 
-def test_past_the_unrolled_size_a_sparse_or_bounded_factor_takes_the_tree():
+def test_a_sparse_or_bounded_factor_takes_the_tree():
     star = (-1, 0, 0, 0, 0, 1, 2, 3, 4, 5, 6, 7, 8)   # a hub and four chains of three
     assert len(star) == 13 > UNROLL_MAX
     assert tree_factor(13, tree_pattern(star)) is not None
@@ -82,8 +83,8 @@ def test_past_the_unrolled_size_a_sparse_or_bounded_factor_takes_the_tree():
     assert tree_factor(33, tree_pattern(chain)).nonzeros == tree_solve.TREE_DENSE_MAX
     longer = tuple(range(-1, 33))
     assert tree_factor(34, tree_pattern(longer)) is None          # dense and long: the loops
-    small = star[:9]
-    assert tree_factor(9, tree_pattern(small)) is None            # unrolled already
+    assert tree_factor(9, tree_pattern(star[:9])) is not None     # below UNROLL_MAX too
+    assert tree_factor(1, frozenset()) is None                     # one speed: the unrolled
 
 
 def hub(name="hub") -> mbgen.Model:
@@ -112,7 +113,6 @@ def hub(name="hub") -> mbgen.Model:
 def small_trees(monkeypatch):
     """The unrolling threshold at 1: four speeds take the loops, and a sparse tree the tree."""
     monkeypatch.setattr(mbgen.codegen.targets.model, "UNROLL_MAX", 1)
-    monkeypatch.setattr(tree_solve, "UNROLL_MAX", 1)
     return monkeypatch
 
 

@@ -35,7 +35,7 @@ from ..solver import UNROLL_MAX, c_lines, factor_program, pivot_factor, py_lines
 from ..split import split_view
 from ..tree_solve import vector_lines
 from .base import Job, Target
-from .runtime import model_tree, routine_bounds, routine_context
+from .runtime import model_tree, routine_bounds, routine_context, unread_m
 
 
 def signature_args(kernel: Kernel) -> tuple[str, ...]:
@@ -210,7 +210,7 @@ def _tree_columns(tree, view: dict) -> list[str]:
     a function of its own, so that the long public function compiles no slower)."""
     width = view["columns"]
     program = tree.solve(b=lambda p: f"B[{p * width} + j]")
-    return vector_lines(program, width, ("M", "ID"))
+    return unread_m(tree) + vector_lines(program, width, ("M", "ID"))
 
 
 def tree_columns_bytes(view: dict) -> int:

@@ -92,6 +92,11 @@ def model_tree(kernel) -> TreeFactor | None:
     return tree_factor(kernel.layout.n_u, kernel.mass_pattern)
 
 
+def unread_m(tree: TreeFactor) -> list[str]:
+    """``(void)M;`` where a solve reads no ``L`` (a diagonal ``M``), else nothing."""
+    return [] if tree.nonzeros else ["(void)M;"]
+
+
 def _tree_bound(kernel, ctx: dict, known: dict) -> int:
     """``tree_factor``: one double per ``let`` of its straight-line code."""
     tree = model_tree(kernel)
@@ -179,7 +184,7 @@ def routine_context(kernel, columns: int) -> dict:
         upper = model_prefix(kernel.equations.name).upper()
         contact.update(tree_order=" ".join(map(str, tree.order)),
                        tree_factor_c=c_lines(tree.factor(), f"{upper}_NOT_POSITIVE_DEFINITE"),
-                       tree_solve_c=c_lines(tree.solve(), ""))
+                       tree_solve_c=unread_m(tree) + c_lines(tree.solve(), ""))
     return dict(routine=dict(
         n=max(L.n_x, 1),
         params="".join(f", const double *{a}" for a in tail),
