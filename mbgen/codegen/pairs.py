@@ -34,7 +34,7 @@ from dataclasses import dataclass, replace
 
 from ..abi import Output
 from ..symbolic.equations import Equations
-from ..symbolic.pairs import ANCESTOR, DESCENDANT, PRODUCTS, ChainPairs, Product
+from ..symbolic.pairs import PRODUCTS, ChainPairs, Product
 from .outputs import Block, Spec
 
 #: Fewest speeds for the loops.  Spatial arm, ``jacobian``, module's flags, paired C loops,
@@ -55,9 +55,8 @@ def blocks(pairs: ChainPairs) -> tuple[Block, Block]:
     n = pairs.n
     entries: dict = {"PM": [], "PP": []}
     for name, (array, first) in LOCATION.items():
-        size = (ANCESTOR.get(name) or DESCENDANT[name])[1]
         for body in range(n):
-            for c, e in enumerate(pairs.vector(name, body)[:size]):
+            for c, e in enumerate(pairs.vector(name, body)):
                 entries[array].append(((first + c) * n + body, e))
     return tuple(Block(a, ROWS[a] * n, tuple(sorted(entries[a], key=lambda t: t[0])))
                  for a in ("PM", "PP"))
@@ -136,15 +135,55 @@ def _index(where: tuple[str, int, int, int], row: tuple, col: tuple, var: dict) 
     return " + ".join(([str(const)] if const else []) + terms)
 
 
-def _nests(pairs: ChainPairs, n_q: int, stage: str) -> list[tuple[str, list[Product]]]:
-    """``[(outer role, products)]`` of ``stage`` (``"pre"``: ``M``'s; ``"post"``: ``R``'s)."""
+@dataclass(frozen=True)
+class Nest:
+    """One loop nest, as plain text: ``outer`` runs over ``outer_range``, ``inner`` over
+    ``inner_range`` (each ``(first, end)``, the end excluded); ``loads`` are the outer body's
+    components read first (``(name, text)``), ``body`` the assignments."""
+
+    outer: str
+    outer_range: tuple[str, str]
+    inner: str
+    inner_range: tuple[str, str]
+    loads: tuple[tuple[str, str], ...]
+    body: tuple[str, ...]
+
+
+def _nests(pairs: ChainPairs, n_q: int, stage: str, target: Target) -> list[Nest]:
+    """The nests of ``stage`` (``"pre"``: ``M``'s products; ``"post"``: ``R``'s): the
+    products in the descendant's row with ``d`` outer, those in the ancestor's with ``a``."""
+    n, var = pairs.n, {"a": "_a", "d": "_d"}
     mine = [p for p in PRODUCTS if (p.target == "M") == (stage == "pre")]
-    return [(role, [p for p in mine if p.row[0] == role]) for role in ("d", "a")
-            if any(p.row[0] == role for p in mine)]
+    out = []
+    for outer in ("d", "a"):
+        products = [p for p in mine if p.row[0] == outer]
+        if not products:
+            continue
+        sizes: dict = {}
+        for p in products:
+            for av, dv, k in p.dots:
+                name = av if outer == "a" else dv
+                sizes[name] = max(k, sizes.get(name, 0))
+        hoisted = {(name, c): f"_{name}{c}" for name in sorted(sizes) for c in range(sizes[name])}
+        body = []
+        for p in products:
+            where = getattr(target, p.target)
+            row = (pairs.index(p.row[1], 0, n_q), p.row[0])
+            col = (pairs.index(p.col[1], 0, n_q), p.col[0])
+            body.append(f"{where[0]}[{_index(where, row, col, var)}] = "
+                        f"{_value(p, n, var, hoisted)}")
+        o = var[outer]
+        out.append(Nest(o, ("1", str(n)) if outer == "d" else ("0", str(n - 1)),
+                        var["a" if outer == "d" else "d"],
+                        ("0", o) if outer == "d" else (f"{o} + 1", str(n)),
+                        tuple((h, f"{_at(name, c, n)}{o}]") for (name, c), h in hoisted.items()),
+                        tuple(body)))
+    return out
 
 
-def _value(p: Product, pairs: ChainPairs, outer: str, var: dict, hoisted: dict) -> str:
-    n = pairs.n
+def _value(p: Product, n: int, var: dict, hoisted: dict) -> str:
+    """``p``'s sum at the pair ``(a, d)``: the ancestor's component times the descendant's,
+    left to right, negated last."""
     terms = []
     for av, dv, k in p.dots:
         for c in range(k):
@@ -160,49 +199,37 @@ def _at(name: str, c: int, n: int) -> str:
     return f"{array}[{(first + c) * n} + " if first + c else f"{array}["
 
 
-def loops(pairs: ChainPairs, n_q: int, stage: str, target: Target, language: str) -> list[str]:
-    """The lines (C: ``language == "c"``, else Python) of ``stage``'s loop nests."""
-    n, var = pairs.n, {"a": "_a", "d": "_d"}
+def _c(nests: list[Nest]) -> list[str]:
+    out = ["{   /* the chain's pair products (mbgen/codegen/pairs.py) */", "    int _a, _d;"]
+    for t in nests:
+        (o0, o1), (i0, i1) = t.outer_range, t.inner_range
+        out += [f"    for ({t.outer} = {o0}; {t.outer} < {o1}; ++{t.outer}) {{",
+                "        const double " + ", ".join(f"{h} = {e}" for h, e in t.loads) + ";",
+                f"        for ({t.inner} = {i0}; {t.inner} < {i1}; ++{t.inner}) {{"]
+        out += [f"            {line};" for line in t.body] + ["        }", "    }"]
+    return out + ["}"]
+
+
+def _python(nests: list[Nest]) -> list[str]:
+    def span(first, end):
+        return end if first == "0" else f"{first}, {end}"
     out = []
-    if language == "c":
-        out.append("{   /* the chain's pair products (mbgen/codegen/pairs.py) */")
-        out.append("    int _a, _d;")
-    pad = "    " if language == "c" else ""
-    for outer, products in _nests(pairs, n_q, stage):
-        inner = "a" if outer == "d" else "d"
-        names = sorted({(v if outer == "a" else w) for p in products for v, w, _ in p.dots})
-        sizes = {name: max(k for p in products for v, w, k in p.dots
-                           if (v if outer == "a" else w) == name) for name in names}
-        hoisted = {(name, c): f"_{name}{c}" for name in names for c in range(sizes[name])}
-        loads = [(h, f"{_at(name, c, n)}{var[outer]}]") for (name, c), h in hoisted.items()]
-        lines = []
-        for p in products:
-            where = getattr(target, p.target)
-            row = (pairs.index(p.row[1], 0, n_q), p.row[0])
-            col = (pairs.index(p.col[1], 0, n_q), p.col[0])
-            lines.append(f"{where[0]}[{_index(where, row, col, var)}] = "
-                         f"{_value(p, pairs, outer, var, hoisted)}")
-        o, i = var[outer], var[inner]
-        if language == "c":
-            first, last = ("1", str(n)) if outer == "d" else ("0", str(n - 1))
-            lo, hi = ("0", o) if outer == "d" else (f"{o} + 1", str(n))
-            out.append(f"{pad}for ({o} = {first}; {o} < {last}; ++{o}) {{")
-            out.append(f"{pad}    const double "
-                       + ", ".join(f"{h} = {e}" for h, e in loads) + ";")
-            out.append(f"{pad}    for ({i} = {lo}; {i} < {hi}; ++{i}) {{")
-            out += [f"{pad}        {line};" for line in lines]
-            out.append(f"{pad}    }}")
-            out.append(f"{pad}}}")
-        else:
-            span = f"1, {n}" if outer == "d" else f"{n - 1}"
-            inner_span = o if outer == "d" else f"{o} + 1, {n}"
-            out.append(f"for {o} in range({span}):")
-            out += [f"    {h} = {e}" for h, e in loads]
-            out.append(f"    for {i} in range({inner_span}):")
-            out += [f"        {line}" for line in lines]
-    if language == "c":
-        out.append("}")
+    for t in nests:
+        out.append(f"for {t.outer} in range({span(*t.outer_range)}):")
+        out += [f"    {h} = {e}" for h, e in t.loads]
+        out.append(f"    for {t.inner} in range({span(*t.inner_range)}):")
+        out += [f"        {line}" for line in t.body]
     return out
+
+
+#: How each language prints the nests (C also for C++; JAX as Python).
+PRINTERS = {"c": _c, "python": _python}
+
+
+def loops(pairs: ChainPairs, n_q: int, stage: str, target: Target, language: str) -> list[str]:
+    """The lines of ``stage``'s loop nests in ``language`` (a :data:`PRINTERS` key); ``n_q``:
+    the columns of ``R`` before its speeds' (``R``'s ``qd`` columns start there)."""
+    return PRINTERS[language](_nests(pairs, n_q, stage, target))
 
 
 def positions(pairs: ChainPairs, n_q: int, n_u: int) -> tuple[set, set]:
@@ -212,5 +239,5 @@ def positions(pairs: ChainPairs, n_q: int, n_u: int) -> tuple[set, set]:
     return ({i * n_u + j for i, j in at["M"]}, {j * n_u + i for i, j in at["R"]})
 
 
-__all__ = ["LOCATION", "LOOPS_MIN", "ROWS", "Target", "blocks", "columns_target", "dt_slots",
-           "lines", "loops", "positions", "with_pairs"]
+__all__ = ["LOCATION", "LOOPS_MIN", "PRINTERS", "ROWS", "Nest", "Target", "blocks",
+           "columns_target", "dt_slots", "lines", "loops", "positions", "with_pairs"]

@@ -119,30 +119,31 @@ class ChainPairs:
         first, size = rows[name]
         return [matrix[first + c, body] for c in range(size)]
 
-    def positions(self, n_q: int) -> dict[str, set]:
-        """``{"M": {(row, col)}, "R": {(row, col)}}``: the entries the pairs compute."""
-        out: dict[str, set] = {"M": set(), "R": set()}
+    def entries(self, n_q: int):
+        """``(product, a, d, (target, row, col))`` for every product of every pair ``a < d``,
+        ``R``'s speed columns from ``n_q`` on."""
         for d in range(self.n):
             for a in range(d):
                 who = {"a": a, "d": d}
                 for p in PRODUCTS:
-                    out[p.target].add((self.index(p.row[1], who[p.row[0]], n_q),
-                                       self.index(p.col[1], who[p.col[0]], n_q)))
+                    yield p, a, d, (p.target, self.index(p.row[1], who[p.row[0]], n_q),
+                                    self.index(p.col[1], who[p.col[0]], n_q))
+
+    def positions(self, n_q: int) -> dict[str, set]:
+        """``{"M": {(row, col)}, "R": {(row, col)}}``: the entries the pairs compute."""
+        out: dict[str, set] = {"M": set(), "R": set()}
+        for _, _, _, (target, row, col) in self.entries(n_q):
+            out[target].add((row, col))
         return out
 
     def products(self, n_q: int) -> dict[tuple, sm.Expr]:
         """``{(target, row, col): expression}``: every product as a sympy expression (to
         check against the equations' entries)."""
         out = {}
-        for d in range(self.n):
-            for a in range(d):
-                who = {"a": a, "d": d}
-                for p in PRODUCTS:
-                    total = sm.Add(*(x * y for av, dv, k in p.dots for x, y in
-                                     zip(self.vector(av, a)[:k], self.vector(dv, d)[:k])))
-                    key = (p.target, self.index(p.row[1], who[p.row[0]], n_q),
-                           self.index(p.col[1], who[p.col[0]], n_q))
-                    out[key] = p.sign * total
+        for p, a, d, key in self.entries(n_q):
+            total = sm.Add(*(x * y for av, dv, k in p.dots for x, y in
+                             zip(self.vector(av, a)[:k], self.vector(dv, d)[:k])))
+            out[key] = p.sign * total
         return out
 
 
