@@ -146,9 +146,10 @@ def test_jax_and_casadi_compute_the_loops_too(short):
     jax = pytest.importorskip("jax")
     ca = pytest.importorskip("casadi")
     jax.config.update("jax_enable_x64", True)
-    result = run(spatial_arm.scene(5), OUTS[:2] + ("parameter_jacobian",), warm=False)
+    result = run(spatial_arm.scene(5), OUTS + ("parameter_jacobian",), warm=False)
     model = result.compiled
     g = jax.jit(mbgen.jax_function(result, "jacobian"))
+    tangent = jax.jit(mbgen.jax_function(result, "tangent_jacobian"))
     jac = mbgen.casadi_function(result).jacobian()
     blocks = dict(zip(jac.name_out(), range(jac.n_out())))
     pattern = np.array(ca.DM(jac.sparsity_out(blocks["jac_dxdt_x"]), 1))
@@ -157,6 +158,7 @@ def test_jax_and_casadi_compute_the_loops_too(short):
     for x in random_states(model.n_x, 2, seed=6):
         J = model.jacobian(0.0, x, p)
         assert_close(g(0.0, x, p), J, 1e-12)
+        assert_close(tangent(0.0, x, p), model.tangent_jacobian(0.0, x, p), 1e-12)
         assert_close(np.array(jac(0.0, x, p, [], 0)[blocks["jac_dxdt_x"]]), J, 1e-12)
 
 
