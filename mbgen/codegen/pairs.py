@@ -74,13 +74,16 @@ def with_pairs(eq: Equations, s: Spec) -> Spec:
     pairs = _in_columns(eq, s.output)
     if pairs is None:
         return s
-    m_slots, dt_slots = positions(pairs, s.columns - eq.layout.n_u, eq.layout.n_u)
-    def without(bs, name, slots):
-        return tuple(replace(b, entries=tuple((i, e) for i, e in b.entries if i not in slots))
-                     if b.name == name else b for b in bs)
+    m_slots, r_slots = positions(pairs, s.columns - eq.layout.n_u, eq.layout.n_u)
     pm, pp = blocks(pairs)
-    return replace(s, pre=without(s.pre, "M", m_slots) + (pm,),
-                   post=without(s.post, "DT", dt_slots) + (pp,), pairs=pairs)
+    return replace(s, pre=_without(s.pre, "M", m_slots) + (pm,),
+                   post=_without(s.post, "DT", r_slots) + (pp,), pairs=pairs)
+
+
+def _without(bs: tuple[Block, ...], name: str, slots: set) -> tuple[Block, ...]:
+    """``bs`` with block ``name``'s entries at ``slots`` left out."""
+    return tuple(replace(b, entries=tuple((i, e) for i, e in b.entries if i not in slots))
+                 if b.name == name else b for b in bs)
 
 
 def _in_columns(eq: Equations, output: Output) -> ChainPairs | None:

@@ -331,14 +331,14 @@ def inertial_partials(ne, joints, udot) -> tuple[list, list, RootColumns | None,
             du[kd][kb] = add(du[kd][kb], dot6(Fa[d], Av), dot6(T[d], J))
             dq[kb][qd] = add(dq[kb][qd], dot6(J, Fq[d]))
             du[kb][kd] = add(du[kb][kd], dot6(J, Fv[d]))
-    pairs = chain_pairs(ne, joints, W, (Fa, T, Fq, Fv)) if root is None else None
+    pairs = chain_pairs(ne, joints, W, (Fa, T, Fq, Fv))    # None with a free root
     return dq, du, root, mass_and_bias(ne, W, joints, below, Fa, Yc), pairs
 
 
 def chain_pairs(ne, joints, W, vectors) -> ChainPairs | None:
-    """The pair products' vectors (:class:`~mbgen.symbolic.pairs.ChainPairs`) where the
-    joints form one chain of at least two bodies in the layout's order (body ``i``:
-    coordinate ``q0 + i``, speed ``u0 + i``), else None."""
+    """The pair products' vectors (:class:`~mbgen.symbolic.pairs.ChainPairs`) where every
+    body has a joint (no free root) and they form one chain of at least two bodies in the
+    layout's order (body ``i``: coordinate ``q0 + i``, speed ``u0 + i``), else None."""
     bodies = list(ne.bodies)
     if len(bodies) < 2 or any(b not in joints for b in bodies) or \
             any(b.parent is not (bodies[i - 1] if i else None) for i, b in enumerate(bodies)):
