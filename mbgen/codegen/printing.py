@@ -23,7 +23,8 @@ import math
 from collections.abc import Mapping
 
 import sympy as sm
-from sympy.core.mul import _keep_coeff
+from sympy.core.exprtools import decompose_power
+from sympy.core.sorting import default_sort_key
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE, precedence
 from sympy.printing.pycode import PythonCodePrinter
@@ -188,7 +189,7 @@ class _Fast:
 
     def add(self, e) -> str:
         words = []
-        for term in self.p._as_ordered_terms(e, order=None) if self.sorted else e.args:
+        for term in ordered_terms(e) if self.sorted else e.args:
             t = self.text(term)
             sign = "+"
             if t.startswith("-") and not term.is_Add:
@@ -202,12 +203,11 @@ class _Fast:
         prec = self.prec(e)
         args = list(e.args)
         sign = "-" if args[0].is_Number and _negative(args[0]) else ""
-        if self.sorted:     # sympy's own steps: the sign moved out, the factors sorted
-            c, rest = e.as_coeff_Mul()
-            args = (_keep_coeff(-c, rest) if sign else e).as_ordered_factors()
-        elif sign:          # what _keep_coeff(-c, rest) holds, without building it
+        if sign:   # what sympy's _keep_coeff(-c, rest) holds, without building it
             c = -args[0]
             args = args[1:] if c is sm.S.One else [c] + args[1:]
+        if self.sorted:     # as_ordered_factors() of that product: sorted by sort_key
+            args.sort(key=_sort_key)
         a, b, paren = [], [], []
         for item in args:
             if item.is_Pow and item.exp.is_Rational and item.exp.p < 0:
@@ -244,6 +244,58 @@ class _Fast:
             prod = "*".join([f"{self.p._sqrt}({self.text(base)})"] + [b] * k)
             prod = prod if k == 0 else f"({prod})"
         return prod if exp > 0 else f"({one}/{prod})"
+
+
+def _sort_key(e):
+    return e.sort_key()
+
+
+def ordered_terms(e) -> list:
+    """``e.as_ordered_terms()`` (sympy's printing order of a sum's terms), without its detours.
+
+    sympy splits each term into a coefficient (``complex(c)``, an ``evalf``) and a monomial
+    over the sum's generators (a new product per term, ``as_coeff_Mul``) and sorts by the
+    negated monomial, then the coefficient.  This does the same for a sum of real numbers and
+    products of commutative, non-numeric factors, where each term's monomial is read from its
+    arguments (like terms are combined, so two terms never tie on the monomial); anything
+    else, and sympy's special case of ``number + number*x``, is handed to sympy itself.  The
+    two are compared term for term in ``tests/codegen/test_printing.py``.
+    """
+    args = e.args
+    if len(args) == 2 and any(a.is_Number or a.is_NumberSymbol for a in args):
+        return e.as_ordered_terms()
+    gens: set = set()
+    rows = []
+    for term in args:
+        if term.is_Number:
+            c, factors = term, ()
+        elif term.is_Mul and term.args[0].is_Number:   # sympy's as_coeff_Mul, make_args
+            c, factors = term.args[0], term.args[1:]
+            if len(factors) == 1 and factors[0].is_Mul:
+                factors = factors[0].args
+        elif term.is_Mul:
+            c, factors = sm.S.One, term.args
+        else:
+            c, factors = sm.S.One, (term,)
+        if not (c.is_Rational or c.is_Float):
+            return e.as_ordered_terms()
+        cpart = {}
+        for f in factors:
+            if f.is_Order or f.is_number or not f.is_commutative:
+                return e.as_ordered_terms()
+            base, exp = decompose_power(f)
+            cpart[base] = exp
+            gens.add(base)
+        rows.append((term, float(c), cpart))
+    index = {g: k for k, g in enumerate(sorted(gens, key=default_sort_key))}
+    keys = []
+    for term, c, cpart in rows:
+        monom = [0] * len(index)
+        for base, exp in cpart.items():
+            monom[index[base]] = -exp
+        keys.append(((tuple(monom), (), ((False, 0.0), (c, 0.0))), term))
+    keys.sort(key=lambda k: k[0])
+    return [term for _, term in keys]
 
 
 def _negative(number) -> bool:

@@ -78,3 +78,20 @@ def test_fast_printing_is_sympys_text(kind, sort):
     assert len(exprs) > 500
     for e in exprs:
         assert printer.doprint(e) == _reference(printer, e), e
+
+
+def test_ordered_terms_is_sympys_order():
+    """``printing.ordered_terms`` orders every sum's terms as ``as_ordered_terms`` does: the
+    arm's and the cart's sums, and sums it hands to sympy (numbers that are not a Number,
+    ``number + number*x``, a numeric factor)."""
+    from mbgen.codegen.printing import ordered_terms
+    from mbgen.symbolic.graph import walk_unique
+
+    x, y, z = sm.symbols("x y z")
+    odd = [sm.pi + x, sm.sqrt(2) * x + y, 2 - 3 * x, x * y + sm.Float(0.5) * x + y ** 2 - 4,
+           sm.sin(1) * x + z, x ** sm.Rational(3, 2) * y + x - z ** -2, sm.exp(2 * y) + x,
+           sm.Mul(2, x + y, evaluate=False) + x * z + 3, -x - y - z + x * y * z]
+    sums = [e for e in walk_unique(_expressions() + odd) if e.is_Add]
+    assert len(sums) > 200
+    for e in sums:
+        assert ordered_terms(e) == e.as_ordered_terms(), e
