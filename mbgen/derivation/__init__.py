@@ -100,6 +100,7 @@ from enum import Enum
 
 from ..errors import ModelError
 from ..model.builder import Model
+from ..symbolic.build import interned
 from ..symbolic.equations import Equations
 from . import kane, newton_euler, prepare
 from .choice import CHAIN, COMPARE_SPEEDS, Structure, structure
@@ -219,6 +220,11 @@ def derive(model: Model | Prepared, method: Method | None = None, *, energy: boo
         ``M(q, t) u' = F(q, u, r, t)``, ``q' = G(q, u, t)`` and the layout;
         ``method`` and ``method_reason`` say which derivation and why.
     """
+    with interned():     # sums and products built directly (mbgen.symbolic.build)
+        return _derive(model, method, Wants(energy, tuple(points), reactions, jacobian))
+
+
+def _derive(model, method, wants: Wants) -> Equations:
     prep = model if isinstance(model, Prepared) else None
     model = prep.model if prep is not None else _model(model)
     named = None if method is None else method_of(method)
@@ -230,7 +236,7 @@ def derive(model: Model | Prepared, method: Method | None = None, *, energy: boo
                                                                                UNDECIDED)
     else:
         reason = NAMED
-    eq = METHODS[named](prep, Wants(energy, tuple(points), reactions, jacobian))
+    eq = METHODS[named](prep, wants)
     return replace(with_contacts(constrain(eq, prep), prep), method_reason=reason,
                    defaults={**eq.defaults, **model.defaults_})   # Model.constants(defaults=)
 

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 import sympy as sm
 
 from ..errors import ModelError
+from ..symbolic.build import product, total
 
 S0 = sm.S.Zero
 Vec3 = tuple  # three sympy expressions
@@ -64,7 +65,9 @@ def add(*terms):
     nz = [x for x in terms if x is not S0 and not _equals(x, 0)]
     if not nz:
         return S0
-    return nz[0] if len(nz) == 1 else sm.Add(*nz)
+    if len(nz) == 1:
+        return nz[0]
+    return total(nz) if all(isinstance(x, sm.Basic) for x in nz) else sm.Add(*nz)
 
 
 def mul(a, b):
@@ -75,7 +78,8 @@ def mul(a, b):
         return b
     if _equals(b, 1):
         return a
-    return sm.Mul(a, b)
+    return product(a, b) if isinstance(a, sm.Basic) and isinstance(b, sm.Basic) \
+        else sm.Mul(a, b)
 
 
 def vadd(*vs: Vec3) -> Vec3:
