@@ -19,6 +19,7 @@ from dataclasses import replace
 import sympy as sm
 
 from ..errors import ModelError
+from ..symbolic.build import interned
 from ..symbolic.equations import Equations, PointKinematics
 from ..symbolic.graph import xreplace_dag
 from ..symbolic.layout import Layout
@@ -50,6 +51,13 @@ def bake(equations: Equations, fixed: Mapping[str, float] | None = None,
     Equations
         With a layout that no longer lists the baked parameters and absent inputs.
     """
+    with interned():    # changed sums and products built directly (mbgen.symbolic.build)
+        return _bake(equations, fixed, inputs)
+
+
+def _bake(equations: Equations, fixed: Mapping[str, float] | None = None,
+          inputs: Sequence[str] | None = None) -> Equations:
+    """:func:`bake`'s work, inside its interning of new nodes."""
     fixed = dict(fixed or {})
     L = equations.layout
     by_name = {str(s): s for s in L.parameters}

@@ -18,6 +18,8 @@ from functools import cmp_to_key
 import sympy as sm
 from sympy.functions.elementary.piecewise import ExprCondPair
 
+from . import build
+
 #: The cyclic collector's first threshold while expressions are built
 #: (:func:`fewer_collections`); Python's default is 700.
 GC_THRESHOLD = 200_000
@@ -206,8 +208,7 @@ def xreplace_dag(exprs: Iterable[sm.Basic], mapping: dict, memo: dict | None = N
         else:
             args = [memo[a] for a in node.args]
             changed = any(n is not o for n, o in zip(args, node.args))
-            memo[node] = ((_product(args) if keep_sums and node.is_Mul else node.func(*args))
-                          if changed else node)
+            memo[node] = build.rebuilt(node, args, keep_sums) if changed else node
     return [memo[e] for e in exprs]
 
 
@@ -229,16 +230,6 @@ def reachable(roots: Iterable[sm.Basic], defs: Mapping, reads: dict | None = Non
             direct = reads[s] = [d for d in free_symbols([defs[s]]) if d in defs]
         stack.extend(d for d in direct if d not in needed)
     return needed
-
-
-def _product(args: list) -> sm.Expr:
-    """``Mul(*args)``, but a number times a single sum stays undistributed."""
-    rest = [a for a in args if not a.is_Number]
-    if len(rest) == 1 and rest[0].is_Add:
-        c = sm.Mul(*[a for a in args if a.is_Number])
-        if c.is_Number and c.is_finite and c not in (sm.S.Zero, sm.S.One, sm.S.NegativeOne):
-            return sm.Mul._from_args((c, rest[0]))
-    return sm.Mul(*args)
 
 
 def _canonical(op, args: list):

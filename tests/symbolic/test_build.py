@@ -78,7 +78,8 @@ def _combine_cases():
 
 def test_equal_nodes_are_one_object_and_outside_they_are_sympys():
     """Inside ``interned`` an equal product or sum built twice is one object (comparing two
-    equal graphs then stops at once); outside, the functions are sympy's constructors."""
+    equal graphs then stops at once), in a later block too; outside, the functions are
+    sympy's constructors."""
     x, y, z = sm.symbols("x y z")
     with build.interned():
         a, b = build.product(x, y), build.product(y, x)
@@ -89,5 +90,35 @@ def test_equal_nodes_are_one_object_and_outside_they_are_sympys():
         for _ in range(40):      # a graph whose tree has 2**40 nodes, built twice
             deep = [build.total([build.product(deep[0], z), deep[1]]) for _k in range(2)]
             assert deep[0] is deep[1]
-    assert build.product(x, y) == sm.Mul(x, y)
-    assert not hasattr(build._local, "table") or build._local.table is None
+    assert build.product(x, y) == sm.Mul(x, y) and not build._active()
+    with build.interned():   # a later block: the same nodes (up to TABLE_MAX of them)
+        assert build.product(y, x) is a
+
+
+@pytest.mark.parametrize("name", ["spatial_arm", "bicycle", "whipple", "urdf"])
+def test_baking_rebuilds_what_sympy_builds(monkeypatch, tmp_path, name):
+    """``rebuilt`` (each node that baking numbers into a derivation changes) against
+    ``node.func(*args)``, or the kept sum of ``build.kept_product``; and outside ``interned``
+    (``xreplace_dag`` elsewhere) it is sympy's own."""
+    calls: list = []
+    fast = build.rebuilt
+
+    def check(node, args, keep_sums=False):
+        out = fast(node, args, keep_sums)
+        ref = build.kept_product(args) if keep_sums and node.is_Mul else node.func(*args)
+        assert type(out) is type(ref) and out == ref and out.args == ref.args, (node, args)
+        calls.append(build._active())
+        return out
+
+    monkeypatch.setattr(build, "rebuilt", check)
+    if name == "urdf":    # a robot's Float offsets and inertias
+        from tests.support.urdf_models import ARM_PARTS, urdf, write
+
+        scene = mbgen.from_urdf(write(tmp_path, urdf(ARM_PARTS)))
+    else:
+        scene = load_scene(name, **({"n": 5} if name == "spatial_arm" else {}))
+    run(scene, ("rhs", "jacobian"), build=False, warm=False)
+    assert sum(calls) > 50
+    x, c = sm.symbols("x c")
+    out = fast(x * c + c, [x * 2, sm.Integer(2)])
+    assert out == sm.Add(2 * x, 2) and not build._active()
