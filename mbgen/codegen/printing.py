@@ -207,7 +207,7 @@ class _Fast:
             c = -args[0]
             args = args[1:] if c is sm.S.One else [c] + args[1:]
         if self.sorted:     # as_ordered_factors() of that product: sorted by sort_key
-            args.sort(key=_sort_key)
+            args.sort(key=default_sort_key)
         a, b, paren = [], [], []
         for item in args:
             if item.is_Pow and item.exp.is_Rational and item.exp.p < 0:
@@ -244,10 +244,6 @@ class _Fast:
             prod = "*".join([f"{self.p._sqrt}({self.text(base)})"] + [b] * k)
             prod = prod if k == 0 else f"({prod})"
         return prod if exp > 0 else f"({one}/{prod})"
-
-
-def _sort_key(e):
-    return e.sort_key()
 
 
 def ordered_terms(e) -> list:

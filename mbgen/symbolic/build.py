@@ -9,7 +9,10 @@ function values, or a product and one more such factor, or terms that share no m
 Then ``flatten`` only sorts, and :func:`product` and :func:`total` build the node from its
 sorted arguments directly (``_from_args``), the same node sympy builds: equal, with equal
 arguments in the same order (``tests/symbolic/test_build.py`` compares the two on every
-call of several derivations).  Anything else goes to sympy itself.
+call of several derivations).  :func:`rebuilt` does the same for a node whose arguments
+baking replaced (:func:`mbgen.codegen.slicing.bake`, through
+:func:`~mbgen.symbolic.graph.xreplace_dag`).  Anything else goes to sympy itself, and so does
+everything outside an :func:`interned` block, whose table keeps one node per value.
 
 sympy's canonical order (``Mul.flatten``'s ``_mulsort``, ``Add.flatten``'s ``_addsort``):
 the number first, then the arguments sorted by ``Basic.compare``.
@@ -24,7 +27,8 @@ from functools import cmp_to_key
 
 import sympy as sm
 
-_ORDER = cmp_to_key(sm.Basic.compare)
+#: sympy's canonical order of a sum's or product's arguments (``_addsort``, ``_mulsort``).
+ORDER = cmp_to_key(sm.Basic.compare)
 _local = threading.local()
 
 
@@ -120,7 +124,7 @@ def product(a, b):
         coeff = factors[0].is_Number
         rest = factors[1:] if coeff else factors
         if all(_plain(f) for f in rest) and all(_base(f) != _base(b) for f in rest):
-            return _node(sm.Mul, factors[:coeff] + tuple(sorted(rest + (b,), key=_ORDER)))
+            return _node(sm.Mul, factors[:coeff] + tuple(sorted(rest + (b,), key=ORDER)))
     return sm.Mul(a, b)
 
 
@@ -153,7 +157,7 @@ def total(terms):
     rest = [t for t in flat if not t.is_Number]
     if len(numbers) <= 1 and all(_finite_number(n) for n in numbers) \
             and all(_kept(t) for t in rest) and len({_monomial(t) for t in rest}) == len(rest):
-        return _node(sm.Add, tuple(numbers + sorted(rest, key=_ORDER)))
+        return _node(sm.Add, tuple(numbers + sorted(rest, key=ORDER)))
     return sm.Add(*terms)
 
 
@@ -191,7 +195,7 @@ def rebuilt(node, args: list, keep_sums: bool = False):
         if len(numbers) > 1 or not all(_kept(t) for t in rest) \
                 or len({_monomial(t) for t in rest}) != len(rest):
             return _sympys(node, args, keep_sums)
-        return _node(sm.Add, tuple(numbers + sorted(rest, key=_ORDER)))
+        return _node(sm.Add, tuple(numbers + sorted(rest, key=ORDER)))
     c = sm.S.One
     for n in numbers:
         c = c * n
@@ -202,7 +206,7 @@ def rebuilt(node, args: list, keep_sums: bool = False):
         if not keep_sums or c is sm.S.NegativeOne:
             return _sympys(node, args, keep_sums)
         return _node(sm.Mul, (c, rest[0]))
-    ordered = tuple(sorted(rest, key=_ORDER))
+    ordered = tuple(sorted(rest, key=ORDER))
     return _node(sm.Mul, ordered if c is sm.S.One else (c,) + ordered) if ordered else c
 
 
@@ -220,4 +224,4 @@ def kept_product(args: list) -> sm.Expr:
     return sm.Mul(*args)
 
 
-__all__ = ["interned", "kept_product", "product", "rebuilt", "total"]
+__all__ = ["ORDER", "interned", "kept_product", "product", "rebuilt", "total"]

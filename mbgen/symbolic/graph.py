@@ -13,7 +13,6 @@ import gc
 import threading
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
-from functools import cmp_to_key
 
 import sympy as sm
 from sympy.functions.elementary.piecewise import ExprCondPair
@@ -243,12 +242,8 @@ def _canonical(op, args: list):
     numbers = [a for a in args if a.is_Number]
     if len(args) < 2 or len(numbers) > 1 or any(a.func is op for a in args):
         return op(*args)
-    rest = sorted((a for a in args if not a.is_Number), key=_SORT_KEY)
+    rest = sorted((a for a in args if not a.is_Number), key=build.ORDER)
     return op._from_args(numbers + rest)
-
-
-_SORT_KEY = cmp_to_key(sm.Basic.compare)
-
 
 #: Relations and connectives converted node by node both ways (a ``Piecewise``'s
 #: conditions), by class name, the same in both libraries (symengine turns ``a > b`` into

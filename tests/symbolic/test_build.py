@@ -16,7 +16,7 @@ def _checked(fast, slow, calls):
     def check(*args):
         out, ref = fast(*args), slow(*args)
         assert type(out) is type(ref) and out == ref and out.args == ref.args, (args, out, ref)
-        calls.append(out is not ref)
+        calls.append(out)
         return out
     return check
 
