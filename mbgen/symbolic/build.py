@@ -103,29 +103,10 @@ def product(a, b):
     """``sympy.Mul(a, b)`` for two sympy expressions, neither zero nor one."""
     if not _active():
         return sm.Mul(a, b)
-    if a.is_Number:
-        a, b = b, a
-    if b.is_Number:                   # a number times a factor or a product of factors
-        if not _finite_number(b) or not (_plain(a) or a.is_Mul):
-            return sm.Mul(a, b)
-        factors = a.args if a.is_Mul else (a,)
-        coeff = factors[0].is_Number
-        rest = factors[1:] if coeff else factors
-        if not all(_plain(f) for f in rest) or (len(rest) == 1 and rest[0].is_Add):
-            return sm.Mul(a, b)
-        c = b * factors[0] if coeff else b
-        if c is sm.S.One:
-            return _node(sm.Mul, rest)
-        return _node(sm.Mul, (c,) + rest) if _finite_number(c) else sm.Mul(a, b)
-    if _plain(a) and b.is_Mul:
-        a, b = b, a
-    if _plain(b) and (_plain(a) or a.is_Mul):
-        factors = a.args if a.is_Mul else (a,)
-        coeff = factors[0].is_Number
-        rest = factors[1:] if coeff else factors
-        if all(_plain(f) for f in rest) and all(_base(f) != _base(b) for f in rest):
-            return _node(sm.Mul, factors[:coeff] + tuple(sorted(rest + (b,), key=ORDER)))
-    return sm.Mul(a, b)
+    factors = [f for x in (a, b) for f in (x.args if x.is_Mul else (x,))]
+    split = _numbers_and_rest(factors, sm.Mul)
+    node = None if split is None else _product_of(*split)
+    return sm.Mul(a, b) if node is None else node
 
 
 def _monomial(term):
@@ -150,15 +131,10 @@ def total(terms):
     """``sympy.Add(*terms)`` for two or more sympy expressions, none zero."""
     if not _active():
         return sm.Add(*terms)
-    flat = []
-    for t in terms:
-        flat.extend(t.args if t.is_Add else (t,))
-    numbers = [t for t in flat if t.is_Number]
-    rest = [t for t in flat if not t.is_Number]
-    if len(numbers) <= 1 and all(_finite_number(n) for n in numbers) \
-            and all(_kept(t) for t in rest) and len({_monomial(t) for t in rest}) == len(rest):
-        return _node(sm.Add, tuple(numbers + sorted(rest, key=ORDER)))
-    return sm.Add(*terms)
+    flat = [t for x in terms for t in (x.args if x.is_Add else (x,))]
+    split = _numbers_and_rest(flat, sm.Add)
+    node = None if split is None else _sum_of(*split)
+    return sm.Add(*terms) if node is None else node
 
 
 def _numbers_and_rest(args, op):
@@ -188,24 +164,33 @@ def rebuilt(node, args: list, keep_sums: bool = False):
     """
     fast = _active() and (node.is_Mul or node.is_Add)
     split = _numbers_and_rest(args, node.func) if fast else None
-    if split is None:
-        return _sympys(node, args, keep_sums)
-    numbers, rest = split
-    if node.is_Add:
-        if len(numbers) > 1 or not all(_kept(t) for t in rest) \
-                or len({_monomial(t) for t in rest}) != len(rest):
-            return _sympys(node, args, keep_sums)
-        return _node(sm.Add, tuple(numbers + sorted(rest, key=ORDER)))
+    if split is not None:
+        out = _sum_of(*split) if node.is_Add else _product_of(*split, keep_sums)
+        if out is not None:
+            return out
+    return _sympys(node, args, keep_sums)
+
+
+def _sum_of(numbers: list, rest: list):
+    """The sum of at most one number and terms no two of which are like terms, or None."""
+    if len(numbers) > 1 or not all(_kept(t) for t in rest) \
+            or len({_monomial(t) for t in rest}) != len(rest):
+        return None
+    return _node(sm.Add, tuple(numbers + sorted(rest, key=ORDER)))
+
+
+def _product_of(numbers: list, rest: list, keep_sums: bool = False):
+    """The product of ``numbers`` (multiplied in their order) and plain factors of distinct
+    bases, or None; a number times a lone sum only with ``keep_sums`` (sympy distributes)."""
     c = sm.S.One
     for n in numbers:
         c = c * n
     if not _finite_number(c) or not all(_plain(f) for f in rest) \
             or len({_base(f) for f in rest}) != len(rest):
-        return _sympys(node, args, keep_sums)
+        return None
     if len(rest) == 1 and rest[0].is_Add and c is not sm.S.One:   # a number times a sum
-        if not keep_sums or c is sm.S.NegativeOne:
-            return _sympys(node, args, keep_sums)
-        return _node(sm.Mul, (c, rest[0]))
+        return _node(sm.Mul, (c, rest[0])) if keep_sums and c is not sm.S.NegativeOne \
+            else None
     ordered = tuple(sorted(rest, key=ORDER))
     return _node(sm.Mul, ordered if c is sm.S.One else (c,) + ordered) if ordered else c
 
