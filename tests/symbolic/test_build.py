@@ -117,7 +117,8 @@ def test_baking_rebuilds_what_sympy_builds(monkeypatch, tmp_path, name):
         scene = mbgen.from_urdf(write(tmp_path, urdf(ARM_PARTS)))
     else:
         scene = load_scene(name, **({"n": 5} if name == "spatial_arm" else {}))
-    run(scene, ("rhs", "jacobian"), build=False, warm=False)
+    outputs = ("rhs",) if name == "whipple" else ("rhs", "jacobian")   # whipple's: 10 s
+    run(scene, outputs, build=False, warm=False)
     assert sum(calls) > 50
     x, c = sm.symbols("x c")
     out = fast(x * c + c, [x * 2, sm.Integer(2)])
