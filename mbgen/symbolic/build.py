@@ -122,8 +122,7 @@ def _kept(term) -> bool:
     if term.is_Pow:
         return not term.base.is_Number and term.is_commutative is True
     if term.is_Mul and term.args[0].is_Number:
-        return (term.args[0].is_Rational or term.args[0].is_Float) \
-            and term.is_commutative is True
+        return _finite_number(term.args[0]) and term.is_commutative is True
     return term.is_commutative is True and not term.is_Order
 
 
