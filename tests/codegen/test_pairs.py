@@ -3,7 +3,7 @@
 * the derivation's vectors give exactly the entries of ``residual_jacobian`` and of the
   Jacobian's own mass matrix (symbolically, every pair of a 6-link arm), and only a chain
   carries them: a branch, a load between two bodies of a pair and a floating base do not;
-* the 5-link arm (``LOOPS_MIN`` lowered; its columns take the tree's solve in the output's
+* the 3-link arm (``LOOPS_MIN`` lowered; its columns take the tree's solve in the output's
   rows): the C's ``jacobian`` and ``tangent_jacobian`` (where each ``q'`` is its
   ``u``) have the loops and no written-out pair; they equal the generated Python's bit for
   bit, and the copying and the split builds'; the written-out build's and the lambdified
@@ -35,6 +35,9 @@ from mbgen.verify.check import check
 from urdf_models import FLOATING_PARTS, urdf, write
 
 OUTS = ("rhs", "jacobian", "tangent_jacobian")
+#: Links of the arm whose loops are checked (``LOOPS_MIN`` lowered): three pairs, every loop
+#: nest, and a jit of its JAX Jacobian in seconds (the 5-link arm's took 12 s).
+LINKS = 3
 
 
 def pendulums(kind: str) -> mbgen.Model:
@@ -64,8 +67,9 @@ def pendulums(kind: str) -> mbgen.Model:
 
 @pytest.fixture
 def short(monkeypatch):
-    """The loops from two speeds on."""
+    """The loops from two speeds on, and the analytic partials that carry them."""
     monkeypatch.setattr(pairs, "LOOPS_MIN", 2)
+    monkeypatch.setattr(rnea_partials, "MIN_SPEEDS", 2)
     return monkeypatch
 
 
@@ -113,10 +117,10 @@ def _jacobians(results, seed=4):
 
 
 def test_the_loops_agree_with_every_other_way_of_computing_them(short, tmp_path):
-    scene = spatial_arm.scene(5)
+    scene = spatial_arm.scene(LINKS)
     result = run(scene, OUTS, warm=False)
     source = result.rendered.files[f"{result.rendered.prefix}.c"]
-    assert "the chain's pair products" in source and "double PM[60]" in source
+    assert "the chain's pair products" in source and f"double PM[{12 * LINKS}]" in source
     assert "double DT[" not in source    # in the output's rows
     assert all(fn.spec.pairs is not None for fn in result.kernel.functions[1:])
     with short.context() as patch:
@@ -146,14 +150,14 @@ def test_jax_and_casadi_compute_the_loops_too(short):
     jax = pytest.importorskip("jax")
     ca = pytest.importorskip("casadi")
     jax.config.update("jax_enable_x64", True)
-    result = run(spatial_arm.scene(5), OUTS + ("parameter_jacobian",), warm=False)
+    result = run(spatial_arm.scene(LINKS), OUTS + ("parameter_jacobian",), warm=False)
     model = result.compiled
     g = jax.jit(mbgen.jax_function(result, "jacobian"))
     tangent = jax.jit(mbgen.jax_function(result, "tangent_jacobian"))
     jac = mbgen.casadi_function(result).jacobian()
     blocks = dict(zip(jac.name_out(), range(jac.n_out())))
     pattern = np.array(ca.DM(jac.sparsity_out(blocks["jac_dxdt_x"]), 1))
-    assert pattern[5:].all()     # u' depends on every state of a chain
+    assert pattern[LINKS:].all()     # u' depends on every state of a chain
     p = model.default_parameters
     for x in random_states(model.n_x, 2, seed=6):
         J = model.jacobian(0.0, x, p)
