@@ -131,7 +131,7 @@ def default_command_collects(paths) -> set[str]:
     """The test ids (``file::test[param]`` under tests/) that the default command runs from
     ``paths``: ``pytest --collect-only`` with the project's own options (``-m "not slow"``)."""
     tests = Path(__file__).resolve().parents[1]
-    out = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q",
+    out = subprocess.run([sys.executable, "-m", "pytest", "--collect-only", "-q", "-n", "0",
                           "-p", "no:cacheprovider", *sorted({f"tests/{p}" for p in paths})],
                          cwd=tests.parent, capture_output=True, text=True, check=True).stdout
     return {line.removeprefix("tests/") for line in out.splitlines() if "::" in line}
