@@ -3,13 +3,13 @@
 * the derivation's vectors give exactly the entries of ``residual_jacobian`` and of the
   Jacobian's own mass matrix (symbolically, every pair of a 6-link arm), and only a chain
   carries them: a branch, a load between two bodies of a pair and a floating base do not;
-* the 3-link arm (``LOOPS_MIN`` lowered; its columns take the tree's solve in the output's
-  rows): the C's ``jacobian`` and ``tangent_jacobian`` (where each ``q'`` is its
-  ``u``) have the loops and no written-out pair; they equal the generated Python's bit for
-  bit, and the copying and the split builds'; the written-out build's and the lambdified
-  reference's to 1e-12 and the checker's tolerance; strict C99 and C++ within its stack
-  bounds; its JAX function and CasADi's Jacobian block (the pattern counts the loops'
-  entries) agree;
+* the 3-link arm (``LOOPS_MIN`` and the analytic partials' ``MIN_SPEEDS`` lowered; its
+  columns take the tree's solve in the output's rows): the C's ``jacobian`` and
+  ``tangent_jacobian`` (where each ``q'`` is its ``u``) have the loops and no written-out
+  pair; they equal the generated Python's bit for bit, and the copying and the split
+  builds'; the written-out build's and the lambdified reference's to 1e-12 and the checker's
+  tolerance; strict C99 and C++ within its stack bounds; its JAX function and CasADi's
+  Jacobian block (the pattern counts the loops' entries) agree;
 * a long chain takes the loops without any threshold lowered, a short one does not.
 """
 
