@@ -95,8 +95,14 @@ def _base(x):
 
 def _finite_number(x) -> bool:
     """A finite, nonzero number (a Float is finite: sympy makes inf ``oo``; ``Float(0.0)``
-    is no ``S.Zero``, and sympy's product with it is)."""
-    return (x.is_Rational or x.is_Float) and not x.is_zero
+    is no ``S.Zero``, and sympy's product with it is).
+
+    Read from the number itself (a Float's ``bool``, a Rational's numerator), as sympy's
+    ``_eval_is_zero`` does: ``x.is_zero`` runs the assumption system once for every new
+    number, 0.7 of the 9.4 profiled seconds of generating Solo-12."""
+    if x.is_Float:
+        return bool(x)
+    return x.is_Rational and x.p != 0
 
 
 def product(a, b):
