@@ -26,6 +26,7 @@ from contextlib import contextmanager
 from functools import cmp_to_key
 
 import sympy as sm
+from sympy.core.parameters import global_parameters
 
 #: sympy's canonical order of a sum's or product's arguments (``_addsort``, ``_mulsort``).
 ORDER = cmp_to_key(sm.Basic.compare)
@@ -112,7 +113,33 @@ def product(a, b):
     factors = [f for x in (a, b) for f in (x.args if x.is_Mul else (x,))]
     split = _numbers_and_rest(factors, sm.Mul)
     node = None if split is None else _product_of(*split)
+    if node is None and split is not None:
+        node = _distributed(a, b, *split)
     return sm.Mul(a, b) if node is None else node
+
+
+def _distributed(a, b, numbers: list, rest: list):
+    """A number times one sum, distributed over its terms as ``Mul.flatten`` does it
+    (``Add(*[c*t for t in sum.args])``), each product and the sum built by :func:`product`
+    and :func:`total`; None where sympy must decide.  A Rational ``a`` or ``b`` takes
+    ``flatten``'s two-argument path instead (``_keep_coeff``, or the product kept whole), so
+    it is left to sympy: this is a robot's Float offsets and inertias times a sum."""
+    if len(rest) != 1 or not rest[0].is_Add or rest[0].is_commutative is not True \
+            or a.is_Rational or b.is_Rational or not global_parameters.distribute:
+        return None
+    c = _coefficient(numbers)
+    if c is sm.S.One or not _finite_number(c):
+        return None
+    return total([product(c, t) for t in rest[0].args])
+
+
+def _coefficient(numbers: list):
+    """The product of ``numbers`` in their order, from one, as ``Mul.flatten`` multiplies
+    them (so that Floats round the same way)."""
+    c = sm.S.One
+    for n in numbers:
+        c = c * n
+    return c
 
 
 def _monomial(term):
@@ -187,9 +214,7 @@ def _sum_of(numbers: list, rest: list):
 def _product_of(numbers: list, rest: list, keep_sums: bool = False):
     """The product of ``numbers`` (multiplied in their order) and plain factors of distinct
     bases, or None; a number times a lone sum only with ``keep_sums`` (sympy distributes)."""
-    c = sm.S.One
-    for n in numbers:
-        c = c * n
+    c = _coefficient(numbers)
     if not _finite_number(c) or not all(_plain(f) for f in rest) \
             or len({_base(f) for f in rest}) != len(rest):
         return None

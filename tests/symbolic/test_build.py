@@ -47,13 +47,42 @@ def test_a_urdf_robot_with_float_offsets(monkeypatch, tmp_path):
     calls: list = []
     monkeypatch.setattr(tree, "product", _checked(build.product, sm.Mul, calls))
     monkeypatch.setattr(tree, "total", _checked(build.total, lambda t: sm.Add(*t), calls))
+    distributed: list = []
+    monkeypatch.setattr(build, "_distributed", _counted(build._distributed, distributed))
     path = write(tmp_path, urdf(ARM_PARTS))
     run(mbgen.from_urdf(path), ("rhs", "jacobian"), build=False, warm=False)
     assert len(calls) > 50
+    assert sum(out is not None for out in distributed) > 10   # Floats times sums, built here
+
+
+def _counted(fn, outs):
+    def counted(*args):
+        outs.append(fn(*args))
+        return outs[-1]
+    return counted
+
+
+def test_a_float_times_a_sum_is_distributed_as_sympy_does():
+    """A Float times one sum: sympy distributes it (``0.5*(x + y)`` is ``0.5*x + 0.5*y``);
+    :func:`build.product` builds the same sum, its terms' numbers multiplied as sympy
+    multiplies them.  A Rational times a sum takes sympy's own two-argument path."""
+    x, y, z = sm.symbols("x y z")
+    h = sm.Float("0.1")
+    cases = [(sm.Float(0.5), x + y), (x + y, sm.Float(-1.5)), (h, 3 * h * x + 7 * h * y),
+             (sm.Float(0.5), x + 2 * y + 1), (h, 2.0 * x + y * z + sm.Float(0.25)),
+             (sm.Float(1.0), x + y), (h, x + sm.Rational(1, 3)), (h * x, y + z),
+             (sm.Float(-0.3), sm.cos(x) * y - sm.sin(x) * z), (2, x + y),
+             (sm.Rational(1, 2), x + y)]
+    with build.interned():
+        for a, b in cases:
+            a, b = sm.sympify(a), sm.sympify(b)
+            out, ref = build.product(a, b), sm.Mul(a, b)
+            assert type(out) is type(ref) and out == ref and out.args == ref.args, (a, b, out)
+            assert all(o.args == r.args for o, r in zip(out.args, ref.args)), (a, b, out)
 
 
 def test_what_combines_goes_to_sympy():
-    """Like factors, like terms, numbers that meet and a number times a sum are sympy's."""
+    """Like factors, like terms, numbers that meet and a Rational times a sum are sympy's."""
     with build.interned():
         _combine_cases()
 
