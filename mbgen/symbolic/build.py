@@ -26,6 +26,7 @@ from contextlib import contextmanager
 from functools import cmp_to_key
 
 import sympy as sm
+from sympy.core.mul import _keep_coeff
 from sympy.core.parameters import global_parameters
 
 #: sympy's canonical order of a sum's or product's arguments (``_addsort``, ``_mulsort``).
@@ -119,14 +120,23 @@ def product(a, b):
 
 
 def _distributed(a, b, numbers: list, rest: list):
-    """A number times one sum, distributed over its terms as ``Mul.flatten`` does it
-    (``Add(*[c*t for t in sum.args])``), each product and the sum built by :func:`product`
-    and :func:`total`; None where sympy must decide.  A Rational ``a`` or ``b`` takes
-    ``flatten``'s two-argument path instead (``_keep_coeff``, or the product kept whole), so
-    it is left to sympy: this is a robot's Float offsets and inertias times a sum."""
+    """A number times one sum, distributed over its terms as ``Mul.flatten`` does it, the
+    terms and the sum built by :func:`product` and :func:`total`; None where sympy must
+    decide.
+
+    - A Rational ``a`` times a sum ``b`` (or ``b`` times ``a``) takes ``flatten``'s
+      two-argument path: ``Add(*[_keep_coeff(a, t) for t in b.args])``.
+    - Otherwise (a robot's Float offsets and inertias times a sum) the general one:
+      ``Add(*[c*t for t in sum.args])``, ``c`` the factors' numbers multiplied.
+    """
     if len(rest) != 1 or not rest[0].is_Add or rest[0].is_commutative is not True \
-            or a.is_Rational or b.is_Rational or not global_parameters.distribute:
+            or not global_parameters.distribute:
         return None
+    if a.is_Rational or b.is_Rational:
+        a, b = (b, a) if b.is_Rational else (a, b)
+        if b is not rest[0]:   # a product holding the sum: flatten keeps it whole or evaluates
+            return None
+        return total([_keep_coeff(a, t) for t in b.args])
     c = _coefficient(numbers)
     if c is sm.S.One or not _finite_number(c):
         return None

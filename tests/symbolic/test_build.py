@@ -63,16 +63,18 @@ def _counted(fn, outs):
 
 
 def test_a_float_times_a_sum_is_distributed_as_sympy_does():
-    """A Float times one sum: sympy distributes it (``0.5*(x + y)`` is ``0.5*x + 0.5*y``);
+    """A number times one sum: sympy distributes it (``0.5*(x + y)`` is ``0.5*x + 0.5*y``);
     :func:`build.product` builds the same sum, its terms' numbers multiplied as sympy
-    multiplies them.  A Rational times a sum takes sympy's own two-argument path."""
+    multiplies them.  A Rational times a sum takes sympy's two-argument path (each term
+    through ``_keep_coeff``)."""
     x, y, z = sm.symbols("x y z")
     h = sm.Float("0.1")
     cases = [(sm.Float(0.5), x + y), (x + y, sm.Float(-1.5)), (h, 3 * h * x + 7 * h * y),
              (sm.Float(0.5), x + 2 * y + 1), (h, 2.0 * x + y * z + sm.Float(0.25)),
              (sm.Float(1.0), x + y), (h, x + sm.Rational(1, 3)), (h * x, y + z),
              (sm.Float(-0.3), sm.cos(x) * y - sm.sin(x) * z), (2, x + y),
-             (sm.Rational(1, 2), x + y)]
+             (sm.Rational(1, 2), x + y), (x + y, 3), (sm.Rational(-1, 3), x + 2 * y + 1),
+             (-1, x - y), (2, sm.Float(0.5) * x + y), (2, 3 * x - z)]
     with build.interned():
         for a, b in cases:
             a, b = sm.sympify(a), sm.sympify(b)
