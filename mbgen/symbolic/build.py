@@ -11,8 +11,10 @@ sorted arguments directly (``_from_args``), the same node sympy builds: equal, w
 arguments in the same order (``tests/symbolic/test_build.py`` compares the two on every
 call of several derivations).  :func:`rebuilt` does the same for a node whose arguments
 baking replaced (:func:`mbgen.codegen.slicing.bake`, through
-:func:`~mbgen.symbolic.graph.xreplace_dag`).  Anything else goes to sympy itself, and so does
-everything outside an :func:`interned` block, whose table keeps one node per value.
+:func:`~mbgen.symbolic.graph.xreplace_dag`).  A number times one sum, which sympy
+distributes over the sum's terms, :func:`product` distributes the same way (a robot's Float
+offsets make it common).  Anything else goes to sympy itself, and so does everything
+outside an :func:`interned` block, whose table keeps one node per value.
 
 sympy's canonical order (``Mul.flatten``'s ``_mulsort``, ``Add.flatten``'s ``_addsort``):
 the number first, then the arguments sorted by ``Basic.compare``.
