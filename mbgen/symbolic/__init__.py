@@ -20,8 +20,8 @@ rendering code (:mod:`mbgen.codegen`), the lambdified reference
     nodes.
 :mod:`~mbgen.symbolic.build`
     Sums and products built as sympy builds them, without its evaluation where nothing
-    combines (the derivation's and baking's nodes), one node per value inside
-    :func:`~mbgen.symbolic.build.interned`.
+    combines or a number is distributed over a sum (the derivation's and baking's nodes),
+    one node per value inside :func:`~mbgen.symbolic.build.interned`.
 :mod:`~mbgen.symbolic.availability`
     Which outputs a set of equations can give (and the error when it cannot),
     and what each sensitivity output differentiates by.

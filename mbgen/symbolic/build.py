@@ -86,7 +86,7 @@ def _node(cls, args: tuple):
 def _plain(x) -> bool:
     """A factor ``Mul.flatten`` only sorts in: a commutative symbol, a function's value other
     than ``exp`` (whose products combine) or a sum -- or a power of one of those to a
-    number.  (A number times a lone sum distributes: :func:`product` leaves that to sympy.)"""
+    number.  (A number times a lone sum distributes: :func:`_distributed`.)"""
     if x.is_Pow:
         return x.exp.is_Number and _plain(x.base)
     return (x.is_Symbol or x.is_Add or (x.is_Function and not isinstance(x, sm.exp))) \

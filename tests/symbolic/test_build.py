@@ -83,8 +83,9 @@ def test_a_float_times_a_sum_is_distributed_as_sympy_does():
             assert all(o.args == r.args for o, r in zip(out.args, ref.args)), (a, b, out)
 
 
-def test_what_combines_goes_to_sympy():
-    """Like factors, like terms, numbers that meet and a Rational times a sum are sympy's."""
+def test_what_combines_is_sympys():
+    """Like factors, like terms, numbers that meet and a number times a sum give sympy's
+    nodes (built by sympy, or distributed as it distributes)."""
     with build.interned():
         _combine_cases()
 
